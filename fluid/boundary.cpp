@@ -1,0 +1,181 @@
+#include "fluid/boundary.hpp"
+
+#include <algorithm>
+#include <stdexcept>
+
+#include "fluid/d3q19.hpp"
+#include "fluid/equilibrium.hpp"
+
+namespace cosim::fluid {
+
+const char* face_name(int f) {
+  static const char* names[kFaces] = {"x_min", "x_max", "y_min", "y_max", "z_min", "z_max"};
+  return names[f];
+}
+
+const char* kind_name(FaceKind k) {
+  switch (k) {
+    case FaceKind::Periodic: return "periodic";
+    case FaceKind::Wall: return "wall";
+    case FaceKind::FreeSlip: return "free_slip";
+    case FaceKind::Inlet: return "inlet";
+    case FaceKind::Outflow: return "outflow";
+  }
+  return "?";
+}
+
+double inlet_profile(const FaceSpec& face, double y) {
+  if (face.profile == InletProfile::Uniform || face.boundary_layer <= 0.0) return face.inlet_speed;
+  const double e = (y + 0.5) / face.boundary_layer;
+  if (e <= 0.0) return 0.0;
+  if (e >= 1.0) return face.inlet_speed;
+  return face.inlet_speed * (2.0 * e - 2.0 * e * e * e + e * e * e * e);
+}
+
+std::string BoundaryConditions::check(const std::array<FaceSpec, kFaces>& faces) {
+  for (int a = 0; a < 3; ++a) {
+    const bool p0 = faces[2 * a].kind == FaceKind::Periodic;
+    const bool p1 = faces[2 * a + 1].kind == FaceKind::Periodic;
+    if (p0 != p1)
+      return std::string("faces ") + face_name(2 * a) + " and " + face_name(2 * a + 1) +
+             " must both be periodic or neither";
+  }
+  for (int f = 0; f < kFaces; ++f) {
+    const FaceSpec& s = faces[f];
+    if (s.kind == FaceKind::Inlet && s.profile == InletProfile::Blasius && face_axis(f) == 1)
+      return std::string("a Blasius inlet on ") + face_name(f) +
+             " is not possible: the profile is measured from the y_min plate";
+    if (s.kind == FaceKind::Wall && s.wall_velocity[face_axis(f)] != 0.0)
+      return std::string("the wall velocity on ") + face_name(f) + " must be tangential";
+  }
+  return {};
+}
+
+BoundaryConditions::BoundaryConditions(const GridLayout& layout,
+                                       const std::array<FaceSpec, kFaces>& faces)
+    : layout_(layout), faces_(faces) {
+  const std::string err = check(faces);
+  if (!err.empty()) throw std::invalid_argument(err);
+}
+
+namespace {
+
+bool is_copy(FaceKind k) {
+  return k == FaceKind::Periodic || k == FaceKind::Inlet || k == FaceKind::Outflow;
+}
+
+/// Ranges of the two axes other than `axis` for a ghost plane: axes before `axis` in the
+/// fill order include their ghosts (already filled), later ones only the interior.
+struct PlaneRange {
+  int lo[3], hi[3];  // inclusive
+};
+
+PlaneRange plane_range(const GridLayout& L, int axis, bool all_ghosts) {
+  const int n[3] = {L.nx(), L.ny(), L.nz()};
+  PlaneRange r{};
+  for (int b = 0; b < 3; ++b) {
+    const bool ext = all_ghosts || b < axis;
+    r.lo[b] = ext ? -1 : 0;
+    r.hi[b] = ext ? n[b] : n[b] - 1;
+  }
+  return r;
+}
+
+}  // namespace
+
+void BoundaryConditions::fill_ghosts(PopulationField& f) const {
+  for (int face = 0; face < kFaces; ++face)
+    if (is_copy(faces_[face].kind)) fill_copy_face(f, face);
+  for (int face = 0; face < kFaces; ++face)
+    if (!is_copy(faces_[face].kind)) fill_reflect_face(f, face);
+}
+
+void BoundaryConditions::fill_copy_face(PopulationField& f, int face) const {
+  const FaceSpec& spec = faces_[face];
+  const int axis = face_axis(face), side = face_side(face);
+  const int n[3] = {layout_.nx(), layout_.ny(), layout_.nz()};
+  const int ghost = side == 0 ? -1 : n[axis];
+  const int inward = side == 0 ? 1 : -1;  // direction into the domain along axis
+  PlaneRange r = plane_range(layout_, axis, false);
+  r.lo[axis] = r.hi[axis] = ghost;
+
+  // Populations pulled from this ghost plane into the interior.
+  int qs[D3Q19::Q], nq = 0;
+  for (int q = 0; q < D3Q19::Q; ++q)
+    if (D3Q19::c(q, axis) == inward) qs[nq++] = q;
+
+  // Source cell for copy-type fills.
+  int src_shift[3] = {0, 0, 0};
+  if (spec.kind == FaceKind::Periodic) src_shift[axis] = side == 0 ? n[axis] : -n[axis];
+  if (spec.kind == FaceKind::Outflow) src_shift[axis] = inward;
+  const std::ptrdiff_t src_off = layout_.offset(src_shift[0], src_shift[1], src_shift[2]);
+
+  double vel[3] = {0, 0, 0};
+  for (int z = r.lo[2]; z <= r.hi[2]; ++z)
+    for (int y = r.lo[1]; y <= r.hi[1]; ++y)
+      for (int x = r.lo[0]; x <= r.hi[0]; ++x) {
+        const std::ptrdiff_t g = layout_.index(x, y, z);
+        if (spec.kind == FaceKind::Inlet) {
+          vel[0] = vel[1] = vel[2] = 0.0;
+          vel[axis] = inward * inlet_profile(spec, y);
+          for (int i = 0; i < nq; ++i)
+            f.q(qs[i])[g] = equilibrium(qs[i], spec.inlet_density, vel[0], vel[1], vel[2]);
+        } else {
+          for (int i = 0; i < nq; ++i) f.q(qs[i])[g] = f.q(qs[i])[g + src_off];
+        }
+      }
+}
+
+void BoundaryConditions::fill_reflect_face(PopulationField& f, int face) const {
+  const FaceSpec& spec = faces_[face];
+  const int axis = face_axis(face), side = face_side(face);
+  const int n[3] = {layout_.nx(), layout_.ny(), layout_.nz()};
+  const int inward = side == 0 ? 1 : -1;
+
+  int qs[D3Q19::Q], nq = 0;
+  for (int q = 0; q < D3Q19::Q; ++q)
+    if (D3Q19::c(q, axis) == inward) qs[nq++] = q;
+
+  if (spec.kind == FaceKind::Wall) {
+    // For every interior cell next to the wall and every population entering from the
+    // wall: ghost at x - c_q holds f*_opp(x) + 6 E_q rho_w c_q.U_w (Eq. 14), rho_w = 1.
+    PlaneRange r = plane_range(layout_, axis, false);
+    for (int b = 0; b < 3; ++b)
+      if (b != axis) r.lo[b] = 0, r.hi[b] = n[b] - 1;
+    r.lo[axis] = r.hi[axis] = side == 0 ? 0 : n[axis] - 1;
+    const auto& U = spec.wall_velocity;
+    for (int i = 0; i < nq; ++i) {
+      const int q = qs[i], o = D3Q19::opp[q];
+      const double moving = 6.0 * D3Q19::w[q] *
+                            (D3Q19::cx[q] * U[0] + D3Q19::cy[q] * U[1] + D3Q19::cz[q] * U[2]);
+      const std::ptrdiff_t back = layout_.offset(-D3Q19::cx[q], -D3Q19::cy[q], -D3Q19::cz[q]);
+      double* fq = f.q(q);
+      const double* fo = f.q(o);
+      for (int z = r.lo[2]; z <= r.hi[2]; ++z)
+        for (int y = r.lo[1]; y <= r.hi[1]; ++y)
+          for (int x = r.lo[0]; x <= r.hi[0]; ++x) {
+            const std::ptrdiff_t c = layout_.index(x, y, z);
+            fq[c + back] = fo[c] + moving;
+          }
+    }
+  } else {  // FreeSlip
+    PlaneRange r = plane_range(layout_, axis, true);
+    r.lo[axis] = r.hi[axis] = side == 0 ? -1 : n[axis];
+    int in[3] = {0, 0, 0};
+    in[axis] = inward;
+    const std::ptrdiff_t in_off = layout_.offset(in[0], in[1], in[2]);
+    for (int i = 0; i < nq; ++i) {
+      const int q = qs[i], m = D3Q19::mirror(q, axis);
+      double* fq = f.q(q);
+      const double* fm = f.q(m);
+      for (int z = r.lo[2]; z <= r.hi[2]; ++z)
+        for (int y = r.lo[1]; y <= r.hi[1]; ++y)
+          for (int x = r.lo[0]; x <= r.hi[0]; ++x) {
+            const std::ptrdiff_t g = layout_.index(x, y, z);
+            fq[g] = fm[g + in_off];
+          }
+    }
+  }
+}
+
+}  // namespace cosim::fluid

@@ -1,0 +1,73 @@
+// Boundary conditions of the lattice block as ghost-layer fills (DESIGN 4.1).
+#pragma once
+
+#include <array>
+#include <string>
+
+#include "fluid/grid_layout.hpp"
+#include "fluid/population_field.hpp"
+
+namespace cosim::fluid {
+
+enum class FaceKind { Periodic, Wall, FreeSlip, Inlet, Outflow };
+enum class InletProfile { Uniform, Blasius };
+
+/// Faces in the order x_min, x_max, y_min, y_max, z_min, z_max.
+enum Face : int { XMin = 0, XMax, YMin, YMax, ZMin, ZMax };
+constexpr int kFaces = 6;
+constexpr int face_axis(int f) { return f / 2; }
+constexpr int face_side(int f) { return f % 2; }  ///< 0: min, 1: max
+
+const char* face_name(int f);
+const char* kind_name(FaceKind k);
+
+/// What happens on one face. Lattice units throughout.
+struct FaceSpec {
+  FaceKind kind = FaceKind::Periodic;
+  /// Wall: velocity of the wall (tangential; Ladd's moving-wall bounce-back, Eq. 14).
+  std::array<double, 3> wall_velocity{0.0, 0.0, 0.0};
+  /// Inlet: speed into the domain, profile, and for Blasius the layer thickness delta in
+  /// cells, measured from the y_min plate (the half-way wall at y = -1/2).
+  double inlet_speed = 0.0;
+  InletProfile profile = InletProfile::Uniform;
+  double boundary_layer = 0.0;
+  double inlet_density = 1.0;
+};
+
+/// Inlet speed at height y (cells, cell centres at integer y) for a Blasius-type profile:
+/// zero at the plate, uniform above delta. Pohlhausen's quartic approximation of the
+/// Blasius layer, U (2 e - 2 e^3 + e^4) with e = (y + 1/2) / delta, smooth (C^2 at e = 1).
+double inlet_profile(const FaceSpec& face, double y);
+
+/// Fills the ghost layer of a field of post-collision populations so that a pull
+/// (f_q(x) = f*_q(x - c_q)) at every interior cell realises the boundary conditions:
+///  - Periodic: copy from the opposite face.
+///  - Inlet: equilibrium (Eq. 11) at inlet_density and the inlet velocity.
+///  - Outflow: zero-gradient copy of the last interior layer (documented choice: it lets
+///    vortices leave with little reflection at the Reynolds numbers of the paper).
+///  - Wall: half-way bounce-back, f_q(x) = f*_opp(x) + 6 E_q rho c_q.U_w (Eq. 14 with the
+///    wall at half a cell outside the last interior layer).
+///  - FreeSlip: specular reflection, f_q(x) = f*_mirror(q)(x - c_q + c_q,n n).
+/// Copy-type faces are filled axis by axis (x, y, z), each over the ghosts of the axes
+/// before it, so edges and corners come out right; reflecting faces go last and read only
+/// what is already valid.
+class BoundaryConditions {
+ public:
+  BoundaryConditions() = default;
+  BoundaryConditions(const GridLayout& layout, const std::array<FaceSpec, kFaces>& faces);
+
+  /// Empty string if the set is consistent, else a sentence naming the problem.
+  static std::string check(const std::array<FaceSpec, kFaces>& faces);
+
+  void fill_ghosts(PopulationField& f) const;
+  const FaceSpec& face(int f) const { return faces_[f]; }
+
+ private:
+  void fill_copy_face(PopulationField& f, int face) const;
+  void fill_reflect_face(PopulationField& f, int face) const;
+
+  GridLayout layout_;
+  std::array<FaceSpec, kFaces> faces_{};
+};
+
+}  // namespace cosim::fluid
