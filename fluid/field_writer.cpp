@@ -1,0 +1,181 @@
+#include "fluid/field_writer.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cstdio>
+#include <fstream>
+#include <iomanip>
+#include <sstream>
+#include <stdexcept>
+#include <system_error>
+#include <utility>
+
+#include "fluid/hdf5_handle.hpp"
+#include "fluid/hdf5_quiet.hpp"
+
+namespace cosim::fluid {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+void write_string_attribute(hid_t obj, const char* name, const std::string& value) {
+  const H5Id type(H5Tcopy(H5T_C_S1), H5Tclose, "cannot make an HDF5 string type");
+  h5_check(H5Tset_size(type.get(), std::max<std::size_t>(value.size(), 1)),
+           "cannot size an HDF5 string type");
+  const H5Id space(H5Screate(H5S_SCALAR), H5Sclose, "cannot make an HDF5 dataspace");
+  const H5Id attr(H5Acreate2(obj, name, type.get(), space.get(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose,
+                  std::string("cannot create the HDF5 attribute ") + name);
+  h5_check(H5Awrite(attr.get(), type.get(), value.c_str()),
+           std::string("cannot write the HDF5 attribute ") + name);
+}
+
+template <class T>
+void write_scalar_attribute(hid_t obj, const char* name, hid_t file_type, hid_t mem_type, T value) {
+  const H5Id space(H5Screate(H5S_SCALAR), H5Sclose, "cannot make an HDF5 dataspace");
+  const H5Id attr(H5Acreate2(obj, name, file_type, space.get(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose,
+                  std::string("cannot create the HDF5 attribute ") + name);
+  h5_check(H5Awrite(attr.get(), mem_type, &value), std::string("cannot write the HDF5 attribute ") + name);
+}
+
+/// A float64 dataset [nz][ny][nx] (components == 1) or [nz][ny][nx][components].
+void write_field(hid_t file, const std::string& file_name, const char* name, const GridShape& s,
+                 int components, const double* data, const char* units) {
+  const hsize_t dims[4] = {hsize_t(s.nz), hsize_t(s.ny), hsize_t(s.nx), hsize_t(components)};
+  const int rank = components == 1 ? 3 : 4;
+  const std::string where = file_name + ":/" + name;
+  const H5Id space(H5Screate_simple(rank, dims, nullptr), H5Sclose, "cannot make the dataspace of " + where);
+  const H5Id dset(H5Dcreate2(file, name, H5T_IEEE_F64LE, space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
+                  H5Dclose, "cannot create " + where);
+  h5_check(H5Dwrite(dset.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, data), "cannot write " + where);
+  write_string_attribute(dset.get(), "units", units);
+}
+
+void rename_or_throw(const fs::path& from, const fs::path& to) {
+  std::error_code ec;
+  fs::rename(from, to, ec);
+  if (ec) throw std::runtime_error("cannot rename " + from.string() + " to " + to.string() + ": " + ec.message());
+}
+
+}  // namespace
+
+FieldWriter::FieldWriter(std::string dir, double dx_um, double dt_us)
+    : dir_(std::move(dir)), dx_um_(dx_um), dt_us_(dt_us) {
+  if (!(dx_um > 0.0) || !(dt_us > 0.0))
+    throw std::invalid_argument("FieldWriter: dx_um and dt_us must be positive (got " + std::to_string(dx_um) +
+                                " and " + std::to_string(dt_us) + ")");
+  std::error_code ec;
+  fs::create_directories(dir_, ec);
+  if (ec || !fs::is_directory(dir_))
+    throw std::runtime_error("cannot create the field output directory " + dir_.string() +
+                             (ec ? ": " + ec.message() : std::string(": a file of that name exists")));
+}
+
+std::string FieldWriter::snapshot_name(std::int64_t step) {
+  char buf[48];
+  std::snprintf(buf, sizeof buf, "fields_%06lld.h5", static_cast<long long>(step));
+  return buf;
+}
+
+void FieldWriter::write(const FluidSolver& solver) {
+  const std::int64_t step = solver.step_count();
+  solver.macroscopic(m_);
+  vorticity(solver, m_, wx_, wy_, wz_);
+
+  const fs::path final_path = snapshot_path(step);
+  const fs::path part = fs::path(final_path).concat(".part");
+  write_hdf5(part, step);
+  rename_or_throw(part, final_path);
+
+  const auto same = [step](const Snapshot& s) { return s.step == step; };
+  const auto it = std::find_if(snapshots_.begin(), snapshots_.end(), same);
+  if (it != snapshots_.end())
+    it->shape = m_.shape;
+  else
+    snapshots_.push_back({step, m_.shape});
+  write_xdmf();
+}
+
+void FieldWriter::write_hdf5(const fs::path& file, std::int64_t step) {
+  const H5Quiet quiet;
+  const std::string name = file.string();
+  H5Id f(H5Fcreate(name.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose,
+         "cannot create the HDF5 file " + name);
+  write_scalar_attribute(f.get(), "step", H5T_STD_I64LE, H5T_NATIVE_INT64, std::int64_t(step));
+  write_scalar_attribute(f.get(), "time_us", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, double(step) * dt_us_);
+  write_scalar_attribute(f.get(), "dx_um", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, dx_um_);
+  write_scalar_attribute(f.get(), "dt_us", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, dt_us_);
+
+  const GridShape& s = m_.shape;
+  const std::size_t n = m_.rho.size();
+  write_field(f.get(), name, "rho", s, 1, m_.rho.data(), "1 (rho / rho_0)");
+
+  // Vectors interleaved per cell, [nz][ny][nx][3], in physical units.
+  vec_.resize(3 * n);
+  const double u_scale = dx_um_ / dt_us_;  // um/us = m/s
+  for (std::size_t i = 0; i < n; ++i) {
+    vec_[3 * i] = u_scale * m_.ux[i];
+    vec_[3 * i + 1] = u_scale * m_.uy[i];
+    vec_[3 * i + 2] = u_scale * m_.uz[i];
+  }
+  write_field(f.get(), name, "u", s, 3, vec_.data(), "m/s");
+  const double w_scale = 1.0 / dt_us_;  // 1/us
+  for (std::size_t i = 0; i < n; ++i) {
+    vec_[3 * i] = w_scale * wx_[i];
+    vec_[3 * i + 1] = w_scale * wy_[i];
+    vec_[3 * i + 2] = w_scale * wz_[i];
+  }
+  write_field(f.get(), name, "vorticity", s, 3, vec_.data(), "1/us");
+  f.close("cannot close the HDF5 file " + name);
+}
+
+void FieldWriter::write_xdmf() const {
+  std::ostringstream x;
+  x << std::setprecision(12);
+  x << "<?xml version=\"1.0\" ?>\n"
+    << "<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n"
+    << "<Xdmf Version=\"3.0\" xmlns:xi=\"http://www.w3.org/2001/XInclude\">\n"
+    << "  <Domain>\n"
+    << "    <Grid Name=\"fluid\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
+  for (const Snapshot& snap : snapshots_) {
+    const GridShape& s = snap.shape;
+    const std::string file = snapshot_name(snap.step);
+    std::ostringstream dims, dims3;
+    dims << s.nz << ' ' << s.ny << ' ' << s.nx;
+    dims3 << dims.str() << " 3";
+    const auto attribute = [&](const char* name, const char* type, const std::string& d) {
+      x << "        <Attribute Name=\"" << name << "\" AttributeType=\"" << type << "\" Center=\"Node\">\n"
+        << "          <DataItem Format=\"HDF\" NumberType=\"Float\" Precision=\"8\" Dimensions=\"" << d
+        << "\">" << file << ":/" << name << "</DataItem>\n"
+        << "        </Attribute>\n";
+    };
+    x << "      <Grid Name=\"step_" << snap.step << "\" GridType=\"Uniform\">\n"
+      << "        <Time Value=\"" << double(snap.step) * dt_us_ << "\"/>\n"
+      << "        <Topology TopologyType=\"3DCoRectMesh\" Dimensions=\"" << dims.str() << "\"/>\n"
+      // ORIGIN_DXDYDZ lists z, y, x (slowest first), like the topology's Dimensions.
+      << "        <Geometry GeometryType=\"ORIGIN_DXDYDZ\">\n"
+      << "          <DataItem Format=\"XML\" NumberType=\"Float\" Precision=\"8\" Dimensions=\"3\">0 0 0</DataItem>\n"
+      << "          <DataItem Format=\"XML\" NumberType=\"Float\" Precision=\"8\" Dimensions=\"3\">" << dx_um_ << ' '
+      << dx_um_ << ' ' << dx_um_ << "</DataItem>\n"
+      << "        </Geometry>\n";
+    attribute("rho", "Scalar", dims.str());
+    attribute("u", "Vector", dims3.str());
+    attribute("vorticity", "Vector", dims3.str());
+    x << "      </Grid>\n";
+  }
+  x << "    </Grid>\n"
+    << "  </Domain>\n"
+    << "</Xdmf>\n";
+
+  const fs::path final_path = xdmf_path();
+  const fs::path part = fs::path(final_path).concat(".part");
+  {
+    std::ofstream out(part, std::ios::trunc);
+    out << x.str();
+    out.flush();
+    if (!out) throw std::runtime_error("cannot write " + part.string() + " (disk full or directory not writable?)");
+  }
+  rename_or_throw(part, final_path);
+}
+
+}  // namespace cosim::fluid

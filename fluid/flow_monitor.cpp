@@ -1,0 +1,217 @@
+#include "fluid/flow_monitor.hpp"
+
+#include <cmath>
+#include <cstddef>
+#include <cstdio>
+#include <limits>
+
+#include "fluid/d3q19.hpp"
+#include "fluid/equilibrium.hpp"
+
+namespace cosim::fluid {
+
+namespace {
+
+using L = D3Q19;
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+/// Running extremum with its cell; ties to the smaller linear index.
+struct Extremum {
+  double value;
+  std::int64_t index = std::numeric_limits<std::int64_t>::max();
+  void take_min(double v, std::int64_t i) {
+    if (v < value || (v == value && i < index)) set(v, i);
+  }
+  void take_max(double v, std::int64_t i) {
+    if (v > value || (v == value && i < index)) set(v, i);
+  }
+  void set(double v, std::int64_t i) {
+    value = v;
+    index = i;
+  }
+};
+
+/// What one thread gathers over its rows.
+struct Partial {
+  double mass = 0, mx = 0, my = 0, mz = 0;
+  Extremum u2max{-1.0};
+  Extremum rmin{kInf};
+  Extremum rmax{-kInf};
+  std::int64_t nan_index = std::numeric_limits<std::int64_t>::max();
+  CellState nan_state;
+};
+
+/// rho (Eq. 7) and rho u = sum_a c_a f_a + F/2 (Eq. 8 with Guo's shift) of the cell x of a
+/// row whose pulled populations f_q(x) = state_q(x - c_q) start at s[q].
+inline Moments pulled_moments(const double* const* s, int x, const double* hF) {
+  Moments m;
+#pragma GCC unroll 19
+  for (int q = 0; q < L::Q; ++q) {
+    const double v = s[q][x];
+    m.rho += v;
+    m.jx += L::cx[q] * v;
+    m.jy += L::cy[q] * v;
+    m.jz += L::cz[q] * v;
+  }
+  m.jx += hF[0];
+  m.jy += hF[1];
+  m.jz += hF[2];
+  return m;
+}
+
+/// The reference: one row cell by cell into the thread's partial result.
+void scan_row(Partial& p, const double* const* s, int nx, std::int64_t row0, const double* hF) {
+  for (int x = 0; x < nx; ++x) {
+    const Moments c = pulled_moments(s, x, hF);
+    const double inv = 1.0 / c.rho;
+    const double ux = c.jx * inv, uy = c.jy * inv, uz = c.jz * inv;
+    p.mass += c.rho;
+    p.mx += c.jx;
+    p.my += c.jy;
+    p.mz += c.jz;
+    const std::int64_t i = row0 + x;
+    if (!(std::isfinite(c.rho) && std::isfinite(ux) && std::isfinite(uy) && std::isfinite(uz))) {
+      if (i < p.nan_index) {
+        p.nan_index = i;
+        p.nan_state = {c.rho, ux, uy, uz};
+      }
+      continue;
+    }
+    p.u2max.take_max(ux * ux + uy * uy + uz * uz, i);
+    p.rmin.take_min(c.rho, i);
+    p.rmax.take_max(c.rho, i);
+  }
+}
+
+CellIndex cell_of(std::int64_t i, const GridShape& s) {
+  if (i == std::numeric_limits<std::int64_t>::max()) return {};
+  const std::int64_t nx = s.nx, ny = s.ny;
+  return {int(i % nx), int((i / nx) % ny), int(i / (nx * ny))};
+}
+
+std::string cell_prefix(const FlowSummary& s, const CellIndex& c) {
+  char buf[96];
+  std::snprintf(buf, sizeof buf, "step %lld: cell (%d, %d, %d): ", static_cast<long long>(s.step),
+                c.x, c.y, c.z);
+  return buf;
+}
+
+const char* non_finite_name(double v) {
+  if (std::isnan(v)) return "NaN";
+  return v > 0 ? "+inf" : "-inf";
+}
+
+}  // namespace
+
+FlowSummary summarize(const FluidSolver& solver) {
+  const PopulationField& f = solver.state();
+  const GridLayout& lay = f.layout();
+  const GridShape& shape = solver.shape();
+  const int nx = shape.nx, ny = shape.ny;
+  const std::ptrdiff_t rows = std::ptrdiff_t(ny) * shape.nz;
+  // Velocity as FluidSolver::cell: u = (sum_a c_a f_a + F/2) / rho (Eqs. 7-8, Guo).
+  const auto& F = solver.body_force();
+  const double hF[3] = {0.5 * F[0], 0.5 * F[1], 0.5 * F[2]};
+
+  Partial total;
+#pragma omp parallel
+  {
+    Partial p;
+#pragma omp for schedule(static) nowait
+    for (std::ptrdiff_t r = 0; r < rows; ++r) {
+      const int y = int(r % ny), z = int(r / ny);
+      const std::ptrdiff_t base = lay.index(0, y, z);
+      // Pull: f_q(x) = state_q(x - c_q), as in the stream-collide kernel.
+      const double* s[L::Q];
+#pragma GCC unroll 19
+      for (int q = 0; q < L::Q; ++q) s[q] = f.q(q) + base - lay.offset(L::cx[q], L::cy[q], L::cz[q]);
+      const std::int64_t row0 = std::int64_t(r) * nx;
+      // Fast path, vectorised along x: the row's sums and extrema, and a flag that is NaN
+      // when any rho or u of the row is not finite (0 * inf and 0 * NaN are NaN).
+      double mass = 0, mx = 0, my = 0, mz = 0, u2max = -1.0, rmin = kInf, rmax = -kInf, bad = 0;
+#pragma omp simd reduction(+ : mass, mx, my, mz, bad) reduction(max : u2max, rmax) reduction(min : rmin)
+      for (int x = 0; x < nx; ++x) {
+        const Moments c = pulled_moments(s, x, hF);
+        const double inv = 1.0 / c.rho;
+        const double ux = c.jx * inv, uy = c.jy * inv, uz = c.jz * inv;
+        mass += c.rho;
+        mx += c.jx;
+        my += c.jy;
+        mz += c.jz;
+        bad += 0.0 * (c.rho + ux + uy + uz);
+        const double u2 = ux * ux + uy * uy + uz * uz;
+        u2max = u2max > u2 ? u2max : u2;
+        rmin = rmin < c.rho ? rmin : c.rho;
+        rmax = rmax > c.rho ? rmax : c.rho;
+      }
+      // A row that holds a non-finite value or beats this thread's extrema is redone cell
+      // by cell (std::isfinite, and the cell of each extremum); that is rare after the
+      // first rows. Strict comparisons: on ties the earlier cell stays.
+      if (bad != 0.0 || u2max > p.u2max.value || rmin < p.rmin.value || rmax > p.rmax.value) {
+        scan_row(p, s, nx, row0, hF);
+      } else {
+        p.mass += mass;
+        p.mx += mx;
+        p.my += my;
+        p.mz += mz;
+      }
+    }
+#pragma omp critical(cosim_fluid_summarize)
+    {
+      total.mass += p.mass;
+      total.mx += p.mx;
+      total.my += p.my;
+      total.mz += p.mz;
+      total.u2max.take_max(p.u2max.value, p.u2max.index);
+      total.rmin.take_min(p.rmin.value, p.rmin.index);
+      total.rmax.take_max(p.rmax.value, p.rmax.index);
+      if (p.nan_index < total.nan_index) {
+        total.nan_index = p.nan_index;
+        total.nan_state = p.nan_state;
+      }
+    }
+  }
+
+  FlowSummary out;
+  out.step = solver.step_count();
+  out.mass = total.mass;
+  out.momentum = {total.mx, total.my, total.mz};
+  const bool any_finite = total.rmin.index != std::numeric_limits<std::int64_t>::max();
+  out.max_mach = any_finite ? std::sqrt(total.u2max.value / L::cs2) : 0.0;
+  out.max_mach_cell = cell_of(total.u2max.index, shape);
+  out.rho_min = any_finite ? total.rmin.value : 0.0;
+  out.rho_min_cell = cell_of(total.rmin.index, shape);
+  out.rho_max = any_finite ? total.rmax.value : 0.0;
+  out.rho_max_cell = cell_of(total.rmax.index, shape);
+  out.has_nan = total.nan_index != std::numeric_limits<std::int64_t>::max();
+  out.nan_cell = cell_of(total.nan_index, shape);
+  out.nan_state = total.nan_state;
+  return out;
+}
+
+std::string health_problem(const FlowSummary& s, const HealthLimits& limits) {
+  char buf[128];
+  if (s.has_nan) {
+    const CellState& c = s.nan_state;
+    const char* what = !std::isfinite(c.rho)  ? "rho"
+                       : !std::isfinite(c.ux) ? "u_x"
+                       : !std::isfinite(c.uy) ? "u_y"
+                                              : "u_z";
+    const double v = !std::isfinite(c.rho)  ? c.rho
+                     : !std::isfinite(c.ux) ? c.ux
+                     : !std::isfinite(c.uy) ? c.uy
+                                            : c.uz;
+    return cell_prefix(s, s.nan_cell) + what + " is " + non_finite_name(v);
+  }
+  if (s.rho_min_cell.x >= 0 && s.rho_min <= limits.rho_floor) {
+    std::snprintf(buf, sizeof buf, "rho = %.4g <= %g", s.rho_min, limits.rho_floor);
+    return cell_prefix(s, s.rho_min_cell) + buf;
+  }
+  if (s.max_mach_cell.x >= 0 && s.max_mach > limits.mach_limit) {
+    std::snprintf(buf, sizeof buf, "Mach %.3g above the limit %g", s.max_mach, limits.mach_limit);
+    return cell_prefix(s, s.max_mach_cell) + buf;
+  }
+  return {};
+}
+
+}  // namespace cosim::fluid

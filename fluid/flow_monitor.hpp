@@ -1,0 +1,50 @@
+// Health observables of the fluid (DESIGN 4.4): mass, momentum, max Mach, rho range, NaN.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+
+#include "fluid/fluid_solver.hpp"
+
+namespace cosim::fluid {
+
+/// An interior cell; (-1, -1, -1) when no cell applies.
+struct CellIndex {
+  int x = -1, y = -1, z = -1;
+};
+
+/// One pass over the interior cells of a solver at step `step`. Lattice units.
+/// Sums run over every cell (a NaN shows in them); extrema run over the finite cells only,
+/// so that they still name a place when part of the field is lost.
+/// Ties go to the cell with the smallest index x + nx (y + ny z), whatever the thread count.
+struct FlowSummary {
+  std::int64_t step = 0;
+  double mass = 0;                   ///< sum of rho over interior cells (Eq. 7)
+  std::array<double, 3> momentum{};  ///< sum of rho u, u with Guo's half-force shift (Eq. 8)
+  double max_mach = 0;               ///< max |u| / c_s = |u| sqrt(3)
+  CellIndex max_mach_cell;
+  double rho_min = 0;
+  CellIndex rho_min_cell;
+  double rho_max = 0;
+  CellIndex rho_max_cell;
+  bool has_nan = false;  ///< some cell has a non-finite rho or u (NaN or infinity)
+  CellIndex nan_cell;    ///< the first such cell (smallest index)
+  CellState nan_state;   ///< rho and u at nan_cell, to name the quantity
+};
+
+/// rho and u (Eqs. 7-8, as FluidSolver::cell) of every interior cell of the current state,
+/// reduced in one OpenMP pass over the populations; no allocation per cell.
+FlowSummary summarize(const FluidSolver& solver);
+
+struct HealthLimits {
+  double mach_limit = 0.3;  ///< BGK loses accuracy and stability as Mach approaches 1
+  double rho_floor = 0.0;   ///< rho <= rho_floor is unphysical
+};
+
+/// Empty if healthy, else one line naming the step, the cell and the quantity, checked in
+/// this order: a non-finite value ("step 1200: cell (14, 3, 7): u_x is NaN"), the density
+/// floor ("... rho = -0.02 <= 0"), the Mach limit ("... Mach 0.41 above the limit 0.3").
+std::string health_problem(const FlowSummary& s, const HealthLimits& limits);
+
+}  // namespace cosim::fluid

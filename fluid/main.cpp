@@ -1,0 +1,310 @@
+// `fluid`: runs a fluid-only scene (no solid process) and reports its health.
+//
+//   fluid SCENE.toml [--steps N] [--output DIR] [--monitor-every N] [--fields-every N]
+//                    [--threads N] [--quiet] [--check]
+//
+// Exit status: 0 the run finished; 1 an output or system error; 2 the scene file or the
+// command line is invalid (one line on stderr); 3 the flow became unhealthy (NaN, rho <= 0
+// or Mach above run.mach_limit): one line on stderr naming the step, cell and quantity,
+// and nothing is written for that step.
+//
+// Initial state: rho = 1 everywhere with u = 0 (run.initial = "rest"), or with the inlet
+// profile of the first inlet face extended through the whole domain (run.initial =
+// "inlet", the default when a face is an inlet): the flow that would enter anyway, so the
+// start is not an impulsive one from rest against the inlet.
+#include <omp.h>
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <optional>
+#include <string>
+
+#include "fluid/field_writer.hpp"
+#include "fluid/flow_monitor.hpp"
+#include "fluid/fluid_solver.hpp"
+#include "fluid/monitor_log.hpp"
+#include "fluid/scene_config.hpp"
+#include "protocol/units.hpp"
+
+namespace cosim::fluid {
+namespace {
+
+constexpr int kExitOk = 0, kExitRuntime = 1, kExitBadInput = 2, kExitUnhealthy = 3;
+
+using Clock = std::chrono::steady_clock;
+
+std::string one_line(std::string s) {
+  for (char& c : s)
+    if (static_cast<unsigned char>(c) < 0x20) c = ' ';
+  while (!s.empty() && s.back() == ' ') s.pop_back();
+  return s;
+}
+
+std::string fmt(const char* f, double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, f, v);
+  return buf;
+}
+
+double max_boundary_speed(const FluidParams& p) {
+  double u = 0.0;
+  for (const FaceSpec& f : p.faces) {
+    if (f.kind == FaceKind::Inlet) u = std::max(u, f.inlet_speed);
+    if (f.kind == FaceKind::Wall)
+      u = std::max(u, std::hypot(f.wall_velocity[0], f.wall_velocity[1], f.wall_velocity[2]));
+  }
+  return u;
+}
+
+std::string describe_face(const FluidScene& s, int f) {
+  const FaceSpec& spec = s.params.faces[f];
+  std::string out = std::string(face_name(f)) + " " + kind_name(spec.kind);
+  if (spec.kind == FaceKind::Inlet) {
+    out += " (u = " + fmt("%.4g", spec.inlet_speed);
+    if (spec.profile == InletProfile::Blasius)
+      out += ", Blasius layer " + fmt("%.3g", spec.boundary_layer * s.dx_um) + " um = " +
+             fmt("%.3g", spec.boundary_layer) + " cells";
+    out += ")";
+  }
+  if (spec.kind == FaceKind::Wall &&
+      (spec.wall_velocity[0] != 0 || spec.wall_velocity[1] != 0 || spec.wall_velocity[2] != 0))
+    out += " (moving: " + fmt("%.4g", spec.wall_velocity[0]) + ", " +
+           fmt("%.4g", spec.wall_velocity[1]) + ", " + fmt("%.4g", spec.wall_velocity[2]) + ")";
+  return out;
+}
+
+void print_header(const FluidScene& s, const protocol::UnitConverter& units) {
+  const GridShape& g = s.params.shape;
+  const double dt_ns = units.dt_lb_s() * 1e9;
+  const double nu = (s.params.tau - 0.5) / 3.0;
+  const double u = max_boundary_speed(s.params);
+  std::printf("fluid: scene %s%s%s (%s)\n", s.name.c_str(), s.description.empty() ? "" : ": ",
+              s.description.c_str(), s.path.c_str());
+  std::printf("  grid     %d x %d x %d = %lld cells; domain %.4g x %.4g x %.4g um\n", g.nx, g.ny,
+              g.nz, static_cast<long long>(g.cells()), g.nx * s.dx_um, g.ny * s.dx_um,
+              g.nz * s.dx_um);
+  std::printf("  units    dx = %.4g um, dt = dx / c = %.5g ns (c = sqrt(3) c_s = %.5g m/s)\n",
+              s.dx_um, dt_ns, units.lattice_speed_m_s());
+  std::printf("  fluid    tau = %.5g, nu = %.5g (lattice) = %.4g m^2/s", s.params.tau, nu,
+              units.viscosity_m2_s(s.params.tau));
+  if (s.reynolds)
+    std::printf("; Re = U L / nu = %.4g (U = %.4g = %.4g m/s, L = %.4g um = %.4g cells)",
+                *s.reynolds, s.reference_speed, units.velocity_m_s(s.reference_speed),
+                s.reference_length_um, s.reference_length_um / s.dx_um);
+  std::printf("\n");
+  std::printf("  speed    fastest boundary %.4g (U/c) = Mach %.3f; health limit Mach %.3g\n", u,
+              u * std::sqrt(3.0), s.mach_limit);
+  std::printf("  faces   ");
+  for (int f = 0; f < kFaces; ++f) std::printf(" %s%s", describe_face(s, f).c_str(), f + 1 < kFaces ? "," : "\n");
+  const auto& F = s.params.body_force;
+  if (F[0] != 0 || F[1] != 0 || F[2] != 0)
+    std::printf("  force    body force density (%.4g, %.4g, %.4g) lattice units\n", F[0], F[1], F[2]);
+  std::printf("  memory   %.1f MiB of populations (2 x 19 doubles per cell, with ghosts)\n",
+              double(population_bytes(g)) / (1024.0 * 1024.0));
+  std::printf("  run      %lld steps = %.4g us; initial %s; monitor every %lld; ",
+              static_cast<long long>(s.steps), units.time_s(double(s.steps)) * 1e6,
+              s.initial == InitialFlow::Inlet ? "inlet profile" : "at rest",
+              static_cast<long long>(s.monitor_every));
+  if (s.fields_every > 0)
+    std::printf("fields every %lld", static_cast<long long>(s.fields_every));
+  else
+    std::printf("no field output");
+  std::printf("; output %s; %d OpenMP threads\n", s.output_dir.c_str(), omp_get_max_threads());
+  std::fflush(stdout);
+}
+
+void initialize(FluidSolver& solver, const FluidScene& s) {
+  if (s.initial == InitialFlow::Rest) {
+    solver.initialize_uniform(1.0, {0.0, 0.0, 0.0});
+    return;
+  }
+  int inlet = 0;
+  while (s.params.faces[inlet].kind != FaceKind::Inlet) ++inlet;  // load_scene ensures one
+  const FaceSpec& spec = s.params.faces[inlet];
+  const int axis = face_axis(inlet);
+  const double inward = face_side(inlet) == 0 ? 1.0 : -1.0;
+  solver.initialize([&](int, int y, int) {
+    double u[3] = {0.0, 0.0, 0.0};
+    u[axis] = inward * inlet_profile(spec, y);
+    return CellState{1.0, u[0], u[1], u[2]};
+  });
+}
+
+/// The carriage-return progress line on stderr, at most twice a second on a terminal;
+/// when stderr is not a terminal (a log file), one plain line every 10 s instead.
+class Progress {
+ public:
+  Progress(bool enabled, std::int64_t total, double dt_us, std::int64_t cells)
+      : enabled_(enabled), tty_(isatty(STDERR_FILENO) != 0), total_(total), dt_us_(dt_us),
+        cells_(cells), start_(Clock::now()), last_(start_) {}
+
+  void update(std::int64_t step) {
+    if (!enabled_) return;
+    const Clock::time_point now = Clock::now();
+    const double since = std::chrono::duration<double>(now - last_).count();
+    if (since < (tty_ ? 0.5 : 10.0) && step != total_) return;
+    last_ = now;
+    const double elapsed = std::chrono::duration<double>(now - start_).count();
+    const double mlups = elapsed > 0 ? double(cells_) * double(step) / elapsed * 1e-6 : 0.0;
+    const double eta = step > 0 ? elapsed / double(step) * double(total_ - step) : 0.0;
+    std::fprintf(stderr, "%sstep %lld/%lld  t = %.4g us  %.1f MLUPS  ETA %.0f s%s",
+                 tty_ ? "\r" : "", static_cast<long long>(step),
+                 static_cast<long long>(total_), double(step) * dt_us_, mlups, eta,
+                 tty_ ? "    " : "\n");
+    std::fflush(stderr);
+    shown_ = tty_;
+  }
+  /// Clears a carriage-return line before something else is printed.
+  void clear() {
+    if (!shown_) return;
+    std::fprintf(stderr, "\r%72s\r", "");
+    std::fflush(stderr);
+    shown_ = false;
+  }
+  double elapsed_s() const { return std::chrono::duration<double>(Clock::now() - start_).count(); }
+
+ private:
+  bool enabled_, tty_, shown_ = false;
+  std::int64_t total_;
+  double dt_us_;
+  std::int64_t cells_;
+  Clock::time_point start_, last_;
+};
+
+int run(const FluidScene& s, bool quiet) {
+  protocol::UnitInputs in;
+  in.dx_m = s.dx_um * 1e-6;
+  const protocol::UnitConverter units(in);
+  const double dt_us = units.dt_lb_s() * 1e6;
+  if (s.threads > 0) omp_set_num_threads(s.threads);
+  print_header(s, units);
+
+  FluidSolver solver(s.params);
+  initialize(solver, s);
+
+  const HealthLimits limits{s.mach_limit};
+  Progress progress(!quiet, s.steps, dt_us, s.params.shape.cells());
+  // Health before every write: an unhealthy state is diagnosed and nothing is written.
+  const auto healthy_summary = [&]() -> std::optional<FlowSummary> {
+    FlowSummary sum = summarize(solver);
+    const std::string problem = health_problem(sum, limits);
+    if (problem.empty()) return sum;
+    progress.clear();
+    std::fflush(stdout);
+    std::fprintf(stderr, "fluid: unhealthy flow, run stopped: %s\n", one_line(problem).c_str());
+    return std::nullopt;
+  };
+
+  const std::optional<FlowSummary> first = healthy_summary();
+  if (!first) return kExitUnhealthy;
+  const double mass0 = first->mass;
+
+  std::filesystem::create_directories(s.output_dir);
+  MonitorLog log((std::filesystem::path(s.output_dir) / "monitor.h5").string(), dt_us);
+  std::optional<FieldWriter> fields;
+  if (s.fields_every > 0) fields.emplace(s.output_dir, s.dx_um, dt_us);
+
+  log.append(*first);
+  std::printf("%s\n", format_summary(*first, dt_us, mass0).c_str());
+  std::fflush(stdout);
+  if (fields) fields->write(solver);
+
+  for (std::int64_t step = 1; step <= s.steps; ++step) {
+    solver.step();
+    const bool last = step == s.steps;
+    const bool monitor = step % s.monitor_every == 0 || last;
+    const bool snapshot = fields && (step % s.fields_every == 0 || last);
+    if (monitor || snapshot) {
+      const std::optional<FlowSummary> sum = healthy_summary();
+      if (!sum) return kExitUnhealthy;
+      if (monitor) {
+        log.append(*sum);
+        progress.clear();
+        std::printf("%s\n", format_summary(*sum, dt_us, mass0).c_str());
+        std::fflush(stdout);
+      }
+      if (snapshot) fields->write(solver);
+    }
+    progress.update(step);
+  }
+  progress.clear();
+  const double wall = progress.elapsed_s();
+  std::printf("fluid: done, %lld steps (%.4g us) in %.1f s, %.1f MLUPS; output in %s\n",
+              static_cast<long long>(s.steps), double(s.steps) * dt_us, wall,
+              wall > 0 ? double(s.params.shape.cells()) * double(s.steps) / wall * 1e-6 : 0.0,
+              s.output_dir.c_str());
+  return kExitOk;
+}
+
+int main_impl(int argc, char** argv) {
+  CLI::App app{
+      "Runs a fluid-only scene (D3Q19 lattice Boltzmann) and writes its monitor log and "
+      "fields.\nExit status: 0 done, 1 output/system error, 2 invalid scene or command line, "
+      "3 unhealthy flow (NaN, rho <= 0, Mach above run.mach_limit).",
+      "fluid"};
+  std::string scene_path;
+  std::int64_t steps = 0, monitor_every = 0, fields_every = 0;
+  int threads = 0;
+  std::string output;
+  bool quiet = false, check = false;
+  app.add_option("scene", scene_path, "scene file (TOML), e.g. scenes/channel_reduced.toml")
+      ->required();
+  CLI::Option* o_steps = app.add_option("--steps", steps, "number of LB steps (run.steps)");
+  CLI::Option* o_output =
+      app.add_option("--output", output, "output directory (output.directory)");
+  CLI::Option* o_monitor = app.add_option(
+      "--monitor-every", monitor_every, "health check + monitor row every N steps (run.monitor_every)");
+  CLI::Option* o_fields = app.add_option(
+      "--fields-every", fields_every, "field snapshot every N steps, 0 = none (output.fields_every)");
+  CLI::Option* o_threads =
+      app.add_option("--threads", threads, "OpenMP threads, 0 = OpenMP's default (run.threads)");
+  app.add_flag("--quiet", quiet, "no progress line on stderr");
+  app.add_flag("--check", check, "validate the scene, print the header, and exit");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    if (e.get_exit_code() == 0) return app.exit(e);  // --help
+    std::fprintf(stderr, "fluid: %s (see fluid --help)\n", one_line(e.what()).c_str());
+    return kExitBadInput;
+  }
+
+  FluidScene scene;
+  try {
+    scene = load_scene(scene_path);
+    SceneOverrides ov;
+    if (o_steps->count()) ov.steps = steps;
+    if (o_monitor->count()) ov.monitor_every = monitor_every;
+    if (o_fields->count()) ov.fields_every = fields_every;
+    if (o_threads->count()) ov.threads = threads;
+    if (o_output->count()) ov.output_dir = output;
+    apply_overrides(scene, ov);
+  } catch (const SceneError& e) {
+    std::fprintf(stderr, "%s\n", e.what());
+    return kExitBadInput;
+  }
+  if (check) {
+    protocol::UnitInputs in;
+    in.dx_m = scene.dx_um * 1e-6;
+    if (scene.threads > 0) omp_set_num_threads(scene.threads);
+    print_header(scene, protocol::UnitConverter(in));
+    return kExitOk;
+  }
+  return run(scene, quiet);
+}
+
+}  // namespace
+}  // namespace cosim::fluid
+
+int main(int argc, char** argv) {
+  try {
+    return cosim::fluid::main_impl(argc, argv);
+  } catch (const std::exception& e) {
+    std::fflush(stdout);
+    std::fprintf(stderr, "fluid: %s\n", cosim::fluid::one_line(e.what()).c_str());
+    return cosim::fluid::kExitRuntime;
+  }
+}

@@ -1,0 +1,84 @@
+// Scene files (TOML) of a fluid-only run: parsed and validated here into plain typed
+// structs, so that the solver never sees a TOML table (STYLE: configuration apart from
+// physics). The schema is documented in scenes/README.md and at load_scene below.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <stdexcept>
+#include <string>
+
+#include "fluid/fluid_solver.hpp"
+
+namespace cosim::fluid {
+
+/// A scene file, or a command-line override of one, that cannot be run. what() is one
+/// line: "FILE[:LINE]: KEY = VALUE: what is wrong and what is allowed".
+class SceneError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// How the interior is initialised before step 0 (rho = 1 everywhere).
+enum class InitialFlow {
+  Rest,   ///< u = 0
+  Inlet,  ///< the inlet profile of the (first) inlet face, extended through the domain
+};
+
+/// Limits that the validation enforces; the reasons are in scene_config.cpp.
+struct SceneLimits {
+  static constexpr double tau_min = 0.5;      ///< exclusive
+  static constexpr double tau_max = 2.0;      ///< inclusive
+  static constexpr double mach_limit_max = 0.5;
+  static constexpr double default_mach_limit = 0.3;
+  static constexpr int grid_min = 8;
+  static constexpr int grid_max = 65536;
+  static constexpr int threads_max = 1024;
+  static constexpr double paper_dx_um = 0.2561;  ///< Table 1
+};
+
+/// A validated fluid-only scene: the solver's parameters plus what the run needs.
+struct FluidScene {
+  std::string path;         ///< the file it came from
+  std::string name;         ///< [scene] name, default: the file name without .toml
+  std::string description;  ///< [scene] description
+
+  FluidParams params;  ///< shape, tau, faces, body force (lattice units)
+  double dx_um = SceneLimits::paper_dx_um;  ///< physical cell size
+
+  /// Reynolds number U L / nu when a reference length (and a reference speed: the inlet
+  /// u_max, else the fastest wall) is given; else empty.
+  std::optional<double> reynolds;
+  double reference_length_um = 0.0;  ///< 0 if not given
+  double reference_speed = 0.0;      ///< lattice units (U / c); 0 if the flow has none
+
+  InitialFlow initial = InitialFlow::Rest;
+  std::int64_t steps = 0;
+  std::int64_t monitor_every = 100;
+  std::int64_t fields_every = 0;  ///< 0: no field output
+  std::string output_dir;         ///< relative paths are relative to the working directory
+  double mach_limit = SceneLimits::default_mach_limit;
+  int threads = 0;  ///< 0: OpenMP's default (OMP_NUM_THREADS or all cores)
+};
+
+/// Reads and validates a scene file. Unknown keys or sections, wrong types, values out of
+/// range, a missing required key, inconsistent boundaries, TOML syntax errors and a missing
+/// file all throw SceneError; nothing else escapes.
+FluidScene load_scene(const std::string& path);
+
+/// Command-line overrides of the [run] and [output] settings; each is validated with the
+/// same rules as in the file and reported as "command line: --steps = 0: ...".
+struct SceneOverrides {
+  std::optional<std::int64_t> steps, monitor_every, fields_every;
+  std::optional<std::string> output_dir;
+  std::optional<int> threads;
+};
+void apply_overrides(FluidScene& scene, const SceneOverrides& overrides);
+
+/// Bytes of the two population grids (19 doubles per cell, with ghosts and padding).
+std::size_t population_bytes(const GridShape& shape);
+
+/// Fastest boundary speed in lattice units: the inlet u_max, else the fastest wall.
+double reference_speed(const FluidParams& params);
+
+}  // namespace cosim::fluid
