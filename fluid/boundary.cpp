@@ -81,6 +81,29 @@ PlaneRange plane_range(const GridLayout& L, int axis, bool all_ghosts) {
   return r;
 }
 
+/// Outflow ghost plane (see BoundaryConditions): non-equilibrium extrapolation at the
+/// reference density, from the boundary cell b = g + src_off.
+void fill_outflow(PopulationField& f, const GridLayout& layout, int face, double rho_out,
+                  const PlaneRange& r, std::ptrdiff_t src_off) {
+  const int axis = face_axis(face);
+  const int inward = face_side(face) == 0 ? 1 : -1;
+  for (int z = r.lo[2]; z <= r.hi[2]; ++z)
+    for (int y = r.lo[1]; y <= r.hi[1]; ++y)
+      for (int x = r.lo[0]; x <= r.hi[0]; ++x) {
+        const std::ptrdiff_t g = layout.index(x, y, z), b = g + src_off;
+        // Moments of the stored (post-collision) populations of the boundary cell b: the
+        // collision conserves rho and j (Eqs. 7-8), so these are the cell's own moments.
+        double fb[D3Q19::Q];
+        for (int q = 0; q < D3Q19::Q; ++q) fb[q] = f.q(q)[b];
+        const Moments m = moments(fb);
+        const double ux = m.jx / m.rho, uy = m.jy / m.rho, uz = m.jz / m.rho;
+        for (int q = 0; q < D3Q19::Q; ++q) {
+          if (D3Q19::c(q, axis) != inward) continue;
+          f.q(q)[g] = equilibrium(q, rho_out, ux, uy, uz) + fb[q] - equilibrium(q, m.rho, ux, uy, uz);
+        }
+      }
+}
+
 }  // namespace
 
 void BoundaryConditions::fill_ghosts(PopulationField& f) const {
@@ -109,6 +132,10 @@ void BoundaryConditions::fill_copy_face(PopulationField& f, int face) const {
   if (spec.kind == FaceKind::Periodic) src_shift[axis] = side == 0 ? n[axis] : -n[axis];
   if (spec.kind == FaceKind::Outflow) src_shift[axis] = inward;
   const std::ptrdiff_t src_off = layout_.offset(src_shift[0], src_shift[1], src_shift[2]);
+  if (spec.kind == FaceKind::Outflow) {
+    fill_outflow(f, layout_, face, spec.outflow_density, r, src_off);
+    return;
+  }
 
   double vel[3] = {0, 0, 0};
   for (int z = r.lo[2]; z <= r.hi[2]; ++z)
@@ -120,7 +147,7 @@ void BoundaryConditions::fill_copy_face(PopulationField& f, int face) const {
           vel[axis] = inward * inlet_profile(spec, y);
           for (int i = 0; i < nq; ++i)
             f.q(qs[i])[g] = equilibrium(qs[i], spec.inlet_density, vel[0], vel[1], vel[2]);
-        } else {
+        } else {  // Periodic
           for (int i = 0; i < nq; ++i) f.q(qs[i])[g] = f.q(qs[i])[g + src_off];
         }
       }

@@ -32,6 +32,8 @@ struct FaceSpec {
   InletProfile profile = InletProfile::Uniform;
   double boundary_layer = 0.0;
   double inlet_density = 1.0;
+  /// Outflow: reference density (pressure p = rho c_s^2) held at the outflow face.
+  double outflow_density = 1.0;
 };
 
 /// Inlet speed at height y (cells, cell centres at integer y) for a Blasius-type profile:
@@ -43,8 +45,12 @@ double inlet_profile(const FaceSpec& face, double y);
 /// (f_q(x) = f*_q(x - c_q)) at every interior cell realises the boundary conditions:
 ///  - Periodic: copy from the opposite face.
 ///  - Inlet: equilibrium (Eq. 11) at inlet_density and the inlet velocity.
-///  - Outflow: zero-gradient copy of the last interior layer (documented choice: it lets
-///    vortices leave with little reflection at the Reynolds numbers of the paper).
+///  - Outflow: zero-gradient velocity at a reference density (non-equilibrium
+///    extrapolation, Guo, Zheng and Shi 2002): the ghost holds
+///    f_eq(rho_out, u_b) + (f*_b - f_eq(rho_b, u_b)) of the last interior cell b. Velocity
+///    and stress leave with zero gradient; the density (pressure) is pinned, so an open
+///    channel neither gains nor loses mass without bound. A plain copy of all populations
+///    pins nothing: with a velocity inlet the mass of the channel then drifts.
 ///  - Wall: half-way bounce-back, f_q(x) = f*_opp(x) + 6 E_q rho c_q.U_w (Eq. 14 with the
 ///    wall at half a cell outside the last interior layer).
 ///  - FreeSlip: specular reflection, f_q(x) = f*_mirror(q)(x - c_q + c_q,n n).
