@@ -485,6 +485,12 @@ void load_inlet(const Reader& r, FluidScene& s) {
             std::string("needs boundaries.y_min = \"wall\" (the Blasius layer grows from the "
                         "y_min plate), not \"") +
                 kind_name(s.params.faces[YMin].kind) + "\"");
+    for (int f = YMin; f <= YMax; ++f)
+      if (s.params.faces[f].kind == FaceKind::Inlet)
+        r.bad(*r.node("inlet", "profile"), "inlet.profile",
+              std::string("is not possible with boundaries.") + face_name(f) +
+                  " = \"inlet\": the Blasius layer grows along the y_min plate, so the inlet "
+                  "must be an x or z face");
     const auto layer = r.number("inlet", "boundary_layer_um");
     const double height_um = s.params.shape.ny * s.dx_um;
     const std::string range = "the layer thickness in micrometres, in (0, ny dx_um = " +
