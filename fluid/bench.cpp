@@ -117,6 +117,7 @@ struct Options {
   int steps = 30;
   int repeat = 5;
   std::vector<int> threads{1, 2};
+  std::vector<std::string> grids{"box", "paper"};
 };
 
 Row measure(const Case& c, int threads, const Options& opt) {
@@ -181,12 +182,15 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 1000));
   app.add_option("--threads", opt.threads, "OpenMP thread counts to run, e.g. 1 2")
       ->check(CLI::Range(1, 1024));
+  app.add_option("--grids", opt.grids, "grids to run: box (periodic cube), paper (120x60x90)")
+      ->check(CLI::IsMember({"box", "paper"}));
   CLI11_PARSE(app, argc, argv);
 
-  const Case cases[] = {periodic_box(opt.box), paper_channel()};
-  const GridLayout box_layout(cases[0].params.shape);
+  const GridLayout box_layout(GridShape{opt.box, opt.box, opt.box});
   print_header(opt, std::size_t(D3Q19::Q) * box_layout.stride() * sizeof(double));
-  for (const Case& c : cases)
+  for (const std::string& g : opt.grids) {
+    const Case c = g == "box" ? periodic_box(opt.box) : paper_channel();
     for (const int t : opt.threads) print_row(measure(c, t, opt));
+  }
   return 0;
 }
