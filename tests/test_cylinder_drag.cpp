@@ -5,6 +5,7 @@
 // the markers (Eq. 17), J = 2 rho (0 - u) dA, spread (Eqs. 21-24) and the fluid stepped.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -27,8 +28,9 @@ struct CylinderCase {
   double x_c = 0;             ///< centre (cells); y centre is the channel mid-plane
   double retraction = 0.0;    ///< markers on the radius D/2 - retraction (cells), Breugem 2012
   double spacing = 1.0;       ///< target marker spacing along the circumference (cells)
+  double ramp = 5.0;          ///< start-up time in D/U (see cylinder_drag)
   int max_steps = 0;
-  double steady_tol = 1e-4;   ///< stop when C_D changes by less than this (relative) per D/U
+  double steady_tol = 1e-3;   ///< stop when the mean C_D over D/U changes by less than this
 };
 
 struct CylinderResult {
@@ -74,12 +76,20 @@ CylinderResult cylinder_drag(const CylinderCase& c) {
   const double q_ref = 0.5 * 1.0 * c.U * c.U * c.D * c.nz;  // dynamic pressure x frontal area
   const int check = int(std::ceil(c.D / c.U));
   const auto t0 = std::chrono::steady_clock::now();
+  const double ramp_steps = c.ramp * c.D / c.U;
   double sum = 0.0, previous = 0.0;
+  int calm_checks = 0;
   for (int n = 1; n <= c.max_steps; ++n) {
+    // Start-up: the fluid starts uniform at U and the markers move with it, U_B = U; U_B is
+    // brought smoothly to rest over `ramp` D/U. An impulsive start sends a strong pressure
+    // wave that rings between the velocity inlet and the pressure outlet; the ramp keeps the
+    // acoustic noise on the drag small.
+    const double phase = std::min(1.0, n / ramp_steps);
+    const Vec3 U_B{c.U * 0.5 * (1.0 + std::cos(std::numbers::pi * phase)), 0.0, 0.0};
     ib.sample(solver, X, s);
     double drag = 0.0;
     for (std::size_t l = 0; l < X.size(); ++l) {
-      J[l] = momentum_exchange_force(s[l].rho, s[l].u, {0.0, 0.0, 0.0});
+      J[l] = momentum_exchange_force(s[l].rho, s[l].u, U_B);
       for (double& j : J[l]) j *= dA;
       drag -= J[l][0];  // the body receives -J
     }
@@ -92,7 +102,9 @@ CylinderResult cylinder_drag(const CylinderCase& c) {
       r.C_D = sum / check;
       sum = 0.0;
       r.history.push_back(r.C_D);
-      if (previous != 0.0 && std::abs(r.C_D - previous) < c.steady_tol * r.C_D) {
+      const bool calm = n > ramp_steps + check && std::abs(r.C_D - previous) < c.steady_tol * r.C_D;
+      calm_checks = calm ? calm_checks + 1 : 0;
+      if (calm_checks == 2) {
         r.steady = true;
         break;
       }
@@ -104,3 +116,57 @@ CylinderResult cylinder_drag(const CylinderCase& c) {
 }
 
 }  // namespace
+
+// Wu and Shu (2009), JCP 228, 1963: C_D = 2.091 (Re 20) and 1.565 (Re 40); required within
+// 5 %. Choices, each measured at Re 20 (docs/validation.md):
+//  - D = 20 cells. U = 0.15 (Ma = 0.26) to keep the run short: U = 0.05 and 0.1 gave C_D
+//    within 0.13 % of each other.
+//  - Markers at spacing ~1 dx on a radius retracted by 0.3 dx (Breugem 2012): the kernel
+//    of Eq. 23 spreads the force over +-2 dx, which makes the body look larger; without
+//    retraction C_D came out 2 % higher.
+//  - Domain 32 D x 40 D (blockage D/H = 2.5 %), centre 10 D behind the inlet. Confinement
+//    raises C_D: H = 20 D instead of 40 D adds 1.5 %; 8 D of inlet length instead of 10 D
+//    about 1.7 %. With 25 D x 40 D and the centre 8 D from the inlet the converged values
+//    (U = 0.1) were 2.194 (+4.9 %) and 1.645 (+5.1 %). In this 32 D x 40 D domain Re 20
+//    gives 2.164 (+3.5 %) but Re 40 still 1.645 (+5.1 %): at Re 40 the domain is no longer
+//    the limit; the thinner boundary layer against the +-2 dx kernel (D = 20) is the
+//    suspect, and the test fails there until resolution (or a calibrated retraction) fixes
+//    it. Not resolved; see docs/validation.md.
+//  - Stop when the mean C_D over D/U changes by less than 2e-4 twice running; from the
+//    converged runs, that leaves C_D about 0.2 % above its limit.
+TEST(ImmersedBoundaryValidation, FixedMarkerCylinderDrag) {
+  struct Reference {
+    double Re, C_D;
+  };
+  for (const Reference ref : {Reference{20.0, 2.091}, Reference{40.0, 1.565}}) {
+    CylinderCase c;
+    c.Re = ref.Re;
+    c.D = 20;
+    c.U = 0.15;
+    c.nx = 640;
+    c.ny = 800;
+    c.nz = 1;
+    c.x_c = 10 * c.D;
+    c.retraction = 0.3;
+    c.spacing = 1.0;
+    c.steady_tol = 2e-4;
+    c.max_steps = int(60 * c.D / c.U);
+    const CylinderResult r = cylinder_drag(c);
+    const double blockage = c.D / c.ny;
+    const double error = r.C_D / ref.C_D - 1.0;
+    const std::string tag = "Re" + std::to_string(int(ref.Re));
+    RecordProperty(tag + "_C_D", std::to_string(r.C_D));
+    RecordProperty(tag + "_relative_error", std::to_string(error));
+    RecordProperty(tag + "_setup", "D=20 U=0.15 domain 640x800x1 blockage " +
+                                       std::to_string(blockage) + " retraction 0.3 markers " +
+                                       std::to_string(r.markers));
+    std::printf(
+        "cylinder Re %.0f: D = %.0f cells, domain %d x %d x %d (blockage D/H = %.3f), %d markers, "
+        "retraction %.1f dx: C_D = %.4f after %d steps (%s, %.0f s); Wu and Shu 2009: %.3f "
+        "(%+.2f %%)\n",
+        ref.Re, c.D, c.nx, c.ny, c.nz, blockage, r.markers, c.retraction, r.C_D, r.steps,
+        r.steady ? "steady" : "NOT steady", r.seconds, ref.C_D, 100.0 * error);
+    EXPECT_TRUE(r.steady) << "C_D still changing after " << r.steps << " steps";
+    EXPECT_NEAR(r.C_D, ref.C_D, 0.05 * ref.C_D);
+  }
+}
