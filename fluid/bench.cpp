@@ -10,12 +10,16 @@
 #include <cstddef>
 #include <cstdio>
 #include <cstdlib>
+#include <map>
 #include <memory>
+#include <new>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "fluid/d3q19.hpp"
 #include "fluid/fluid_solver.hpp"
+#include "fluid/lanes.hpp"
 #include "fluid/stream_collide.hpp"
 
 namespace cosim::fluid {
@@ -42,7 +46,7 @@ struct Case {
   FluidParams params;
 };
 
-/// A periodic cube of n^3 cells, at rest but for a small uniform drift.
+/// A periodic cube of n^3 cells (started with a small uniform drift, see measure).
 Case periodic_box(int n) {
   Case c{"box " + std::to_string(n) + "^3 periodic", {}};
   c.params.shape = {n, n, n};
@@ -67,11 +71,18 @@ Case paper_channel() {
   return c;
 }
 
-/// STREAM "copy" b[i] = a[i] with ordinary (write-allocating) stores, OpenMP static
-/// schedule like the kernel. Returns bytes/s counted as STREAM does (16 B per element).
+/// Bytes of one population field (19 populations with ghosts) of a grid.
+std::size_t field_bytes(const Case& c) {
+  return std::size_t(D3Q19::Q) * GridLayout(c.params.shape).stride() * sizeof(double);
+}
+
+/// STREAM "copy" b[i] = a[i], kLanes doubles at a time with the kernel's loads and stores
+/// (fluid/lanes.hpp), OpenMP static schedule like the kernel. Returns bytes/s counted as
+/// STREAM does (16 B per element, write-allocate traffic not counted).
 class CopyBench {
  public:
-  explicit CopyBench(std::size_t n) : n_(n), a_(alloc(n)), b_(alloc(n)) {
+  explicit CopyBench(std::size_t n)
+      : n_((n + kLanes - 1) / kLanes * kLanes), a_(alloc(n_)), b_(alloc(n_)) {
     double* a = a_.get();
     double* b = b_.get();
     const std::ptrdiff_t m = std::ptrdiff_t(n_);
@@ -80,9 +91,12 @@ class CopyBench {
   }
   std::size_t bytes_per_array() const { return n_ * sizeof(double); }
 
-  double run() {
+  double run(bool streaming) {
     const auto t0 = Clock::now();
-    copy(a_.get(), b_.get(), std::ptrdiff_t(n_));
+    if (streaming)
+      copy<true>(a_.get(), b_.get(), std::ptrdiff_t(n_));
+    else
+      copy<false>(a_.get(), b_.get(), std::ptrdiff_t(n_));
     return 2.0 * double(bytes_per_array()) / seconds_since(t0);
   }
 
@@ -92,24 +106,27 @@ class CopyBench {
   };
   using Array = std::unique_ptr<double, Free>;
   static Array alloc(std::size_t n) {
-    const std::size_t bytes = (n * sizeof(double) + 63) / 64 * 64;
-    return Array(static_cast<double*>(std::aligned_alloc(64, bytes)));
+    void* p = std::aligned_alloc(64, n * sizeof(double));
+    if (p == nullptr) throw std::bad_alloc();
+    return Array(static_cast<double*>(p));
   }
-  // Not turned into a memcpy call: the kind of store must be known (ordinary stores).
-  __attribute__((optimize("no-tree-loop-distribute-patterns"))) static void copy(
-      const double* __restrict a, double* __restrict b, std::ptrdiff_t n) {
-#pragma omp parallel for simd schedule(static)
-    for (std::ptrdiff_t i = 0; i < n; ++i) b[i] = a[i];
+  template <bool kStream>
+  static void copy(const double* a, double* b, std::ptrdiff_t n) {
+#pragma omp parallel
+    {
+#pragma omp for schedule(static) nowait
+      for (std::ptrdiff_t i = 0; i < n; i += kLanes) {
+        if constexpr (kStream)
+          store_stream(b + i, load(a + i));
+        else
+          store_aligned(b + i, load(a + i));
+      }
+      if constexpr (kStream) store_fence();
+    }
   }
 
   std::size_t n_;
   Array a_, b_;
-};
-
-struct Row {
-  std::string grid;
-  int threads = 0;
-  double step_mlups = 0, kernel_mlups = 0, copy_gbs = 0;
 };
 
 struct Options {
@@ -118,6 +135,14 @@ struct Options {
   int repeat = 5;
   std::vector<int> threads{1, 2};
   std::vector<std::string> grids{"box", "paper"};
+  Stores stores = Stores::Auto;
+};
+
+struct Row {
+  std::string grid;
+  int threads = 0;
+  bool streaming = false;  ///< the kernel's stores (and so the roofline's copy)
+  double step_mlups = 0, kernel_mlups = 0, copy_gbs = 0, copy_nt_gbs = 0;
 };
 
 Row measure(const Case& c, int threads, const Options& opt) {
@@ -126,46 +151,81 @@ Row measure(const Case& c, int threads, const Options& opt) {
   const FaceSpec& in = c.params.faces[XMin];
   solver.initialize_uniform(1.0, {in.kind == FaceKind::Inlet ? in.inlet_speed : 0.01, 0, 0});
   PopulationField scratch(solver.layout());
-  // Copy arrays of the size of one population field (19 populations with ghosts).
-  CopyBench copy(std::size_t(D3Q19::Q) * solver.layout().stride());
+  CopyBench copy(field_bytes(c) / sizeof(double));
 
   const double updates = double(solver.shape().cells()) * opt.steps;
   for (int s = 0; s < 2; ++s) solver.step();  // warm-up: page faults, caches
-  copy.run();
-  std::vector<double> step, kernel, bw;
-  // Interleaved, so that noise from other processes touches all three alike.
+  copy.run(false);
+  copy.run(true);
+  std::vector<double> step, kernel, bw, bw_nt;
+  // Interleaved, so that noise from other processes touches all of them alike.
   for (int r = 0; r < opt.repeat; ++r) {
-    bw.push_back(std::max(copy.run(), copy.run()));
+    bw.push_back(std::max(copy.run(false), copy.run(false)));
+    bw_nt.push_back(std::max(copy.run(true), copy.run(true)));
     auto t0 = Clock::now();
-    for (int s = 0; s < opt.steps; ++s) solver.step();
-    step.push_back(updates / seconds_since(t0) * 1e-6);
-    t0 = Clock::now();
-    for (int s = 0; s < opt.steps; ++s)
-      stream_collide(solver.state(), scratch, solver.tau(), solver.body_force());
-    kernel.push_back(updates / seconds_since(t0) * 1e-6);
+    if (opt.stores == Stores::Auto) {
+      for (int s = 0; s < opt.steps; ++s) solver.step();
+      step.push_back(updates / seconds_since(t0) * 1e-6);
+    }
+    // The kernel alone, ping-ponging two fields as step() does (a field just written
+    // with non-temporal stores is not in cache); the ghost fill in between is not timed.
+    PopulationField* from = &solver.mutable_state();
+    PopulationField* to = &scratch;
+    double seconds = 0;
+    for (int s = 0; s < opt.steps; ++s) {
+      t0 = Clock::now();
+      stream_collide(*from, *to, solver.tau(), solver.body_force(), opt.stores);
+      seconds += seconds_since(t0);
+      solver.boundaries().fill_ghosts(*to);
+      std::swap(from, to);
+    }
+    kernel.push_back(updates / seconds * 1e-6);
   }
-  return {c.name, threads, median(step), median(kernel), median(bw) * 1e-9};
+  Row row;
+  row.grid = c.name;
+  row.threads = threads;
+  row.streaming = uses_streaming_stores(solver.layout(), opt.stores);
+  row.step_mlups = step.empty() ? 0.0 : median(step);
+  row.kernel_mlups = median(kernel);
+  row.copy_gbs = median(bw) * 1e-9;
+  row.copy_nt_gbs = median(bw_nt) * 1e-9;
+  return row;
 }
 
-void print_header(const Options& opt, std::size_t box_bytes) {
+void print_header(const Options& opt, const std::vector<Case>& cases) {
   std::printf("cosim fluid bench: D3Q19 BGK-Guo, double precision, two grids (SoA)\n");
   std::printf("medians of %d repeats of %d steps; OMP_PROC_BIND=%s\n", opt.repeat, opt.steps,
               std::getenv("OMP_PROC_BIND") ? std::getenv("OMP_PROC_BIND") : "(unset)");
-  std::printf("bytes/update B = 2 x 19 x 8 = %.0f (read + write, STREAM counting)\n",
+  std::printf("B = bytes/update = 2 x 19 x 8 = %.0f (19 doubles read + 19 written, counted as\n"
+              "    STREAM counts copy; ordinary stores also move 19 x 8 write-allocate reads)\n",
               kBytesPerUpdate);
-  std::printf("copy: STREAM copy b[i] = a[i], ordinary stores, two arrays each the size of one\n"
-              "      population field of the grid (%zu MB for the box), best of 2 per repeat\n",
-              box_bytes >> 20);
-  std::printf("roofline MLUPS = copy bandwidth / B; ratio = step MLUPS / roofline\n");
-  std::printf("step = FluidSolver::step() (kernel + ghost fill); kernel = stream_collide only\n\n");
-  std::printf("%-22s %7s %11s %13s %10s %14s %7s\n", "grid", "threads", "step MLUPS",
-              "kernel MLUPS", "copy GB/s", "roofline MLUPS", "ratio");
+  std::printf("copy = STREAM copy b[i] = a[i], two arrays each the size of one population field\n"
+              "    of the grid (");
+  for (std::size_t i = 0; i < cases.size(); ++i)
+    std::printf("%s%s: %.0f MiB", i ? ", " : "", cases[i].name.c_str(),
+                double(field_bytes(cases[i])) / (1 << 20));
+  std::printf("),\n    best of 2 per repeat; 'plain' with ordinary stores, 'NT' with "
+              "non-temporal stores\n");
+  std::printf("roofline MLUPS = copy bandwidth with the kernel's kind of stores / B\n");
+  std::printf("step = FluidSolver::step() (kernel + ghost fill); kernel = stream_collide only\n");
+  std::printf("note: a shared machine; other processes add noise\n\n");
+  std::printf("%-20s %3s %6s %6s %7s %10s %10s %9s %6s %6s\n", "grid", "thr", "stores", "step",
+              "kernel", "copy plain", "copy NT", "roofline", "step", "kernel");
+  std::printf("%-20s %3s %6s %6s %7s %10s %10s %9s %6s %6s\n", "", "", "", "MLUPS", "MLUPS",
+              "GB/s", "GB/s", "MLUPS", "/roof", "/roof");
 }
 
 void print_row(const Row& r) {
-  const double roof = r.copy_gbs * 1e9 / kBytesPerUpdate * 1e-6;
-  std::printf("%-22s %7d %11.1f %13.1f %10.1f %14.1f %6.0f%%\n", r.grid.c_str(), r.threads,
-              r.step_mlups, r.kernel_mlups, r.copy_gbs, roof, 100.0 * r.step_mlups / roof);
+  const double copy = r.streaming ? r.copy_nt_gbs : r.copy_gbs;
+  const double roof = copy * 1e9 / kBytesPerUpdate * 1e-6;
+  char step[16] = "-", step_ratio[16] = "-";
+  if (r.step_mlups > 0) {
+    std::snprintf(step, sizeof step, "%.1f", r.step_mlups);
+    std::snprintf(step_ratio, sizeof step_ratio, "%.0f%%", 100.0 * r.step_mlups / roof);
+  }
+  std::printf("%-20s %3d %6s %6s %7.1f %10.1f %10.1f %9.1f %6s %5.0f%%\n", r.grid.c_str(),
+              r.threads, r.streaming ? "NT" : "plain", step, r.kernel_mlups, r.copy_gbs,
+              r.copy_nt_gbs, roof, step_ratio, 100.0 * r.kernel_mlups / roof);
   std::fflush(stdout);
 }
 
@@ -184,13 +244,18 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 1024));
   app.add_option("--grids", opt.grids, "grids to run: box (periodic cube), paper (120x60x90)")
       ->check(CLI::IsMember({"box", "paper"}));
+  const std::map<std::string, Stores> stores{
+      {"auto", Stores::Auto}, {"plain", Stores::Cached}, {"nt", Stores::Streaming}};
+  app.add_option("--stores", opt.stores,
+                 "kernel stores: auto (as the solver), plain or nt; not auto: kernel only")
+      ->transform(CLI::CheckedTransformer(stores, CLI::ignore_case));
   CLI11_PARSE(app, argc, argv);
 
-  const GridLayout box_layout(GridShape{opt.box, opt.box, opt.box});
-  print_header(opt, std::size_t(D3Q19::Q) * box_layout.stride() * sizeof(double));
-  for (const std::string& g : opt.grids) {
-    const Case c = g == "box" ? periodic_box(opt.box) : paper_channel();
+  std::vector<Case> cases;
+  for (const std::string& g : opt.grids)
+    cases.push_back(g == "box" ? periodic_box(opt.box) : paper_channel());
+  print_header(opt, cases);
+  for (const Case& c : cases)
     for (const int t : opt.threads) print_row(measure(c, t, opt));
-  }
   return 0;
 }

@@ -87,6 +87,7 @@ void fill_outflow(PopulationField& f, const GridLayout& layout, int face, double
                   const PlaneRange& r, std::ptrdiff_t src_off) {
   const int axis = face_axis(face);
   const int inward = face_side(face) == 0 ? 1 : -1;
+#pragma omp parallel for collapse(2) schedule(static)
   for (int z = r.lo[2]; z <= r.hi[2]; ++z)
     for (int y = r.lo[1]; y <= r.hi[1]; ++y)
       for (int x = r.lo[0]; x <= r.hi[0]; ++x) {
@@ -137,13 +138,13 @@ void BoundaryConditions::fill_copy_face(PopulationField& f, int face) const {
     return;
   }
 
-  double vel[3] = {0, 0, 0};
+#pragma omp parallel for collapse(2) schedule(static)
   for (int z = r.lo[2]; z <= r.hi[2]; ++z)
     for (int y = r.lo[1]; y <= r.hi[1]; ++y)
       for (int x = r.lo[0]; x <= r.hi[0]; ++x) {
         const std::ptrdiff_t g = layout_.index(x, y, z);
         if (spec.kind == FaceKind::Inlet) {
-          vel[0] = vel[1] = vel[2] = 0.0;
+          double vel[3] = {0.0, 0.0, 0.0};
           vel[axis] = inward * inlet_profile(spec, y);
           for (int i = 0; i < nq; ++i)
             f.q(qs[i])[g] = equilibrium(qs[i], spec.inlet_density, vel[0], vel[1], vel[2]);
@@ -178,6 +179,7 @@ void BoundaryConditions::fill_reflect_face(PopulationField& f, int face) const {
       const std::ptrdiff_t back = layout_.offset(-D3Q19::cx[q], -D3Q19::cy[q], -D3Q19::cz[q]);
       double* fq = f.q(q);
       const double* fo = f.q(o);
+#pragma omp parallel for collapse(2) schedule(static)
       for (int z = r.lo[2]; z <= r.hi[2]; ++z)
         for (int y = r.lo[1]; y <= r.hi[1]; ++y)
           for (int x = r.lo[0]; x <= r.hi[0]; ++x) {
@@ -195,6 +197,7 @@ void BoundaryConditions::fill_reflect_face(PopulationField& f, int face) const {
       const int q = qs[i], m = D3Q19::mirror(q, axis);
       double* fq = f.q(q);
       const double* fm = f.q(m);
+#pragma omp parallel for collapse(2) schedule(static)
       for (int z = r.lo[2]; z <= r.hi[2]; ++z)
         for (int y = r.lo[1]; y <= r.hi[1]; ++y)
           for (int x = r.lo[0]; x <= r.hi[0]; ++x) {

@@ -35,8 +35,13 @@ class GridLayout {
   int ny() const { return shape_.ny; }
   int nz() const { return shape_.nz; }
 
-  /// Allocated entries of one population (a multiple of kAlign).
-  std::size_t stride() const { return std::size_t(sx_) * sy_ * sz_; }
+  /// Allocated entries of one population: an odd number of 64-byte lines, so that the 19
+  /// populations of a cell sit on 19 different line offsets within a 4 KiB page (fewer
+  /// 4K-aliasing and cache-set conflicts between the kernel's streams; docs/performance.md).
+  std::size_t stride() const {
+    const std::size_t lines = std::size_t(sx_) * sy_ * sz_ / kAlign;
+    return (lines | 1) * kAlign;
+  }
   std::ptrdiff_t row_stride() const { return sx_; }
   std::ptrdiff_t plane_stride() const { return std::ptrdiff_t(sx_) * sy_; }
 

@@ -1,8 +1,6 @@
 #include "fluid/stream_collide.hpp"
 
 #include <cstddef>
-#include <cstdlib>
-#include <cstring>
 #include <utility>
 
 #include "fluid/d3q19.hpp"
@@ -23,32 +21,46 @@ static_assert([] {
   return true;
 }());
 
+// The per-cell helpers below are forced inline ([[gnu::always_inline]]) so that the
+// kLanes-wide values of a cell group stay in registers.
+
 /// a + c v for a lattice velocity component c in {-1, 0, 1}; no multiplication by zero.
 template <int c>
-Lanes add_c(Lanes a, Lanes v) {
+[[gnu::always_inline]] inline Lanes add_c(Lanes a, Lanes v) {
   if constexpr (c == 1) return a + v;
   if constexpr (c == -1) return a - v;
   return a;
 }
 
-/// c_q . a for direction q, a compile-time constant.
+/// c v for c in {-1, 1}.
+template <int c>
+[[gnu::always_inline]] inline Lanes times_c(Lanes v) {
+  static_assert(c == 1 || c == -1);
+  if constexpr (c == 1) return v;
+  return -v;
+}
+
+/// c_q . a for a direction q (not the rest direction) known at compile time.
 template <int q>
-Lanes dot_c(Lanes ax, Lanes ay, Lanes az) {
-  return add_c<L::cz[q]>(add_c<L::cy[q]>(add_c<L::cx[q]>(Lanes{}, ax), ay), az);
+[[gnu::always_inline]] inline Lanes dot_c(Lanes ax, Lanes ay, Lanes az) {
+  if constexpr (L::cx[q] != 0)
+    return add_c<L::cz[q]>(add_c<L::cy[q]>(times_c<L::cx[q]>(ax), ay), az);
+  else if constexpr (L::cy[q] != 0)
+    return add_c<L::cz[q]>(times_c<L::cy[q]>(ay), az);
+  else
+    return times_c<L::cz[q]>(az);
 }
 
 /// Per-call constants of the collision: relaxation rate, the body force and the
 /// velocity-independent parts of Guo's source term.
 struct CollisionConstants {
-  double omega;                    ///< 1 / tau
-  double keep;                     ///< 1 - omega
-  double Fx, Fy, Fz;               ///< uniform force density
-  double src_pref;                 ///< 1 - omega / 2 (Eq. 26)
-  double cF3[kPairs], cF9[kPairs]; ///< src_pref E_q 3 c_q.F and 9 c_q.F for q of each pair
+  double omega;                     ///< 1 / tau
+  double Fx, Fy, Fz;                ///< uniform force density
+  double src_pref;                  ///< 1 - omega / 2 (Eq. 26)
+  double cF3[kPairs], cF9[kPairs];  ///< src_pref E_q 3 c_q.F and 9 c_q.F, q of each pair
 
   CollisionConstants(double tau, const std::array<double, 3>& F)
-      : omega(1.0 / tau), keep(1.0 - omega), Fx(F[0]), Fy(F[1]), Fz(F[2]),
-        src_pref(1.0 - 0.5 * omega) {
+      : omega(1.0 / tau), Fx(F[0]), Fy(F[1]), Fz(F[2]), src_pref(1.0 - 0.5 * omega) {
     for (int p = 0; p < kPairs; ++p) {
       const int q = pair_q(p);
       const double cF = L::cx[q] * Fx + L::cy[q] * Fy + L::cz[q] * Fz;
@@ -58,62 +70,105 @@ struct CollisionConstants {
   }
 };
 
-/// BGK collision (Eq. 10) with Guo forcing (Eq. 26) of kLanes cells at once; `f` holds the
-/// pulled (streamed, Eq. 9) populations and receives the post-collision ones.
-///
-/// Each pair (q, opp q) shares the even part of the equilibrium (Eq. 11),
-///   f_eq = E rho (1 - 3/2 u.u + 9/2 (c.u)^2) +- E rho 3 c.u,
-/// and of the source S = E (3 (c - u).F + 9 (c.u)(c.F)),
-///   S = E (9 (c.u)(c.F) - 3 u.F) +- E 3 c.F.
+/// The three weights of Eq. 12 and the class of a direction: 0 rest, 1 axis, 2 diagonal.
+constexpr double kWeights[3] = {L::w[0], L::w[1], L::w[7]};
+constexpr int weight_class(int q) { return q == 0 ? 0 : q < 7 ? 1 : 2; }
+static_assert([] {
+  for (int q = 0; q < L::Q; ++q)
+    if (L::w[q] != kWeights[weight_class(q)]) return false;
+  return true;
+}());
+
+/// rho (Eq. 7) and j = rho v (Eq. 8) of kLanes cells.
+struct LaneMoments {
+  Lanes rho, jx, jy, jz;
+};
+
+/// Adds the pair (q, opp q) to the moments: both to rho (one by one, in the order of
+/// moments() in fluid/equilibrium.hpp: same rounding as the one-cell reference), their
+/// difference along c_q to j.
+template <int q>
+[[gnu::always_inline]] inline void add_pair(LaneMoments& m, Lanes fq, Lanes fo) {
+  m.rho = (m.rho + fq) + fo;
+  const Lanes d = fq - fo;
+  m.jx = add_c<L::cx[q]>(m.jx, d);
+  m.jy = add_c<L::cy[q]>(m.jy, d);
+  m.jz = add_c<L::cz[q]>(m.jz, d);
+}
+
+template <std::size_t... P>
+[[gnu::always_inline]] inline LaneMoments moments(const Lanes (&f)[L::Q],
+                                                 std::index_sequence<P...>) {
+  LaneMoments m{f[0], {}, {}, {}};
+  (add_pair<pair_q(P)>(m, f[pair_q(P)], f[pair_q(P) + 1]), ...);
+  return m;
+}
+
+/// What the relaxation of every direction needs from a cell: Guo's velocity and the parts
+/// of f_eq (Eq. 11) and of the source that do not depend on the direction.
+struct LaneFlow {
+  Lanes ux, uy, uz;
+  Lanes even0;    ///< 1 - 3/2 u.u
+  Lanes wrho[3];  ///< E rho for E = 1/3, 1/18, 1/36 (weight_class)
+  Lanes src0[3];  ///< (1 - omega/2) E (-3 u.F), the part of S without c.F
+};
+
 template <bool kForce>
-void collide(Lanes (&f)[L::Q], const CollisionConstants& k) {
-  // Moments (Eqs. 7-8) from pair sums and differences.
-  Lanes rho = f[0], jx{}, jy{}, jz{};
-  Lanes diff[kPairs];
-  [&]<std::size_t... P>(std::index_sequence<P...>) {
-    ((rho += f[pair_q(P)] + f[pair_q(P) + 1], diff[P] = f[pair_q(P)] - f[pair_q(P) + 1],
-      jx = add_c<L::cx[pair_q(P)]>(jx, diff[P]), jy = add_c<L::cy[pair_q(P)]>(jy, diff[P]),
-      jz = add_c<L::cz[pair_q(P)]>(jz, diff[P])),
-     ...);
-  }(std::make_index_sequence<kPairs>{});
-
-  const Lanes inv_rho = 1.0 / rho;
-  Lanes ux = jx * inv_rho, uy = jy * inv_rho, uz = jz * inv_rho;
-  if constexpr (kForce) {  // Guo's velocity: u = (j + F/2) / rho
-    ux += (0.5 * k.Fx) * inv_rho;
-    uy += (0.5 * k.Fy) * inv_rho;
-    uz += (0.5 * k.Fz) * inv_rho;
+[[gnu::always_inline]] inline LaneFlow flow(const LaneMoments& m, const CollisionConstants& k) {
+  LaneFlow v;
+  const Lanes inv_rho = 1.0 / m.rho;
+  // Guo's velocity u = (j + F/2) / rho
+  v.ux = (kForce ? m.jx + 0.5 * k.Fx : m.jx) * inv_rho;
+  v.uy = (kForce ? m.jy + 0.5 * k.Fy : m.jy) * inv_rho;
+  v.uz = (kForce ? m.jz + 0.5 * k.Fz : m.jz) * inv_rho;
+  v.even0 = 1.0 - 1.5 * (v.ux * v.ux + v.uy * v.uy + v.uz * v.uz);
+  const Lanes uF3 = kForce ? (-3.0 * k.src_pref) * (v.ux * k.Fx + v.uy * k.Fy + v.uz * k.Fz)
+                           : Lanes{};
+  for (int c = 0; c < 3; ++c) {
+    v.wrho[c] = m.rho * kWeights[c];
+    v.src0[c] = kForce ? uF3 * kWeights[c] : Lanes{};
   }
-  const Lanes even0 = 1.0 - 1.5 * (ux * ux + uy * uy + uz * uz);
-  // omega E rho for the two weights of the moving directions.
-  const Lanes orho = k.omega * rho;
-  const Lanes owr[2] = {orho * L::w[1], orho * L::w[7]};
-  Lanes src0[2] = {};  // -src_pref E 3 u.F, the even part of the source without c.F
-  Lanes rest = (orho * L::w[0]) * even0;
+  return v;
+}
+
+/// f_q += omega (f_eq_q - f_q) + (1 - omega/2) S_q for the pair (q, opp q) of pair P;
+/// f_eq and S split into the parts even and odd in c (see collide).
+template <bool kForce, int P>
+[[gnu::always_inline]] inline void relax_pair(Lanes& fq, Lanes& fo, const LaneFlow& v,
+                                              const CollisionConstants& k) {
+  constexpr int q = pair_q(P), wi = weight_class(q);
+  const Lanes cu = dot_c<q>(v.ux, v.uy, v.uz);
+  const Lanes even = v.wrho[wi] * (v.even0 + 4.5 * cu * cu);
+  const Lanes odd = v.wrho[wi] * (3.0 * cu);
+  Lanes src_even{}, src_odd{};
   if constexpr (kForce) {
-    const Lanes uF3 = (-3.0 * k.src_pref) * (ux * k.Fx + uy * k.Fy + uz * k.Fz);
-    src0[0] = uF3 * L::w[1];
-    src0[1] = uF3 * L::w[7];
-    rest += uF3 * L::w[0];
+    src_even = v.src0[wi] + k.cF9[P] * cu;
+    src_odd = Lanes{} + k.cF3[P];
   }
-  f[0] = k.keep * f[0] + rest;
+  fq += k.omega * ((even + odd) - fq) + (src_even + src_odd);
+  fo += k.omega * ((even - odd) - fo) + (src_even - src_odd);
+}
 
-  [&]<std::size_t... P>(std::index_sequence<P...>) {
-    (
-        [&] {
-          constexpr int q = pair_q(P), o = q + 1, wi = L::w[q] == L::w[1] ? 0 : 1;
-          const Lanes cu = dot_c<q>(ux, uy, uz);
-          Lanes even = owr[wi] * (even0 + 4.5 * cu * cu);
-          Lanes odd = owr[wi] * (3.0 * cu);
-          if constexpr (kForce) {
-            even += src0[wi] + k.cF9[P] * cu;
-            odd += k.cF3[P];
-          }
-          f[q] = k.keep * f[q] + (even + odd);
-          f[o] = k.keep * f[o] + (even - odd);
-        }(),
-        ...);
-  }(std::make_index_sequence<kPairs>{});
+template <bool kForce, std::size_t... P>
+[[gnu::always_inline]] inline void relax_pairs(Lanes (&f)[L::Q], const LaneFlow& v,
+                                               const CollisionConstants& k,
+                                               std::index_sequence<P...>) {
+  (relax_pair<kForce, int(P)>(f[pair_q(P)], f[pair_q(P) + 1], v, k), ...);
+}
+
+/// BGK collision (Eq. 10) with Guo forcing (Eq. 26) of kLanes cells at once, the same
+/// arithmetic as BgkGuo::collide; `f` holds the pulled (streamed, Eq. 9) populations and
+/// receives the post-collision ones. Each pair (q, opp q) shares the even part of the
+/// equilibrium (Eq. 11) and of the source S = E (3 (c - u).F + 9 (c.u)(c.F)):
+///   f_eq = E rho (1 - 3/2 u.u + 9/2 (c.u)^2) +- E rho 3 c.u,
+///   S    = E (9 (c.u)(c.F) - 3 u.F) +- E 3 c.F.
+template <bool kForce>
+[[gnu::always_inline]] inline void collide(Lanes (&f)[L::Q], const CollisionConstants& k) {
+  const auto pairs = std::make_index_sequence<kPairs>{};
+  const LaneFlow v = flow<kForce>(moments(f, pairs), k);
+  // Rest direction: c = 0.
+  f[0] += k.omega * (v.wrho[0] * v.even0 - f[0]) + v.src0[0];
+  relax_pairs<kForce>(f, v, k, pairs);
 }
 
 /// The interior of the block row by row (OpenMP), kLanes cells of x at a time; the last,
@@ -132,7 +187,6 @@ void update_rows(const PopulationField& src, PopulationField& dst, double tau,
   const double* const s0 = src.q(0);
   double* const d0 = dst.q(0);
   const int full = nx / kLanes * kLanes;
-  static const int pf = std::getenv("PF") ? std::atoi(std::getenv("PF")) : 0;
 
 #pragma omp parallel
   {
@@ -143,14 +197,10 @@ void update_rows(const PopulationField& src, PopulationField& dst, double tau,
       double* const d = d0 + base;
       Lanes f[L::Q];
       for (int x = 0; x < full; x += kLanes) {
-  #pragma GCC unroll 19
+#pragma GCC unroll 19
         for (int q = 0; q < L::Q; ++q) f[q] = load(s + pull[q] + x);
-        if (pf) {
-  #pragma GCC unroll 19
-          for (int q = 0; q < L::Q; ++q) __builtin_prefetch(s + pull[q] + x + pf);
-        }
         collide<kForce>(f, k);
-  #pragma GCC unroll 19
+#pragma GCC unroll 19
         for (int q = 0; q < L::Q; ++q) {
           if constexpr (kStream) store_stream(d + q * stride + x, f[q]);
           else store_aligned(d + q * stride + x, f[q]);
@@ -169,13 +219,21 @@ void update_rows(const PopulationField& src, PopulationField& dst, double tau,
 
 }  // namespace
 
+bool uses_streaming_stores(const GridLayout& layout, Stores stores) {
+  if (!kHasStreamingStores || stores == Stores::Cached) return false;
+  return stores == Stores::Streaming ||
+         D3Q19::Q * layout.stride() * sizeof(double) >= kStreamingStoresFrom;
+}
+
 void stream_collide(const PopulationField& src, PopulationField& dst, double tau,
-                    const std::array<double, 3>& force) {
-  static const bool nt = std::getenv("NT") != nullptr;
+                    const std::array<double, 3>& force, Stores stores) {
+  const bool nt = uses_streaming_stores(src.layout(), stores);
   if (force[0] == 0.0 && force[1] == 0.0 && force[2] == 0.0)
-    nt ? update_rows<false, true>(src, dst, tau, force) : update_rows<false, false>(src, dst, tau, force);
+    nt ? update_rows<false, true>(src, dst, tau, force)
+       : update_rows<false, false>(src, dst, tau, force);
   else
-    nt ? update_rows<true, true>(src, dst, tau, force) : update_rows<true, false>(src, dst, tau, force);
+    nt ? update_rows<true, true>(src, dst, tau, force)
+       : update_rows<true, false>(src, dst, tau, force);
 }
 
 }  // namespace cosim::fluid
