@@ -1,74 +1,14 @@
-// Ownership of HDF5 C API identifiers, with HDF5 errors turned into one-line exceptions.
-// Internal to fluid/*.cpp: headers of the library do not expose HDF5.
+// Forwards to protocol/hdf5_handle.hpp (shared with the solid library): ownership of HDF5
+// C API identifiers, with HDF5 errors turned into one-line exceptions. Internal to
+// fluid/*.cpp: headers of the library do not expose HDF5.
 #pragma once
 
-#include <hdf5.h>
-
-#include <stdexcept>
-#include <string>
-#include <utility>
+#include "protocol/hdf5_handle.hpp"
 
 namespace cosim::fluid {
 
-/// Throws std::runtime_error("<what>: <innermost message of the HDF5 error stack>") and
-/// clears the stack. Call with HDF5's automatic error printing off (H5Quiet).
-[[noreturn]] inline void h5_fail(const std::string& what) {
-  std::string inner;
-  H5Ewalk2(
-      H5E_DEFAULT, H5E_WALK_DOWNWARD,
-      [](unsigned, const H5E_error2_t* e, void* data) -> herr_t {
-        if (e->desc != nullptr && e->desc[0] != '\0') *static_cast<std::string*>(data) = e->desc;
-        return 0;
-      },
-      &inner);
-  H5Eclear2(H5E_DEFAULT);
-  for (char& c : inner)
-    if (c == '\n' || c == '\r') c = ' ';
-  throw std::runtime_error(inner.empty() ? what : what + ": " + inner);
-}
-
-inline void h5_check(herr_t status, const std::string& what) {
-  if (status < 0) h5_fail(what);
-}
-
-/// Owns one identifier (file, group, dataset, dataspace, datatype, attribute, property
-/// list) and closes it with the matching H5?close.
-class H5Id {
- public:
-  using Closer = herr_t (*)(hid_t);
-
-  H5Id() = default;
-  /// Takes `id` from an HDF5 call; throws naming `what` if the call failed (id < 0).
-  H5Id(hid_t id, Closer closer, const std::string& what) : id_(id), close_(closer) {
-    if (id_ < 0) h5_fail(what);
-  }
-  H5Id(const H5Id&) = delete;
-  H5Id& operator=(const H5Id&) = delete;
-  H5Id(H5Id&& o) noexcept : id_(std::exchange(o.id_, -1)), close_(o.close_) {}
-  H5Id& operator=(H5Id&& o) noexcept {
-    if (this != &o) {
-      reset();
-      id_ = std::exchange(o.id_, -1);
-      close_ = o.close_;
-    }
-    return *this;
-  }
-  ~H5Id() { reset(); }
-
-  hid_t get() const { return id_; }
-
-  /// Closes now and reports a failure (a file's close writes its last metadata).
-  void close(const std::string& what) {
-    const hid_t id = std::exchange(id_, -1);
-    if (id >= 0) h5_check(close_(id), what);
-  }
-
- private:
-  void reset() {
-    if (id_ >= 0) close_(std::exchange(id_, -1));
-  }
-  hid_t id_ = -1;
-  Closer close_ = nullptr;
-};
+using protocol::H5Id;
+using protocol::h5_check;
+using protocol::h5_fail;
 
 }  // namespace cosim::fluid

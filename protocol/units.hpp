@@ -14,6 +14,7 @@ struct PhysicalConstants {
   static constexpr double air_molecule_kg = 4.851e-26;      ///< m_air (Table 1)
   static constexpr double sound_speed_air_m_s = 331.5;      ///< c_s (Table 1)
   static constexpr double carbon_mass_kg = 12.011 * 1.66053906660e-27;
+  static constexpr double hartree_eV = 27.211386245988;
 };
 
 /// Inputs of the conversion; defaults are the paper's (Table 1, Eq. 30).

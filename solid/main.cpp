@@ -1,0 +1,596 @@
+// `solid`: runs a solid model on its own, without a fluid (standalone mode, for validation):
+// free vibration in vacuum from an initial perturbation, or the static deflection under a
+// uniform pressure reached by dynamic relaxation.
+//
+//   solid SCENE.toml [--substeps N] [--output DIR] [--quiet] [--check]
+//
+// Exit status: 0 the run finished; 1 an output or system error; 2 the scene file, the
+// command line or the model's construction is invalid, or [run] dt_s is above the model's
+// stable step (one line on stderr); 3 a non-finite position, velocity or energy appeared:
+// one line on stderr naming the substep and the CGP, and that state is not written.
+//
+// Output: OUTPUT/solid.h5 with one row every record_every substeps (and at substep 0 and the
+// last): substep, time_s, the marked CGP's displacement of each sheet (um, rows x sheets x 3)
+// and along the sheet's normal (um, rows x sheets), kinetic, elastic and total energy (J).
+//
+// The static run is a dynamic relaxation: the model integrates
+//   M dV/dt = F^int + F^p - 2 zeta omega_1 M V
+// with F^p = p dx_CG^2 n per CGP and omega_1 = 2 pi f_1 its first vacuum eigenfrequency;
+// the damping force is evaluated with the velocities at the start of each substep and
+// handed to the model as part of the external force. zeta = 1 damps the first mode
+// critically; every mode then decays at least as fast as exp(-zeta omega_1 t).
+#include <hdf5.h>
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <numbers>
+#include <optional>
+#include <string>
+#include <system_error>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "protocol/hdf5_handle.hpp"
+#include "protocol/hdf5_quiet.hpp"
+#include "protocol/units.hpp"
+#include "solid/model_registry.hpp"
+#include "solid/sheet_spec.hpp"
+#include "solid/solid_model.hpp"
+#include "solid/solid_scene.hpp"
+
+namespace cosim::solid {
+namespace {
+
+constexpr int kExitOk = 0, kExitRuntime = 1, kExitBadInput = 2, kExitNonFinite = 3;
+
+using Clock = std::chrono::steady_clock;
+using protocol::PhysicalConstants;
+using protocol::UnitConverter;
+using protocol::H5Id;
+using protocol::h5_check;
+
+constexpr double kMicrometre = 1e-6;
+/// First root of cos(x) cosh(x) = -1: the clamped-free beam's first mode (Euler-Bernoulli).
+constexpr double kBeamRoot1 = 1.8751040687119611;
+
+double um_from_bohr(double bohr) { return bohr * PhysicalConstants::bohr_m / kMicrometre; }
+double joule_from_hartree(double e) {
+  return e * UnitConverter::force_au_N() * PhysicalConstants::bohr_m;  // E_h = F_AU l_AU
+}
+
+std::string one_line(std::string s) {
+  for (char& c : s)
+    if (static_cast<unsigned char>(c) < 0x20) c = ' ';
+  while (!s.empty() && s.back() == ' ') s.pop_back();
+  return s;
+}
+
+std::string fmt(const char* f, double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, f, v);
+  return buf;
+}
+
+/// "  " before every line of a multi-line text.
+std::string indent(const std::string& text) {
+  std::string out;
+  std::size_t start = 0;
+  while (start < text.size()) {
+    std::size_t end = text.find('\n', start);
+    if (end == std::string::npos) end = text.size();
+    out += "  " + text.substr(start, end - start) + "\n";
+    start = end + 1;
+  }
+  return out;
+}
+
+/// Sheet, column and row of CGP `l` of the model's array.
+std::string describe_cgp(const SolidConfig& c, Eigen::Index l) {
+  for (std::size_t s = 0; s < c.sheets.size(); ++s) {
+    const Eigen::Index first = first_cgp(c, s), n = c.sheets[s].num_cgps();
+    if (l >= first && l < first + n) {
+      const Eigen::Index k = l - first;
+      return "CGP " + std::to_string(l) + " (sheet " + std::to_string(s) + ", i = " +
+             std::to_string(k % c.sheets[s].nx_cg) + ", j = " +
+             std::to_string(k / c.sheets[s].nx_cg) + ")";
+    }
+  }
+  return "CGP " + std::to_string(l);
+}
+
+/// The first CGP with a non-finite position or velocity, as a diagnosis; "" if none.
+std::string non_finite_state(const SolidModel& model, const SolidConfig& config) {
+  const Eigen::Matrix3Xd& x = model.positions();
+  const Eigen::Matrix3Xd& v = model.velocities();
+  if (x.allFinite() && v.allFinite()) return "";
+  for (Eigen::Index l = 0; l < x.cols(); ++l) {
+    const bool bad_x = !x.col(l).allFinite(), bad_v = !v.col(l).allFinite();
+    if (!bad_x && !bad_v) continue;
+    const Eigen::Vector3d q = bad_x ? Eigen::Vector3d(x.col(l)) : Eigen::Vector3d(v.col(l));
+    return describe_cgp(config, l) + ": " + (bad_x ? "position" : "velocity") + " (" +
+           fmt("%g", q[0]) + ", " + fmt("%g", q[1]) + ", " + fmt("%g", q[2]) + ")" +
+           (bad_x ? " bohr" : " bohr/t_AU");
+  }
+  return "";
+}
+
+/// The CGP with the largest speed, and that speed (bohr / t_AU).
+std::pair<Eigen::Index, double> fastest_cgp(const SolidModel& model) {
+  const Eigen::Matrix3Xd& v = model.velocities();
+  Eigen::Index fastest = 0;
+  double top = 0.0;
+  for (Eigen::Index l = 0; l < v.cols(); ++l) {
+    const double speed = v.col(l).stableNorm();  // no overflow of the squares
+    if (speed > top || std::isnan(speed)) {
+      fastest = l;
+      top = speed;
+      if (std::isnan(speed)) break;
+    }
+  }
+  return {fastest, top};
+}
+
+/// The time series of solid.h5, kept in memory and written once.
+struct Series {
+  int sheets = 0;
+  std::vector<std::int64_t> substep;
+  std::vector<double> time_s, displacement_um, normal_um, kinetic_J, elastic_J, total_J;
+  std::size_t rows() const { return substep.size(); }
+};
+
+void write_dataset(hid_t file, const char* name, hid_t file_type, hid_t mem_type,
+                   const std::vector<hsize_t>& dims, const void* data) {
+  const std::string what = std::string("cannot write the dataset ") + name;
+  const H5Id space(H5Screate_simple(int(dims.size()), dims.data(), nullptr), H5Sclose, what);
+  const H5Id dset(H5Dcreate2(file, name, file_type, space.get(), H5P_DEFAULT, H5P_DEFAULT,
+                             H5P_DEFAULT),
+                  H5Dclose, what);
+  if (dims.front() > 0)
+    h5_check(H5Dwrite(dset.get(), mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data), what);
+}
+
+void write_attribute(hid_t file, const char* name, const std::string& value) {
+  const std::string what = std::string("cannot write the attribute ") + name;
+  const H5Id type(H5Tcopy(H5T_C_S1), H5Tclose, what);
+  h5_check(H5Tset_size(type.get(), std::max<std::size_t>(1, value.size())), what);
+  const H5Id space(H5Screate(H5S_SCALAR), H5Sclose, what);
+  const H5Id attr(H5Acreate2(file, name, type.get(), space.get(), H5P_DEFAULT, H5P_DEFAULT),
+                  H5Aclose, what);
+  const std::string padded = value.empty() ? std::string(1, '\0') : value;
+  h5_check(H5Awrite(attr.get(), type.get(), padded.data()), what);
+}
+
+void write_attribute(hid_t file, const char* name, double value) {
+  const std::string what = std::string("cannot write the attribute ") + name;
+  const H5Id space(H5Screate(H5S_SCALAR), H5Sclose, what);
+  const H5Id attr(H5Acreate2(file, name, H5T_IEEE_F64LE, space.get(), H5P_DEFAULT, H5P_DEFAULT),
+                  H5Aclose, what);
+  h5_check(H5Awrite(attr.get(), H5T_NATIVE_DOUBLE, &value), what);
+}
+
+void create_output_directory(const SolidScene& scene) {
+  std::error_code ec;
+  std::filesystem::create_directories(scene.output_dir, ec);
+  if (ec)
+    throw std::runtime_error("cannot create the output directory " + scene.output_dir + ": " +
+                             ec.message());
+}
+
+void write_series(const SolidScene& scene, const Series& s) {
+  create_output_directory(scene);
+  const std::string path = (std::filesystem::path(scene.output_dir) / "solid.h5").string();
+  const protocol::H5Quiet quiet;
+  H5Id file(H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose,
+            "cannot create " + path);
+  const hid_t f = file.get();
+  const hsize_t n = s.rows(), ns = hsize_t(s.sheets);
+  write_dataset(f, "substep", H5T_STD_I64LE, H5T_NATIVE_INT64, {n}, s.substep.data());
+  write_dataset(f, "time_s", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n}, s.time_s.data());
+  write_dataset(f, "marked_displacement_um", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n, ns, 3},
+                s.displacement_um.data());
+  write_dataset(f, "marked_normal_displacement_um", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n, ns},
+                s.normal_um.data());
+  write_dataset(f, "kinetic_energy_J", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n}, s.kinetic_J.data());
+  write_dataset(f, "elastic_energy_J", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n}, s.elastic_J.data());
+  write_dataset(f, "total_energy_J", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n}, s.total_J.data());
+  write_attribute(f, "scene", scene.name);
+  write_attribute(f, "model", scene.model);
+  write_attribute(f, "mode", scene.mode == SolidRunMode::Free ? "free" : "static");
+  write_attribute(f, "dt_s", scene.dt_s);
+  file.close("cannot close " + path);
+}
+
+/// The carriage-return progress line on stderr, at most twice a second on a terminal;
+/// when stderr is not a terminal (a log file), one plain line every 10 s instead.
+class Progress {
+ public:
+  Progress(bool enabled, std::int64_t total, double dt_s)
+      : enabled_(enabled), tty_(isatty(STDERR_FILENO) != 0), total_(total), dt_s_(dt_s),
+        start_(Clock::now()), last_(start_) {}
+
+  void update(std::int64_t k) {
+    if (!enabled_) return;
+    const Clock::time_point now = Clock::now();
+    const double since = std::chrono::duration<double>(now - last_).count();
+    if (since < (tty_ ? 0.5 : 10.0) && k != total_) return;
+    last_ = now;
+    const double elapsed = std::chrono::duration<double>(now - start_).count();
+    const double rate = elapsed > 0 ? double(k) / elapsed : 0.0;
+    const double eta = k > 0 ? elapsed / double(k) * double(total_ - k) : 0.0;
+    std::fprintf(stderr, "%ssubstep %lld/%lld  t = %.4g us  %.3g substeps/s  ETA %.0f s%s",
+                 tty_ ? "\r" : "", static_cast<long long>(k), static_cast<long long>(total_),
+                 double(k) * dt_s_ * 1e6, rate, eta, tty_ ? "    " : "\n");
+    std::fflush(stderr);
+    shown_ = tty_;
+  }
+  void clear() {
+    if (!shown_) return;
+    std::fprintf(stderr, "\r%78s\r", "");
+    std::fflush(stderr);
+    shown_ = false;
+  }
+  double elapsed_s() const { return std::chrono::duration<double>(Clock::now() - start_).count(); }
+
+ private:
+  bool enabled_, tty_, shown_ = false;
+  std::int64_t total_;
+  double dt_s_;
+  Clock::time_point start_, last_;
+};
+
+void print_header(const SolidScene& s, const SolidModel& model) {
+  std::printf("solid: scene %s%s%s (%s)\n", s.name.c_str(), s.description.empty() ? "" : ": ",
+              s.description.c_str(), s.path.c_str());
+  std::printf("%s", indent(model.startup_report()).c_str());
+  std::printf("  sheets   %zu sheet(s), %lld CGPs\n", s.config.sheets.size(),
+              static_cast<long long>(model.num_cgps()));
+  for (std::size_t k = 0; k < s.config.sheets.size(); ++k) {
+    const SheetSpec& sh = s.config.sheets[k];
+    std::printf("    sheet %zu: %d x %d CGPs (W %.4g um, H %.4g um), spacing %.4g um, theta %.4g "
+                "deg, %d clamped row(s), CGP mass %.4g kg, base (%.4g, %.4g, %.4g) um\n",
+                k, sh.nx_cg, sh.ny_cg, um_from_bohr(sh.spacing_bohr) * (sh.nx_cg - 1),
+                um_from_bohr(sh.spacing_bohr) * (sh.ny_cg - 1), um_from_bohr(sh.spacing_bohr),
+                sh.theta_deg, sh.clamped_rows,
+                sh.cgp_mass_me * PhysicalConstants::electron_mass_kg,
+                um_from_bohr(sh.base_bohr[0]), um_from_bohr(sh.base_bohr[1]),
+                um_from_bohr(sh.base_bohr[2]));
+  }
+  const double stable_s = model.stable_time_step() * PhysicalConstants::time_au_s;
+  std::printf("  step     dt = %.5g s%s; stable step of the model 2 / omega_max = ", s.dt_s,
+              s.dt_is_default ? " (dt_CG of the paper, Eq. 16)" : "");
+  if (std::isfinite(stable_s))
+    std::printf("%.5g s (dt is %.3g of it)\n", stable_s, s.dt_s / stable_s);
+  else
+    std::printf("none (no dynamics)\n");
+  const std::vector<double> f = model.vacuum_eigenfrequencies_hz();
+  if (!f.empty()) {
+    std::printf("  vacuum   f =");
+    for (std::size_t k = 0; k < std::min<std::size_t>(f.size(), 4); ++k)
+      std::printf("%s %.5g MHz", k ? "," : "", f[k] * 1e-6);
+    std::printf("; first period %.5g us = %.4g substeps\n", 1e6 / f[0], 1.0 / (f[0] * s.dt_s));
+  }
+  std::printf("  run      %s; %lld substeps = %.5g us; record every %lld; output %s\n",
+              s.mode == SolidRunMode::Free
+                  ? ("free vibration from a tip displacement of " +
+                     fmt("%.4g", um_from_bohr(s.tip_displacement_bohr)) + " um")
+                        .c_str()
+                  : ("static load " + fmt("%.4g", s.pressure_Pa) +
+                     " Pa by dynamic relaxation, damping ratio " + fmt("%.3g", s.damping_ratio))
+                        .c_str(),
+              static_cast<long long>(s.substeps), double(s.substeps) * s.dt_s * 1e6,
+              static_cast<long long>(s.record_every), s.output_dir.c_str());
+  std::fflush(stdout);
+}
+
+/// Sets the initial state of a free run: the uniformly-loaded cantilever's deflection
+/// shape along each sheet's normal, tip_displacement at the top row, zero velocity.
+void apply_perturbation(const SolidScene& s, SolidModel& model) {
+  SolidState state = model.state();
+  for (std::size_t k = 0; k < s.config.sheets.size(); ++k) {
+    const SheetSpec& sh = s.config.sheets[k];
+    const Eigen::Vector3d n = sheet_normal(sh);
+    const Eigen::Index first = first_cgp(s.config, k);
+    const double free_rows = double(sh.ny_cg - sh.clamped_rows);
+    for (int j = sh.clamped_rows; j < sh.ny_cg; ++j) {
+      const double height = double(j - (sh.clamped_rows - 1)) / free_rows;
+      const double w = s.tip_displacement_bohr * cantilever_load_shape(height);
+      for (int i = 0; i < sh.nx_cg; ++i) state.positions_bohr.col(first + sh.index(i, j)) += w * n;
+    }
+  }
+  state.velocities_au.setZero();
+  model.restore(state);
+}
+
+/// Frequency of x(t) - mean from its zero crossings (linear interpolation between records):
+/// m half periods between the first crossing and crossing m, f = m / (2 (t_m - t_0)). m is
+/// taken even where there are three crossings or more, so that both ends cross in the same
+/// direction and an offset of the mean (a run of a non-integer number of periods) shifts
+/// them alike. nullopt with fewer than two crossings.
+std::optional<double> crossing_frequency(const std::vector<double>& t, const std::vector<double>& x,
+                                         int* crossings) {
+  double mean = 0.0;
+  for (double v : x) mean += v;
+  mean /= double(std::max<std::size_t>(1, x.size()));
+  std::vector<double> tc;
+  for (std::size_t k = 1; k < x.size(); ++k) {
+    const double a = x[k - 1] - mean, b = x[k] - mean;
+    if ((a < 0.0) == (b < 0.0)) continue;
+    tc.push_back(t[k - 1] + (t[k] - t[k - 1]) * a / (a - b));
+  }
+  *crossings = int(tc.size());
+  if (tc.size() < 2) return std::nullopt;
+  std::size_t m = tc.size() - 1;
+  if (m >= 2) m -= m % 2;
+  if (!(tc[m] > tc[0])) return std::nullopt;
+  return double(m) / (2.0 * (tc[m] - tc[0]));
+}
+
+void print_free_summary(const SolidModel& model, const Series& series) {
+  const std::vector<double> f = model.vacuum_eigenfrequencies_hz();
+  for (int k = 0; k < series.sheets; ++k) {
+    std::vector<double> w(series.rows());
+    for (std::size_t r = 0; r < series.rows(); ++r)
+      w[r] = series.normal_um[r * std::size_t(series.sheets) + std::size_t(k)];
+    int crossings = 0;
+    const std::optional<double> fm = crossing_frequency(series.time_s, w, &crossings);
+    std::printf("solid: sheet %d marked CGP: ", k);
+    if (!fm)
+      std::printf("%d zero crossing(s) of w - mean, too few to measure a frequency%s\n",
+                  crossings,
+                  f.empty() ? "" : " (run at least one period of the first mode)");
+    else if (f.empty())
+      std::printf("oscillation %.6g MHz from %d zero crossings (the model reports no vacuum "
+                  "eigenfrequency)\n",
+                  *fm * 1e-6, crossings);
+    else
+      std::printf("oscillation %.6g MHz from %d zero crossings; f1 = %.6g MHz; relative "
+                  "difference %+.3e\n",
+                  *fm * 1e-6, crossings, f[0] * 1e-6, (*fm - f[0]) / f[0]);
+  }
+  const double e0 = series.total_J.empty() ? 0.0 : series.total_J.front();
+  double drift = 0.0;
+  for (double e : series.total_J) drift = std::max(drift, std::abs(e - e0));
+  if (e0 != 0.0)
+    std::printf("solid: energy E0 = %.6g J; drift max|E - E0| / E0 = %.3e\n", e0,
+                drift / std::abs(e0));
+  else
+    std::printf("solid: energy E0 = 0 J; drift max|E - E0| = %.3e J\n", drift);
+}
+
+void print_static_summary(const SolidScene& s, const SolidModel& model, const Series& series) {
+  const std::vector<double> f = model.vacuum_eigenfrequencies_hz();
+  for (int k = 0; k < series.sheets; ++k) {
+    const double w = series.rows() ? series.normal_um[(series.rows() - 1) *
+                                                          std::size_t(series.sheets) +
+                                                      std::size_t(k)]
+                                   : 0.0;
+    std::printf("solid: sheet %d marked CGP: final normal deflection %.6g um", k, w);
+    if (!f.empty()) {
+      // Euler-Bernoulli clamped-free beam under uniform load: w_tip = q L^4 / (8 EI), and
+      // omega_1 = beta_1^2 sqrt(EI / (mu L^4)), so w_tip = beta_1^4 / 8 (q / mu) / omega_1^2,
+      // with q / mu = p / rho_2D = force over mass of one CGP.
+      const SheetSpec& sh = s.config.sheets[std::size_t(k)];
+      const double spacing_m = sh.spacing_bohr * PhysicalConstants::bohr_m;
+      const double accel = s.pressure_Pa * spacing_m * spacing_m /
+                           (sh.cgp_mass_me * PhysicalConstants::electron_mass_kg);
+      const double omega1 = 2.0 * std::numbers::pi * f[0];
+      const double beam_um = std::pow(kBeamRoot1, 4) / 8.0 * accel / (omega1 * omega1) / kMicrometre;
+      std::printf("; beam theory from f1: %.6g um (ratio %.4f)", beam_um,
+                  beam_um != 0.0 ? w / beam_um : 0.0);
+    }
+    std::printf("\n");
+  }
+  const auto [l, v] = fastest_cgp(model);
+  std::printf("solid: largest speed left %.4g m/s at %s\n", v * UnitConverter::velocity_au_m_s(),
+              describe_cgp(s.config, l).c_str());
+}
+
+/// Builds the model; construction errors are the scene's (exit 2).
+std::unique_ptr<SolidModel> build_model(const SolidScene& s) {
+  try {
+    return make_solid_model(s.model, s.config);
+  } catch (const std::invalid_argument& e) {
+    throw SolidSceneError(s.path + ": solid.model = \"" + s.model + "\": " + e.what());
+  } catch (const std::runtime_error& e) {
+    throw SolidSceneError(s.path + ": solid.model = \"" + s.model +
+                          "\": the construction failed: " + e.what());
+  }
+}
+
+/// The [run] dt_s against the model's stable step; a SolidSceneError if above.
+void check_time_step(const SolidScene& s, const SolidModel& model) {
+  const double stable_s = model.stable_time_step() * PhysicalConstants::time_au_s;
+  if (s.dt_s <= stable_s) return;
+  throw SolidSceneError(s.path + ": run.dt_s = " + fmt("%.6g", s.dt_s) +
+                        (s.dt_is_default ? " (the default, dt_CG)" : "") +
+                        ": above the stable step 2 / omega_max of solid model \"" + s.model +
+                        "\"; the largest allowed is " + fmt("%.6g", stable_s) + " s");
+}
+
+int run(const SolidScene& s, SolidModel& model, bool quiet) {
+  create_output_directory(s);  // before the run, not after it
+  const double dt_au = s.dt_s / PhysicalConstants::time_au_s;
+  const Eigen::Index n = model.num_cgps();
+  const std::vector<double> f = model.vacuum_eigenfrequencies_hz();
+  const bool dynamic = !f.empty();
+
+  if (s.mode == SolidRunMode::Free) {
+    if (dynamic)
+      apply_perturbation(s, model);
+    else
+      std::printf("  note     model \"%s\" has no dynamics: the perturbation is not applied\n",
+                  s.model.c_str());
+  }
+
+  // The constant part of the external force: the pressure load along each sheet's normal.
+  Eigen::Matrix3Xd load = Eigen::Matrix3Xd::Zero(3, n);
+  if (s.mode == SolidRunMode::Static) {
+    for (std::size_t k = 0; k < s.config.sheets.size(); ++k) {
+      const SheetSpec& sh = s.config.sheets[k];
+      const double spacing_m = sh.spacing_bohr * PhysicalConstants::bohr_m;
+      const double force_au = s.pressure_Pa * spacing_m * spacing_m / UnitConverter::force_au_N();
+      load.middleCols(first_cgp(s.config, k), sh.num_cgps()).colwise() = force_au * sheet_normal(sh);
+    }
+  }
+  // Damping rate 2 zeta omega_1 (1 / t_AU) of the dynamic relaxation; 0 without dynamics.
+  const double damping =
+      s.mode == SolidRunMode::Static && dynamic
+          ? 2.0 * s.damping_ratio * 2.0 * std::numbers::pi * f[0] * PhysicalConstants::time_au_s
+          : 0.0;
+  const Eigen::RowVectorXd mass = model.masses().transpose();
+
+  std::vector<Eigen::Vector3d> normals;
+  for (const SheetSpec& sh : s.config.sheets) normals.push_back(sheet_normal(sh));
+  Series series;
+  series.sheets = int(s.config.sheets.size());
+  // Records the current state; false (after printing the diagnosis) if an energy is not
+  // finite.
+  const auto record = [&](std::int64_t k) {
+    const SolidObservables o = model.observables();
+    const double ek = joule_from_hartree(o.kinetic_energy_au);
+    const double ee = joule_from_hartree(o.elastic_energy_au);
+    if (!std::isfinite(ek) || !std::isfinite(ee)) {
+      const auto [l, v] = fastest_cgp(model);
+      std::fflush(stdout);
+      std::fprintf(stderr,
+                   "solid: non-finite energy, run stopped: substep %lld: kinetic %g J, elastic "
+                   "%g J; fastest %s at %g m/s\n",
+                   static_cast<long long>(k), ek, ee, describe_cgp(s.config, l).c_str(),
+                   v * UnitConverter::velocity_au_m_s());
+      return false;
+    }
+    series.substep.push_back(k);
+    series.time_s.push_back(double(k) * s.dt_s);
+    for (int sh = 0; sh < series.sheets; ++sh) {
+      const Eigen::Vector3d d = o.marked_displacement_bohr[std::size_t(sh)];
+      for (int c = 0; c < 3; ++c) series.displacement_um.push_back(um_from_bohr(d[c]));
+      series.normal_um.push_back(um_from_bohr(d.dot(normals[std::size_t(sh)])));
+    }
+    series.kinetic_J.push_back(ek);
+    series.elastic_J.push_back(ee);
+    series.total_J.push_back(ek + ee);
+    return true;
+  };
+
+  Progress progress(!quiet, s.substeps, s.dt_s);
+  const auto stop = [&](std::int64_t k, const std::string& problem) {
+    progress.clear();
+    std::fflush(stdout);
+    std::fprintf(stderr, "solid: non-finite state, run stopped: substep %lld, %s\n",
+                 static_cast<long long>(k), one_line(problem).c_str());
+    write_series(s, series);  // the finite records before it
+    return kExitNonFinite;
+  };
+
+  if (const std::string bad = non_finite_state(model, s.config); !bad.empty()) return stop(0, bad);
+  if (!record(0)) {
+    write_series(s, series);
+    return kExitNonFinite;
+  }
+  Eigen::Matrix3Xd external = load;
+  for (std::int64_t k = 1; k <= s.substeps; ++k) {
+    if (damping > 0.0)
+      external = load - damping * (model.velocities().array().rowwise() * mass.array()).matrix();
+    try {
+      model.substep(dt_au, external);
+    } catch (const std::exception& e) {
+      if (const std::string bad = non_finite_state(model, s.config); !bad.empty())
+        return stop(k, bad);
+      throw std::runtime_error("substep " + std::to_string(k) + ": " + e.what());
+    }
+    if (const std::string bad = non_finite_state(model, s.config); !bad.empty())
+      return stop(k, bad);
+    if (k % s.record_every == 0 || k == s.substeps) {
+      if (!record(k)) {
+        progress.clear();
+        write_series(s, series);
+        return kExitNonFinite;
+      }
+    }
+    progress.update(k);
+  }
+  progress.clear();
+  write_series(s, series);
+  const double wall = progress.elapsed_s();
+  std::printf("solid: done, %lld substeps (%.5g us) in %.1f s, %.3g us per CGP substep; %zu "
+              "records in %s\n",
+              static_cast<long long>(s.substeps), double(s.substeps) * s.dt_s * 1e6, wall,
+              n > 0 ? wall / double(s.substeps) / double(n) * 1e6 : 0.0, series.rows(),
+              (std::filesystem::path(s.output_dir) / "solid.h5").string().c_str());
+  if (s.mode == SolidRunMode::Free)
+    print_free_summary(model, series);
+  else
+    print_static_summary(s, model, series);
+  return kExitOk;
+}
+
+int main_impl(int argc, char** argv) {
+  CLI::App app{
+      "Runs a solid model on its own (no fluid): free vibration from a perturbation, or the "
+      "static deflection under a uniform pressure.\nExit status: 0 done, 1 output/system "
+      "error, 2 invalid scene, command line or model, 3 non-finite state.",
+      "solid"};
+  std::string scene_path, output;
+  std::int64_t substeps = 0;
+  bool quiet = false, check = false;
+  app.add_option("scene", scene_path, "solid scene file (TOML), e.g. scenes/sheet_free_vibration.toml")
+      ->required();
+  CLI::Option* o_substeps = app.add_option("--substeps", substeps, "number of substeps (run.substeps)");
+  CLI::Option* o_output = app.add_option("--output", output, "output directory (output.directory)");
+  app.add_flag("--quiet", quiet, "no progress line on stderr");
+  app.add_flag("--check", check, "validate the scene, build the model, print the header, and exit");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    if (e.get_exit_code() == 0) return app.exit(e);  // --help
+    std::fprintf(stderr, "solid: %s (see solid --help)\n", one_line(e.what()).c_str());
+    return kExitBadInput;
+  }
+
+  SolidScene scene;
+  std::unique_ptr<SolidModel> model;
+  try {
+    scene = load_solid_scene(scene_path);
+    SolidSceneOverrides ov;
+    if (o_substeps->count()) ov.substeps = substeps;
+    if (o_output->count()) ov.output_dir = output;
+    apply_overrides(scene, ov);
+    model = build_model(scene);
+    check_time_step(scene, *model);
+  } catch (const SolidSceneError& e) {
+    std::fflush(stdout);
+    std::fprintf(stderr, "%s\n", one_line(e.what()).c_str());
+    return kExitBadInput;
+  }
+  print_header(scene, *model);
+  if (check) return kExitOk;
+  try {
+    return run(scene, *model, quiet);
+  } catch (const std::invalid_argument& e) {
+    // restore() refusing the perturbed state, or a model refusing its inputs.
+    std::fflush(stdout);
+    std::fprintf(stderr, "%s: solid.model = \"%s\": %s\n", scene.path.c_str(), scene.model.c_str(),
+                 one_line(e.what()).c_str());
+    return kExitBadInput;
+  }
+}
+
+}  // namespace
+}  // namespace cosim::solid
+
+int main(int argc, char** argv) {
+  try {
+    return cosim::solid::main_impl(argc, argv);
+  } catch (const std::exception& e) {
+    std::fflush(stdout);
+    std::fprintf(stderr, "solid: %s\n", cosim::solid::one_line(e.what()).c_str());
+    return cosim::solid::kExitRuntime;
+  }
+}

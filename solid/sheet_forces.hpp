@@ -1,0 +1,67 @@
+// The internal forces of the elastic sheet models: the linear energy of
+// sheet_stiffness.hpp, and its corotational variant for large deflection (DESIGN 4.3
+// item 7). Hartree atomic units.
+#pragma once
+
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/SparseCore>
+
+#include "solid/sheet_stiffness.hpp"
+
+namespace cosim::solid {
+
+/// One sheet of a model: where its CGPs sit in the model's arrays, its axes, its
+/// reference (flat) positions and its energy terms.
+struct SheetBlock {
+  Eigen::Index first = 0;
+  Eigen::Index count = 0;
+  Eigen::Matrix3d axes = Eigen::Matrix3d::Identity();  ///< local (a, b, n) -> scene axes
+  Eigen::Matrix3Xd reference_bohr;                     ///< 3 x count
+  std::vector<StiffnessTerm> terms;                    ///< local axes, local CGP indices
+  Eigen::SparseMatrix<double> stiffness;               ///< their sum, local axes
+};
+
+/// F^int(x) = -grad E(x) over all sheets; evaluate() writes the forces into f (3 x N,
+/// sized by the caller) and returns E, E_h.
+class SheetForce {
+ public:
+  virtual ~SheetForce() = default;
+  virtual double evaluate(const Eigen::Matrix3Xd& x, Eigen::Matrix3Xd& f) const = 0;
+};
+
+/// E = 1/2 u^T K u with u = A^T (x - X) in each sheet's axes A: exact for small
+/// displacements, and it reads a finite rotation as strain.
+class LinearSheetForce final : public SheetForce {
+ public:
+  explicit LinearSheetForce(const std::vector<SheetBlock>& sheets) : sheets_(sheets) {}
+  double evaluate(const Eigen::Matrix3Xd& x, Eigen::Matrix3Xd& f) const override;
+
+ private:
+  const std::vector<SheetBlock>& sheets_;
+};
+
+/// Corotational: each term is evaluated in its own rotated frame,
+///   E_t = 1/2 u_t^T K_t u_t,  u_k = R_t^T (x_k - c_t) - (X_k - C_t),
+/// with R_t the rotation of the polar decomposition F = R S of the frame's cross-covariance
+/// F = sum_f (x_f - c_t)(X_f - C_t)^T (c, C: centroids of the frame's CGPs). E is
+/// invariant under any rigid motion, equals the linear energy to second order, and the
+/// force is its exact gradient, dR included (a term with an empty frame, tied to the
+/// plate, is evaluated in the fixed frame): with R^T dR = Omega (axial omega),
+///   (tr S I - S) omega = sum_f (X_f - C) x R^T dx_f.
+class CorotationalSheetForce final : public SheetForce {
+ public:
+  explicit CorotationalSheetForce(const std::vector<SheetBlock>& sheets);
+  double evaluate(const Eigen::Matrix3Xd& x, Eigen::Matrix3Xd& f) const override;
+
+ private:
+  struct Term {
+    std::vector<Eigen::Index> nodes, frame;  ///< model-wide CGP indices
+    Eigen::MatrixXd k;                       ///< scene axes
+    Eigen::Matrix3Xd ref_nodes, ref_frame;   ///< X - C of nodes and frame
+  };
+  std::vector<Term> terms_;
+};
+
+}  // namespace cosim::solid

@@ -1,0 +1,59 @@
+// One graphene sheet of coarse-grained particles (CGPs) standing on the plate: its size,
+// placement and clamping (DESIGN 4.3 item 6, 5; the paper's section 3, Fig. 4).
+#pragma once
+
+#include <Eigen/Core>
+
+#include "protocol/units.hpp"
+
+namespace cosim::solid {
+
+/// Carbon atoms lumped into one CGP of the paper's sheets (section 3: 2e6 atoms per CGP).
+inline constexpr double kPaperAtomsPerCgp = 2.0e6;
+
+/// A flat rectangular sheet of nx_cg x ny_cg CGPs, in Hartree atomic units (see
+/// solid_model.hpp). Scene axes: x stream-wise, y up from the plate, z span-wise.
+///
+/// CGP (i, j), i = 0..nx_cg-1 across the width and j = 0..ny_cg-1 up the height, has index
+/// l = j nx_cg + i: row j = 0 stands on the plate, row ny_cg-1 is the free top edge.
+/// The sheet's height runs along +y. Its width direction is e_w = R_y(theta) e_x =
+/// (cos theta, 0, -sin theta) and its normal n = R_y(theta) e_z = (sin theta, 0, cos theta):
+/// theta = 0 lays the sheet parallel to the flow (normal span-wise), theta = 90 deg makes it
+/// face the flow (normal along x).
+struct SheetSpec {
+  int nx_cg = 5;   ///< CGPs across the width
+  int ny_cg = 40;  ///< CGPs up the height
+  /// Distance between neighbouring CGPs, bohr (default dx_CG = dx_LB of Table 1, A_L = 1).
+  double spacing_bohr = protocol::UnitInputs{}.dx_m / protocol::PhysicalConstants::bohr_m;
+  /// Middle of the bottom row (on the plate), bohr.
+  Eigen::Vector3d base_bohr = Eigen::Vector3d::Zero();
+  double theta_deg = 90.0;  ///< angle of attack, a rotation about the y axis
+  int clamped_rows = 1;     ///< bottom rows j < clamped_rows are held to the plate
+  /// Lumped mass of one CGP, electron masses (default: 2e6 carbon atoms, 3.99e-20 kg).
+  double cgp_mass_me = kPaperAtomsPerCgp * protocol::PhysicalConstants::carbon_mass_kg /
+                       protocol::PhysicalConstants::electron_mass_kg;
+
+  Eigen::Index num_cgps() const { return Eigen::Index{nx_cg} * Eigen::Index{ny_cg}; }
+  Eigen::Index index(int i, int j) const {
+    return Eigen::Index{j} * Eigen::Index{nx_cg} + Eigen::Index{i};
+  }
+  /// The marked CGP of Fig. 4: middle of the top edge, (nx_cg / 2, ny_cg - 1).
+  Eigen::Index marked_cgp() const { return index(nx_cg / 2, ny_cg - 1); }
+  bool is_clamped(Eigen::Index l) const { return l < Eigen::Index{clamped_rows} * nx_cg; }
+};
+
+/// Throws std::invalid_argument (file:line and what to change) unless nx_cg, ny_cg >= 2,
+/// spacing and mass are positive and finite, theta and the base point are finite, and
+/// 0 <= clamped_rows < ny_cg.
+void check_sheet_spec(const SheetSpec& spec);
+
+/// Unit width direction e_w and normal n of the sheet (see SheetSpec).
+Eigen::Vector3d sheet_width_direction(const SheetSpec& spec);
+Eigen::Vector3d sheet_normal(const SheetSpec& spec);
+
+/// CGP positions of the flat, undeformed sheet, one column per CGP in index order, bohr:
+///   X_ij = base + (i - (nx_cg - 1) / 2) spacing e_w + j spacing e_y.
+/// Checks the spec first.
+Eigen::Matrix3Xd flat_sheet_positions(const SheetSpec& spec);
+
+}  // namespace cosim::solid
