@@ -61,6 +61,9 @@ ElasticSheetModel::ElasticSheetModel(const SolidConfig& config, SheetKinematics 
     fail(__LINE__, "the " + std::string(name()) + " model needs at least one sheet; the scene "
                    "names none");
   for (const SheetSpec& s : config_.sheets) check_sheet_spec(s);
+  if (config_.rcgp.stages == 0)  // stage count from Lambda = dx_CG / dx_MD
+    config_.rcgp.stages = rcgp_stages_for_spacing(config_.sheets.front().spacing_bohr *
+                                                  PhysicalConstants::bohr_m);
   rcgp_ = load_or_build_rcgp(config_.rcgp, ForceConstantModel{}, &rcgp_source_);
   plate_ = plate_constants_au(rcgp_.final_stage().constants, config_.rcgp.bending_poisson);
 

@@ -286,6 +286,17 @@ RcgpConstruction build_rcgp(const RcgpOptions& opt, const ForceConstantModel& at
   return out;
 }
 
+int rcgp_stages_for_spacing(double spacing_m, double bond_length_m) {
+  const double h1 = 4.0 * std::sqrt(3.0) * bond_length_m;
+  if (!(spacing_m > 0.0) || !std::isfinite(spacing_m))
+    fail(__LINE__, "the CGP spacing must be positive and finite; got " + std::to_string(spacing_m) + " m");
+  const int stages = std::max(1, 1 + static_cast<int>(std::lround(std::log2(spacing_m / h1))));
+  if (stages > 16)
+    fail(__LINE__, "a CGP spacing of " + std::to_string(spacing_m) + " m needs " +
+                       std::to_string(stages) + " RCGP stages; at most 16 are allowed");
+  return stages;
+}
+
 std::string rcgp_input_hash(const RcgpOptions& opt, const ForceConstantModel& atoms) {
   std::string s = "rcgp v" + std::to_string(kRcgpVersion);
   char buf[64];

@@ -72,10 +72,15 @@ struct RcgpConstruction {
 };
 
 /// Runs the construction. Throws std::invalid_argument for options out of range (stages
-/// 1..16, truncation_range 2..4) and std::runtime_error when a stage's stiffness is not
+/// 1..16 -- resolve 0 with rcgp_stages_for_spacing first -- truncation_range 2..4) and std::runtime_error when a stage's stiffness is not
 /// positive (an unstable force-constant model, or a truncation that breaks K(q) >= 0).
 RcgpConstruction build_rcgp(const RcgpOptions& options,
                             const ForceConstantModel& atoms = ForceConstantModel{});
+
+/// The stage count whose final CG spacing along x is closest to `spacing_m`:
+/// N_r = 1 + round(log2(spacing / (4 sqrt(3) d))), at least 1. Throws
+/// std::invalid_argument for a spacing that needs more than 16 stages or is not positive.
+int rcgp_stages_for_spacing(double spacing_m, double bond_length_m = GrapheneLattice::kBondLengthM);
 
 /// A hash of everything the construction depends on (options that change it, force
 /// constants, bond length, mass, code version), as 16 hex digits: the cache key.

@@ -29,8 +29,9 @@ enum class FlexuralScaling {
 struct RcgpOptions {
   /// N_r: stage 1 projects 800 atoms on 5 x 5 CGPs (spacing 4 sqrt(3) d x 6 d, about
   /// 1 nm); each further stage doubles the spacing (lambda = 2). 9 stages reach
-  /// Lambda = 1024 (0.25 um), the paper's dx_CG. 1..16.
-  int stages = 9;
+  /// Lambda = 1024 (0.25 um), the paper's dx_CG. 1..16, or 0: from the sheets' CGP spacing,
+  /// N_r = 1 + round(log2(dx_CG / h_1)) = ln Lambda / ln lambda (the paper's section 2.1).
+  int stages = 0;
   FlexuralScaling flexural_scaling = FlexuralScaling::Paper;
   /// Range of the truncated CG kernel in CG spacings, 1 or 2 (the 5 x 5 periodic cell
   /// holds range 2). One of the accuracy knobs of DESIGN 6.

@@ -19,13 +19,18 @@ using namespace cosim::solid;
 constexpr double kEv = 1.602176634e-19;
 
 const RcgpConstruction& paper_construction() {
-  static const RcgpConstruction c = build_rcgp(RcgpOptions{});
+  static const RcgpConstruction c = [] {
+    RcgpOptions o;
+    o.stages = rcgp_stages_for_spacing(0.2561e-6);  // the paper's dx_CG: 9 stages
+    return build_rcgp(o);
+  }();
   return c;
 }
 
 const RcgpConstruction& physical_construction() {
   static const RcgpConstruction c = [] {
     RcgpOptions o;
+    o.stages = 9;
     o.flexural_scaling = FlexuralScaling::Physical;
     return build_rcgp(o);
   }();
@@ -155,6 +160,9 @@ TEST(Rcgp, NaiveRecursionLosesStiffnessAndStability) {
   const SheetConstants raw =
       constants_from_moments(kernel_moments(s1.projected), s1.projected.cell_area_m2());
   EXPECT_LT(raw.c11_N_m / paper_construction().atomistic.c11_N_m, 0.97);
+  EXPECT_EQ(rcgp_stages_for_spacing(0.2561e-6), 9);
+  EXPECT_EQ(rcgp_stages_for_spacing(1e-9), 1);
+  EXPECT_THROW((void)rcgp_stages_for_spacing(1.0), std::invalid_argument);
   RcgpOptions naive;
   naive.moment_matching = false;
   naive.stages = 3;
@@ -163,17 +171,21 @@ TEST(Rcgp, NaiveRecursionLosesStiffnessAndStability) {
 
 TEST(Rcgp, OptionsOutOfRangeAreRefused) {
   RcgpOptions o;
-  o.stages = 0;
+  o.stages = 0;  // must be resolved from the spacing first
   EXPECT_THROW((void)build_rcgp(o), std::invalid_argument);
   o = RcgpOptions{};
+  o.stages = 2;
   o.truncation_range = 1;
   EXPECT_THROW((void)build_rcgp(o), std::invalid_argument);
   // The cache key changes with every input that changes the result.
   const ForceConstantModel atoms;
   RcgpOptions a, b;
+  a.stages = b.stages = 9;
   b.flexural_scaling = FlexuralScaling::Physical;
   EXPECT_NE(rcgp_input_hash(a, atoms), rcgp_input_hash(b, atoms));
-  EXPECT_EQ(rcgp_input_hash(a, atoms), rcgp_input_hash(RcgpOptions{}, ForceConstantModel{}));
+  RcgpOptions c;
+  c.stages = 9;
+  EXPECT_EQ(rcgp_input_hash(a, atoms), rcgp_input_hash(c, ForceConstantModel{}));
   b = a;
   b.stages = 8;
   EXPECT_NE(rcgp_input_hash(a, atoms), rcgp_input_hash(b, atoms));
