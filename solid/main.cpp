@@ -253,10 +253,13 @@ void print_header(const SolidScene& s, const SolidModel& model) {
               static_cast<long long>(model.num_cgps()));
   for (std::size_t k = 0; k < s.config.sheets.size(); ++k) {
     const SheetSpec& sh = s.config.sheets[k];
-    std::printf("    sheet %zu: %d x %d CGPs (W %.4g um, H %.4g um), spacing %.4g um, theta %.4g "
-                "deg, %d clamped row(s), CGP mass %.4g kg, base (%.4g, %.4g, %.4g) um\n",
-                k, sh.nx_cg, sh.ny_cg, um_from_bohr(sh.spacing_bohr) * (sh.nx_cg - 1),
-                um_from_bohr(sh.spacing_bohr) * (sh.ny_cg - 1), um_from_bohr(sh.spacing_bohr),
+    // Each CGP carries a full cell of mass: the sheet is nx_cg spacings wide, and its free
+    // part reaches half a spacing above the top row (docs/solid.md).
+    std::printf("    sheet %zu: %d x %d CGPs (W %.4g um, free height %.4g um), spacing %.4g um, "
+                "theta %.4g deg, %d clamped row(s), CGP mass %.4g kg, base (%.4g, %.4g, %.4g) um\n",
+                k, sh.nx_cg, sh.ny_cg, um_from_bohr(sh.spacing_bohr) * sh.nx_cg,
+                um_from_bohr(sh.spacing_bohr) * (sh.ny_cg - sh.clamped_rows + 0.5),
+                um_from_bohr(sh.spacing_bohr),
                 sh.theta_deg, sh.clamped_rows,
                 sh.cgp_mass_me * PhysicalConstants::electron_mass_kg,
                 um_from_bohr(sh.base_bohr[0]), um_from_bohr(sh.base_bohr[1]),
