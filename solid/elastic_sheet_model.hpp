@@ -35,6 +35,9 @@ class ElasticSheetModel final : public SolidModel {
   /// std::runtime_error when the construction or the cache fails.
   ElasticSheetModel(const SolidConfig& config, SheetKinematics kinematics);
   ~ElasticSheetModel() override;
+  // The force evaluator refers to sheets_: the model stays where it was built.
+  ElasticSheetModel(const ElasticSheetModel&) = delete;
+  ElasticSheetModel& operator=(const ElasticSheetModel&) = delete;
 
   std::string_view name() const override;
   Eigen::Index num_cgps() const override { return x_.cols(); }
