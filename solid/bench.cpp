@@ -45,7 +45,7 @@ int main(int argc, char** argv) {
       config.sheets = {g1};
       if (sheets == 2) {
         SheetSpec g2 = g1;
-        g2.base_bohr = {0.0, 0.0, 4.0 * g1.spacing_bohr};  // the paper's ds = 1.02 um
+        g2.base_bohr = {0.0, 0.0, 4.0 * g1.width_spacing_bohr};  // the paper's ds = 1.02 um
         config.sheets.push_back(g2);
       }
       auto model = make_solid_model(name, config);

@@ -62,7 +62,7 @@ ElasticSheetModel::ElasticSheetModel(const SolidConfig& config, SheetKinematics 
                    "names none");
   for (const SheetSpec& s : config_.sheets) check_sheet_spec(s);
   if (config_.rcgp.stages == 0)  // stage count from Lambda = dx_CG / dx_MD
-    config_.rcgp.stages = rcgp_stages_for_spacing(config_.sheets.front().spacing_bohr *
+    config_.rcgp.stages = rcgp_stages_for_spacing(config_.sheets.front().width_spacing_bohr *
                                                   PhysicalConstants::bohr_m);
   rcgp_ = load_or_build_rcgp(config_.rcgp, ForceConstantModel{}, &rcgp_source_);
   plate_ = plate_constants_au(rcgp_.final_stage().constants, config_.rcgp.bending_poisson);
@@ -97,8 +97,9 @@ ElasticSheetModel::ElasticSheetModel(const SolidConfig& config, SheetKinematics 
   if (config_.sheets.size() >= 2) {  // contact only where there is something to touch
     double sigma = config_.contact.cutoff_bohr;
     if (sigma == 0.0) {
-      sigma = config_.sheets.front().spacing_bohr;
-      for (const SheetSpec& s : config_.sheets) sigma = std::min(sigma, s.spacing_bohr);
+      sigma = config_.sheets.front().width_spacing_bohr;
+      for (const SheetSpec& s : config_.sheets)
+        sigma = std::min({sigma, s.width_spacing_bohr, s.height_spacing_bohr});
     }
     const double eps = config_.contact.epsilon_eV / PhysicalConstants::hartree_eV;
     contact_.emplace(sheet_of, eps, sigma, kContactSkin * sigma);
@@ -193,11 +194,14 @@ std::string ElasticSheetModel::startup_report() const {
                 fin.kernel.ay_m * 1e6, fin.atoms_per_cgp, rcgp_source_.c_str());
   r += buf;
   std::snprintf(buf, sizeof buf,
-                "A_L = dx_CG(sheet) / dx_CG(RCGP) = %.4f (sheet CGP spacing %.4f um, CGP mass "
-                "%.4g kg)\n",
-                s0.spacing_bohr * PhysicalConstants::bohr_m / fin.kernel.ax_m,
-                s0.spacing_bohr * PhysicalConstants::bohr_m * 1e6,
-                s0.cgp_mass_me * PhysicalConstants::electron_mass_kg);
+                "sheet CGP spacing %.4f x %.4f um = %.4f x %.4f of the RCGP lattice's; CGP mass "
+                "%.4g kg (%.4g of the construction's)\n",
+                s0.width_spacing_bohr * PhysicalConstants::bohr_m * 1e6,
+                s0.height_spacing_bohr * PhysicalConstants::bohr_m * 1e6,
+                s0.width_spacing_bohr * PhysicalConstants::bohr_m / fin.kernel.ax_m,
+                s0.height_spacing_bohr * PhysicalConstants::bohr_m / fin.kernel.ay_m,
+                s0.cgp_mass_me * PhysicalConstants::electron_mass_kg,
+                s0.cgp_mass_me * PhysicalConstants::electron_mass_kg / fin.lumped_mass_kg);
   r += buf;
   std::snprintf(buf, sizeof buf,
                 "in-plane: C11 %.1f, C22 %.1f, C12 %.1f, C66 %.1f N/m, E_2D %.1f N/m\n",

@@ -255,11 +255,11 @@ void print_header(const SolidScene& s, const SolidModel& model) {
     const SheetSpec& sh = s.config.sheets[k];
     // Each CGP carries a full cell of mass: the sheet is nx_cg spacings wide, and its free
     // part reaches half a spacing above the top row (docs/solid.md).
-    std::printf("    sheet %zu: %d x %d CGPs (W %.4g um, free height %.4g um), spacing %.4g um, "
+    std::printf("    sheet %zu: %d x %d CGPs (W %.4g um, free height %.4g um), spacing %.4g x %.4g um, "
                 "theta %.4g deg, %d clamped row(s), CGP mass %.4g kg, base (%.4g, %.4g, %.4g) um\n",
-                k, sh.nx_cg, sh.ny_cg, um_from_bohr(sh.spacing_bohr) * sh.nx_cg,
-                um_from_bohr(sh.spacing_bohr) * (sh.ny_cg - sh.clamped_rows + 0.5),
-                um_from_bohr(sh.spacing_bohr),
+                k, sh.nx_cg, sh.ny_cg, um_from_bohr(sh.width_spacing_bohr) * sh.nx_cg,
+                um_from_bohr(sh.height_spacing_bohr) * (sh.ny_cg - sh.clamped_rows + 0.5),
+                um_from_bohr(sh.width_spacing_bohr), um_from_bohr(sh.height_spacing_bohr),
                 sh.theta_deg, sh.clamped_rows,
                 sh.cgp_mass_me * PhysicalConstants::electron_mass_kg,
                 um_from_bohr(sh.base_bohr[0]), um_from_bohr(sh.base_bohr[1]),
@@ -380,8 +380,8 @@ void print_static_summary(const SolidScene& s, const SolidModel& model, const Se
       // omega_1 = beta_1^2 sqrt(EI / (mu L^4)), so w_tip = beta_1^4 / 8 (q / mu) / omega_1^2,
       // with q / mu = p / rho_2D = force over mass of one CGP.
       const SheetSpec& sh = s.config.sheets[std::size_t(k)];
-      const double spacing_m = sh.spacing_bohr * PhysicalConstants::bohr_m;
-      const double accel = s.pressure_Pa * spacing_m * spacing_m /
+      const double cell_m2 = sh.cell_area_bohr2() * PhysicalConstants::bohr_m * PhysicalConstants::bohr_m;
+      const double accel = s.pressure_Pa * cell_m2 /
                            (sh.cgp_mass_me * PhysicalConstants::electron_mass_kg);
       const double omega1 = 2.0 * std::numbers::pi * f[0];
       const double beam_um = std::pow(kBeamRoot1, 4) / 8.0 * accel / (omega1 * omega1) / kMicrometre;
@@ -437,8 +437,8 @@ int run(const SolidScene& s, SolidModel& model, bool quiet) {
   if (s.mode == SolidRunMode::Static) {
     for (std::size_t k = 0; k < s.config.sheets.size(); ++k) {
       const SheetSpec& sh = s.config.sheets[k];
-      const double spacing_m = sh.spacing_bohr * PhysicalConstants::bohr_m;
-      const double force_au = s.pressure_Pa * spacing_m * spacing_m / UnitConverter::force_au_N();
+      const double cell_m2 = sh.cell_area_bohr2() * PhysicalConstants::bohr_m * PhysicalConstants::bohr_m;
+      const double force_au = s.pressure_Pa * cell_m2 / UnitConverter::force_au_N();
       load.middleCols(first_cgp(s.config, k), sh.num_cgps()).colwise() = force_au * sheet_normal(sh);
     }
   }

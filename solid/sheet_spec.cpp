@@ -21,9 +21,11 @@ void check_sheet_spec(const SheetSpec& spec) {
   if (spec.nx_cg < 2 || spec.ny_cg < 2)
     fail(__LINE__, "a sheet needs at least 2 x 2 CGPs; got nx_cg = " +
                        std::to_string(spec.nx_cg) + ", ny_cg = " + std::to_string(spec.ny_cg));
-  if (!(spec.spacing_bohr > 0.0) || !std::isfinite(spec.spacing_bohr))
-    fail(__LINE__, "the CGP spacing must be positive and finite; got spacing_bohr = " +
-                       std::to_string(spec.spacing_bohr));
+  if (!(spec.width_spacing_bohr > 0.0) || !std::isfinite(spec.width_spacing_bohr) ||
+      !(spec.height_spacing_bohr > 0.0) || !std::isfinite(spec.height_spacing_bohr))
+    fail(__LINE__, "the CGP spacings must be positive and finite; got " +
+                       std::to_string(spec.width_spacing_bohr) + " x " +
+                       std::to_string(spec.height_spacing_bohr) + " bohr");
   if (!(spec.cgp_mass_me > 0.0) || !std::isfinite(spec.cgp_mass_me))
     fail(__LINE__, "the CGP mass must be positive and finite; got cgp_mass_me = " +
                        std::to_string(spec.cgp_mass_me));
@@ -54,8 +56,8 @@ Eigen::Matrix3Xd flat_sheet_positions(const SheetSpec& spec) {
   for (int j = 0; j < spec.ny_cg; ++j)
     for (int i = 0; i < spec.nx_cg; ++i)
       x.col(spec.index(i, j)) =
-          spec.base_bohr + spec.spacing_bohr * ((static_cast<double>(i) - i_mid) * e_w +
-                                                static_cast<double>(j) * e_y);
+          spec.base_bohr + ((static_cast<double>(i) - i_mid) * spec.width_spacing_bohr) * e_w +
+          (static_cast<double>(j) * spec.height_spacing_bohr) * e_y;
   return x;
 }
 

@@ -23,8 +23,12 @@ inline constexpr double kPaperAtomsPerCgp = 2.0e6;
 struct SheetSpec {
   int nx_cg = 5;   ///< CGPs across the width
   int ny_cg = 40;  ///< CGPs up the height
-  /// Distance between neighbouring CGPs, bohr (default dx_CG = dx_LB of Table 1, A_L = 1).
-  double spacing_bohr = protocol::UnitInputs{}.dx_m / protocol::PhysicalConstants::bohr_m;
+  /// Distances between neighbouring CGPs across the width and up the height, bohr.
+  /// Default: square, dx_CG = dx_LB of Table 1 (A_L = 1). The RCGP lattice itself is
+  /// rectangular, 4 sqrt(3) d x 6 d times 2^(N_r - 1) (0.2519 x 0.2181 um at 9 stages), and
+  /// the paper's sheet (W 1.2 um, H 8.8 um for 5 x 40 CGPs) follows it.
+  double width_spacing_bohr = protocol::UnitInputs{}.dx_m / protocol::PhysicalConstants::bohr_m;
+  double height_spacing_bohr = protocol::UnitInputs{}.dx_m / protocol::PhysicalConstants::bohr_m;
   /// Middle of the bottom row (on the plate), bohr.
   Eigen::Vector3d base_bohr = Eigen::Vector3d::Zero();
   double theta_deg = 90.0;  ///< angle of attack, a rotation about the y axis
@@ -33,6 +37,7 @@ struct SheetSpec {
   double cgp_mass_me = kPaperAtomsPerCgp * protocol::PhysicalConstants::carbon_mass_kg /
                        protocol::PhysicalConstants::electron_mass_kg;
 
+  double cell_area_bohr2() const { return width_spacing_bohr * height_spacing_bohr; }
   Eigen::Index num_cgps() const { return Eigen::Index{nx_cg} * Eigen::Index{ny_cg}; }
   Eigen::Index index(int i, int j) const {
     return Eigen::Index{j} * Eigen::Index{nx_cg} + Eigen::Index{i};
@@ -52,7 +57,7 @@ Eigen::Vector3d sheet_width_direction(const SheetSpec& spec);
 Eigen::Vector3d sheet_normal(const SheetSpec& spec);
 
 /// CGP positions of the flat, undeformed sheet, one column per CGP in index order, bohr:
-///   X_ij = base + (i - (nx_cg - 1) / 2) spacing e_w + j spacing e_y.
+///   X_ij = base + (i - (nx_cg - 1) / 2) h_w e_w + j h_h e_y.
 /// Checks the spec first.
 Eigen::Matrix3Xd flat_sheet_positions(const SheetSpec& spec);
 

@@ -25,10 +25,10 @@ double hartree_J() {
   return PhysicalConstants::electron_mass_kg * v * v;
 }
 
-/// In-plane Q4 element of side h, plane stress, 2 x 2 Gauss points; DOF 2 k + c over the
-/// corners k = (0,0), (1,0), (0,1), (1,1) in (a, b) cell coordinates. The element's
-/// stiffness does not depend on h (C is per unit length, the strain 1/h, the area h^2).
-Eigen::Matrix<double, 8, 8> q4_stiffness(const PlateConstantsAu& c) {
+/// In-plane Q4 element of sides ha x hb, plane stress, 2 x 2 Gauss points; DOF 2 k + c
+/// over the corners k = (0,0), (1,0), (0,1), (1,1) in (a, b) cell coordinates. Only the
+/// aspect ratio matters (C is per unit length, the strain 1/h, the area ha hb).
+Eigen::Matrix<double, 8, 8> q4_stiffness(const PlateConstantsAu& c, double ha, double hb) {
   Eigen::Matrix3d d;
   d << c.c11, c.c12, 0.0, c.c12, c.c22, 0.0, 0.0, 0.0, c.c66;
   const double g = 1.0 / std::sqrt(3.0);
@@ -43,12 +43,12 @@ Eigen::Matrix<double, 8, 8> q4_stiffness(const PlateConstantsAu& c) {
         // N = (cx ? s : 1 - s) (cy ? t : 1 - t); derivatives per unit length times h.
         const double dn_ds = (cq[0] ? 1.0 : -1.0) * (cq[1] ? t : 1.0 - t);
         const double dn_dt = (cq[1] ? 1.0 : -1.0) * (cq[0] ? s : 1.0 - s);
-        b(0, 2 * q) = dn_ds;
-        b(1, 2 * q + 1) = dn_dt;
-        b(2, 2 * q) = dn_dt;
-        b(2, 2 * q + 1) = dn_ds;
+        b(0, 2 * q) = dn_ds / ha;
+        b(1, 2 * q + 1) = dn_dt / hb;
+        b(2, 2 * q) = dn_dt / hb;
+        b(2, 2 * q + 1) = dn_ds / ha;
       }
-      k += 0.25 * b.transpose() * d * b;  // Gauss weight 1/4 of the unit cell
+      k += (0.25 * ha * hb) * b.transpose() * d * b;  // Gauss weight: a quarter of the cell
     }
   }
   return k;
@@ -82,7 +82,7 @@ PlateConstantsAu plate_constants_au(const SheetConstants& si, double bending_poi
 
 std::vector<StiffnessTerm> sheet_stiffness_terms(const SheetSpec& spec, const PlateConstantsAu& c) {
   check_sheet_spec(spec);
-  const double h = spec.spacing_bohr;
+  const double ha = spec.width_spacing_bohr, hb = spec.height_spacing_bohr;
   const int nx = spec.nx_cg, ny = spec.ny_cg;
   const int clamp = spec.clamped_rows - 1;  // the last clamped row: the plate's line
   std::vector<StiffnessTerm> terms;
@@ -94,8 +94,9 @@ std::vector<StiffnessTerm> sheet_stiffness_terms(const SheetSpec& spec, const Pl
     return f;
   };
 
-  // Cells above the plate: Q4 in-plane element and the twist w_ab (E = 2 D66 h^2 w_ab^2).
-  const Eigen::Matrix<double, 8, 8> kq4 = q4_stiffness(c);
+  // Cells above the plate: Q4 in-plane element and the twist w_ab
+  // (E = 2 D66 ha hb w_ab^2).
+  const Eigen::Matrix<double, 8, 8> kq4 = q4_stiffness(c, ha, hb);
   for (int j = std::max(clamp, 0); j + 1 < ny; ++j) {
     for (int i = 0; i + 1 < nx; ++i) {
       StiffnessTerm t;
@@ -106,8 +107,8 @@ std::vector<StiffnessTerm> sheet_stiffness_terms(const SheetSpec& spec, const Pl
       for (int p = 0; p < 4; ++p)
         for (int q = 0; q < 4; ++q)
           t.k.block<2, 2>(3 * p, 3 * q) = kq4.block<2, 2>(2 * p, 2 * q);
-      const Eigen::Vector4d s(1.0, -1.0, -1.0, 1.0);  // w_ab h^2
-      const Eigen::Matrix4d kw = (4.0 * c.d66 / (h * h)) * s * s.transpose();
+      const Eigen::Vector4d s(1.0, -1.0, -1.0, 1.0);  // w_ab ha hb
+      const Eigen::Matrix4d kw = (4.0 * c.d66 / (ha * hb)) * s * s.transpose();
       for (int p = 0; p < 4; ++p)
         for (int q = 0; q < 4; ++q) t.k(3 * p + 2, 3 * q + 2) += kw(p, q);
       terms.push_back(std::move(t));
@@ -135,26 +136,26 @@ std::vector<StiffnessTerm> sheet_stiffness_terms(const SheetSpec& spec, const Pl
       };
       std::vector<std::pair<Eigen::Index, double>> saa, sbb;
       if (has_aa) saa = {{slot(i - 1, j), 1.0}, {0, -2.0}, {slot(i + 1, j), 1.0}};
-      double area = h * h;
+      double area = ha * hb;
       if (has_bb) {
         if (clamped_row) {
           // Mirror ghost below the plate's line: w_{j-1} = w_{j+1}, half the area.
           sbb = {{0, -2.0}, {slot(i, j + 1), 2.0}};
-          area = 0.5 * h * h;
+          area = 0.5 * ha * hb;
           t.frame.clear();  // the plate's frame
         } else {
           sbb = {{slot(i, j - 1), 1.0}, {0, -2.0}, {slot(i, j + 1), 1.0}};
         }
       }
       const Eigen::Index m = static_cast<Eigen::Index>(nodes.size());
-      Eigen::MatrixXd s = Eigen::MatrixXd::Zero(2, m);  // rows: h^2 w_aa, h^2 w_bb
-      for (const auto& [k, v] : saa) s(0, k) += v;
-      for (const auto& [k, v] : sbb) s(1, k) += v;
+      Eigen::MatrixXd s = Eigen::MatrixXd::Zero(2, m);  // rows: w_aa, w_bb per unit w
+      for (const auto& [k, v] : saa) s(0, k) += v / (ha * ha);
+      for (const auto& [k, v] : sbb) s(1, k) += v / (hb * hb);
       Eigen::Matrix2d d;
       d << (has_aa ? c.d11 : 0.0), (has_aa && has_bb ? c.d12 : 0.0),
           (has_aa && has_bb ? c.d12 : 0.0), (has_bb ? c.d22 : 0.0);
-      // E = 1/2 area (w'')^T D (w''), w'' = s w / h^2.
-      const Eigen::MatrixXd kw = (area / (h * h * h * h)) * s.transpose() * d * s;
+      // E = 1/2 area (w'')^T D (w''), w'' = s w.
+      const Eigen::MatrixXd kw = area * s.transpose() * d * s;
       t.nodes = nodes;
       t.k = Eigen::MatrixXd::Zero(3 * m, 3 * m);
       for (Eigen::Index p = 0; p < m; ++p)

@@ -14,8 +14,8 @@
 // - bending (Kirchhoff plate, w the normal displacement):
 //   E = 1/2 int (D11 w_aa^2 + 2 D12 w_aa w_bb + D22 w_bb^2 + 4 D66 w_ab^2) dA,
 //   with w_aa, w_bb the 3-point second differences at the CGPs that have both neighbours
-//   (area h^2 each) and w_ab the 4-point cross difference on each cell (area h^2). In the
-//   bulk this is exactly D/h^2 times the 13-point biharmonic stencil, which is what the
+//   (area h_a h_b each) and w_ab the 4-point cross difference on each cell (area h_a h_b).
+//   In the bulk (square cells) this is exactly D/h^2 times the 13-point biharmonic stencil, which is what the
 //   moment-matched RCGP flexural kernel becomes at range 2. A clamped row takes w_bb from a
 //   mirror ghost (zero slope at the plate) with half the area; the free top row has no
 //   w_bb (zero moment at a free edge).

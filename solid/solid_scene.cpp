@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cctype>
 #include <charconv>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -441,8 +442,28 @@ void load_sheets(const Reader& r, SolidScene& s) {
       spec.nx_cg = *v;
     if (const auto v = r.integer_in(sec, "ny_cg", 2, axis_max, " (CGPs up the height)"))
       spec.ny_cg = *v;
-    if (const auto v = r.positive(sec, "spacing_um", "the CGP spacing, micrometres"))
-      spec.spacing_bohr = *v * kMicrometre / PhysicalConstants::bohr_m;
+    if (const toml::node* n = sec.node("spacing_um"); n && n->is_array()) {
+      // [width, height]: a rectangular CGP lattice, as the RCGP construction's.
+      const char* shape =
+          "must be a positive number or [width, height], two positive numbers in micrometres";
+      const toml::array* a = n->as_array();
+      if (a->size() != 2) r.bad(*n, sec.key("spacing_um"), shape);
+      std::array<double, 2> h{};
+      for (std::size_t c = 0; c < 2; ++c) {
+        const toml::node& e = *a->get(c);
+        if (const auto* i = e.as_integer())
+          h[c] = double(i->get());
+        else if (const auto* d = e.as_floating_point())
+          h[c] = d->get();
+        else
+          r.bad(*n, sec.key("spacing_um"), shape);
+        if (!(h[c] > 0.0) || !std::isfinite(h[c])) r.bad(*n, sec.key("spacing_um"), shape);
+      }
+      spec.width_spacing_bohr = h[0] * kMicrometre / PhysicalConstants::bohr_m;
+      spec.height_spacing_bohr = h[1] * kMicrometre / PhysicalConstants::bohr_m;
+    } else if (const auto v = r.positive(sec, "spacing_um", "the CGP spacing, micrometres")) {
+      spec.width_spacing_bohr = spec.height_spacing_bohr = *v * kMicrometre / PhysicalConstants::bohr_m;
+    }
     if (const toml::node* n = sec.node("base_um")) {
       const char* shape = "must be an array of three finite numbers [x, y, z] in micrometres";
       const toml::array* a = n->as_array();

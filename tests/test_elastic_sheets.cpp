@@ -51,7 +51,9 @@ double force_scale(ElasticSheetModel& m, double amplitude) {
 
 TEST(ElasticSheets, ForceIsMinusEnergyGradient) {
   for (const SheetKinematics kin : kAll) {
-    ElasticSheetModel m(one_sheet(5, 8, 37.0), kin);
+    SolidConfig config = one_sheet(5, 8, 37.0);
+    config.sheets[0].height_spacing_bohr *= 0.85;  // a rectangular lattice, as RCGP's
+    ElasticSheetModel m(config, kin);
     const double h = m.sheets()[0].reference_bohr.col(1).x() - m.sheets()[0].reference_bohr.col(0).x();
     const double spacing = std::abs(h) / std::cos(37.0 * std::numbers::pi / 180.0);
     std::mt19937 rng(11);
@@ -142,84 +144,98 @@ FlexuralProblem flexural_problem(const ElasticSheetModel& m, const SheetSpec& sp
 
 /// Free length of the cantilever: from the clamped row (the plate) to the edge of the top
 /// row's cell, (ny - clamped_rows + 1/2) h, the span over which the CGP masses sit.
-double free_length(const SheetSpec& s) { return (s.ny_cg - s.clamped_rows + 0.5) * s.spacing_bohr; }
+double free_length(const SheetSpec& s) {
+  return (s.ny_cg - s.clamped_rows + 0.5) * s.height_spacing_bohr;
+}
+
+/// The paper's sheet on the square dx_CG of Table 1, and on the RCGP lattice's own
+/// rectangular spacing (0.2519 x 0.2181 um: W 1.26 um, H 8.72 um for 5 x 40 CGPs).
+std::vector<SolidConfig> paper_sheets() {
+  SolidConfig square = one_sheet(5, 40, 90.0);
+  SolidConfig rect = square;
+  rect.sheets[0].width_spacing_bohr = 0.2519e-6 / PhysicalConstants::bohr_m;
+  rect.sheets[0].height_spacing_bohr = 0.2181e-6 / PhysicalConstants::bohr_m;
+  return {square, rect};
+}
 
 // Beam limit of a clamped-free strip: f_n = (beta_n L)^2 / (2 pi L^2) sqrt(D / rho_2D);
 // with bending_poisson = 0 the narrow- and wide-strip rigidities coincide (D (1 - nu^2) = D).
 TEST(ElasticSheets, CantileverEigenfrequencies) {
-  const SolidConfig config = one_sheet(5, 40, 90.0);
-  ElasticSheetModel m(config, SheetKinematics::Linear);
-  const SheetSpec& spec = config.sheets[0];
-  const FlexuralProblem p = flexural_problem(m, spec);
-  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(p.k / spec.cgp_mass_me);
-  const double d = m.plate_constants().d22;
-  const double rho = spec.cgp_mass_me / (spec.spacing_bohr * spec.spacing_bohr);
-  const double len = free_length(spec);
-  const double to_hz = 1.0 / (2.0 * std::numbers::pi * PhysicalConstants::time_au_s);
-  const std::vector<double> beta_l{1.875104, 4.694091, 7.854757};
-  std::vector<double> bending, torsion;
-  for (Eigen::Index k = 0; k < es.eigenvalues().size() && bending.size() < 3; ++k) {
-    const Eigen::VectorXd v = es.eigenvectors().col(k);
-    double sym = 0.0, anti = 0.0;  // across the width: w(i) against w(nx - 1 - i)
-    for (std::size_t a = 0; a < p.free.size(); ++a) {
-      const Eigen::Index l = p.free[a];
-      const int i = static_cast<int>(l % spec.nx_cg), j = static_cast<int>(l / spec.nx_cg);
-      const double mirror = v[static_cast<Eigen::Index>(a) + (spec.nx_cg - 1 - 2 * i)];
-      (void)j;
-      sym += (v[static_cast<Eigen::Index>(a)] + mirror) * (v[static_cast<Eigen::Index>(a)] + mirror);
-      anti += (v[static_cast<Eigen::Index>(a)] - mirror) * (v[static_cast<Eigen::Index>(a)] - mirror);
+  for (const SolidConfig& config : paper_sheets()) {
+    ElasticSheetModel m(config, SheetKinematics::Linear);
+    const SheetSpec& spec = config.sheets[0];
+    const FlexuralProblem p = flexural_problem(m, spec);
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(p.k / spec.cgp_mass_me);
+    const double d = m.plate_constants().d22;
+    const double rho = spec.cgp_mass_me / spec.cell_area_bohr2();
+    const double len = free_length(spec);
+    const double to_hz = 1.0 / (2.0 * std::numbers::pi * PhysicalConstants::time_au_s);
+    const std::vector<double> beta_l{1.875104, 4.694091, 7.854757};
+    std::vector<double> bending, torsion;
+    for (Eigen::Index k = 0; k < es.eigenvalues().size() && bending.size() < 3; ++k) {
+      const Eigen::VectorXd v = es.eigenvectors().col(k);
+      double sym = 0.0, anti = 0.0;  // across the width: w(i) against w(nx - 1 - i)
+      for (std::size_t a = 0; a < p.free.size(); ++a) {
+        const Eigen::Index l = p.free[a];
+        const int i = static_cast<int>(l % spec.nx_cg), j = static_cast<int>(l / spec.nx_cg);
+        const double mirror = v[static_cast<Eigen::Index>(a) + (spec.nx_cg - 1 - 2 * i)];
+        (void)j;
+        sym += (v[static_cast<Eigen::Index>(a)] + mirror) * (v[static_cast<Eigen::Index>(a)] + mirror);
+        anti += (v[static_cast<Eigen::Index>(a)] - mirror) * (v[static_cast<Eigen::Index>(a)] - mirror);
+      }
+      const double f = std::sqrt(es.eigenvalues()[k]) * to_hz;
+      (sym > anti ? bending : torsion).push_back(f);
     }
-    const double f = std::sqrt(es.eigenvalues()[k]) * to_hz;
-    (sym > anti ? bending : torsion).push_back(f);
-  }
-  ASSERT_EQ(bending.size(), 3u);
-  for (std::size_t n = 0; n < 3; ++n) {
-    const double theory = beta_l[n] * beta_l[n] / (2.0 * std::numbers::pi * len * len) *
-                          std::sqrt(d / rho) / PhysicalConstants::time_au_s;
-    std::printf("bending mode %zu: %.6g Hz, beam theory %.6g Hz (%+.3f %%)\n", n + 1, bending[n],
-                theory, 100.0 * (bending[n] / theory - 1.0));
-    EXPECT_NEAR(bending[n] / theory, 1.0, 0.02) << "mode " << n + 1;
-  }
-  // The model's report starts with the same fundamental (from the full 3N problem, whose
-  // in-plane eigenvalues are 1e4 times larger: round-off of the solver, 1e-16 of those).
-  EXPECT_NEAR(m.vacuum_eigenfrequencies_hz().front() / bending[0], 1.0, 1e-6);
-  if (!torsion.empty()) {
-    // Saint-Venant torsion of a plate strip: GJ = 4 D66 W, I_p = rho W^3 / 12.
-    const double w = spec.nx_cg * spec.spacing_bohr;
-    const double theory = 1.0 / (4.0 * len) *
-                          std::sqrt(4.0 * m.plate_constants().d66 * w * 12.0 / (rho * w * w * w)) /
-                          PhysicalConstants::time_au_s;
-    std::printf("first torsion mode: %.6g Hz, Saint-Venant strip %.6g Hz (%+.1f %%: %d CGPs "
-                "across the width)\n",
-                torsion[0], theory, 100.0 * (torsion[0] / theory - 1.0), spec.nx_cg);
+    ASSERT_EQ(bending.size(), 3u);
+    for (std::size_t n = 0; n < 3; ++n) {
+      const double theory = beta_l[n] * beta_l[n] / (2.0 * std::numbers::pi * len * len) *
+                            std::sqrt(d / rho) / PhysicalConstants::time_au_s;
+      std::printf("bending mode %zu: %.6g Hz, beam theory %.6g Hz (%+.3f %%)\n", n + 1, bending[n],
+                  theory, 100.0 * (bending[n] / theory - 1.0));
+      EXPECT_NEAR(bending[n] / theory, 1.0, 0.02) << "mode " << n + 1;
+    }
+    // The model's report starts with the same fundamental (from the full 3N problem, whose
+    // in-plane eigenvalues are 1e4 times larger: round-off of the solver, 1e-16 of those).
+    EXPECT_NEAR(m.vacuum_eigenfrequencies_hz().front() / bending[0], 1.0, 1e-6);
+    if (!torsion.empty()) {
+      // Saint-Venant torsion of a plate strip: GJ = 4 D66 W, I_p = rho W^3 / 12.
+      const double w = spec.nx_cg * spec.width_spacing_bohr;
+      const double theory = 1.0 / (4.0 * len) *
+                            std::sqrt(4.0 * m.plate_constants().d66 * w * 12.0 / (rho * w * w * w)) /
+                            PhysicalConstants::time_au_s;
+      std::printf("first torsion mode: %.6g Hz, Saint-Venant strip %.6g Hz (%+.1f %%: %d CGPs "
+                  "across the width)\n",
+                  torsion[0], theory, 100.0 * (torsion[0] / theory - 1.0), spec.nx_cg);
+    }
   }
 }
 
 TEST(ElasticSheets, StaticTipDeflection) {
-  const SolidConfig config = one_sheet(5, 40, 90.0);
-  ElasticSheetModel m(config, SheetKinematics::Linear);
-  const SheetSpec& spec = config.sheets[0];
-  const FlexuralProblem p = flexural_problem(m, spec);
-  const double pressure = 1e-9;  // E_h / bohr^3: small, the model is linear anyway
-  const Eigen::VectorXd load =
-      Eigen::VectorXd::Constant(static_cast<Eigen::Index>(p.free.size()),
-                                pressure * spec.spacing_bohr * spec.spacing_bohr);
-  const Eigen::VectorXd w = p.k.ldlt().solve(load);
-  const auto tip = std::find(p.free.begin(), p.free.end(), spec.marked_cgp()) - p.free.begin();
-  const double len = free_length(spec);
-  const double theory = pressure * std::pow(len, 4) / (8.0 * m.plate_constants().d22);
-  std::printf("tip deflection %.6g bohr, p L^4 / (8 D) = %.6g bohr (%+.3f %%)\n", w[tip], theory,
-              100.0 * (w[tip] / theory - 1.0));
-  EXPECT_NEAR(w[tip] / theory, 1.0, 0.02);
-  // Most of that difference is where the tip is measured: the top CGP sits half a spacing
-  // below the free edge. Beam theory's deflection at the CGP itself,
-  // w(y) = p y^2 (6 L^2 - 4 L y + y^2) / (24 D):
-  const double y = len - 0.5 * spec.spacing_bohr;
-  const double at_cgp = pressure * y * y * (6 * len * len - 4 * len * y + y * y) /
-                        (24.0 * m.plate_constants().d22);
-  std::printf("beam theory at the top CGP %.6g bohr (%+.3f %%)\n", at_cgp,
-              100.0 * (w[tip] / at_cgp - 1.0));
-  EXPECT_NEAR(w[tip] / at_cgp, 1.0, 0.002);
+  for (const SolidConfig& config : paper_sheets()) {
+    ElasticSheetModel m(config, SheetKinematics::Linear);
+    const SheetSpec& spec = config.sheets[0];
+    const FlexuralProblem p = flexural_problem(m, spec);
+    const double pressure = 1e-9;  // E_h / bohr^3: small, the model is linear anyway
+    const Eigen::VectorXd load =
+        Eigen::VectorXd::Constant(static_cast<Eigen::Index>(p.free.size()),
+                                  pressure * spec.cell_area_bohr2());
+    const Eigen::VectorXd w = p.k.ldlt().solve(load);
+    const auto tip = std::find(p.free.begin(), p.free.end(), spec.marked_cgp()) - p.free.begin();
+    const double len = free_length(spec);
+    const double theory = pressure * std::pow(len, 4) / (8.0 * m.plate_constants().d22);
+    std::printf("tip deflection %.6g bohr, p L^4 / (8 D) = %.6g bohr (%+.3f %%)\n", w[tip], theory,
+                100.0 * (w[tip] / theory - 1.0));
+    EXPECT_NEAR(w[tip] / theory, 1.0, 0.02);
+    // Most of that difference is where the tip is measured: the top CGP sits half a spacing
+    // below the free edge. Beam theory's deflection at the CGP itself,
+    // w(y) = p y^2 (6 L^2 - 4 L y + y^2) / (24 D):
+    const double y = len - 0.5 * spec.height_spacing_bohr;
+    const double at_cgp = pressure * y * y * (6 * len * len - 4 * len * y + y * y) /
+                          (24.0 * m.plate_constants().d22);
+    std::printf("beam theory at the top CGP %.6g bohr (%+.3f %%)\n", at_cgp,
+                100.0 * (w[tip] / at_cgp - 1.0));
+    EXPECT_NEAR(w[tip] / at_cgp, 1.0, 0.002);
+  }
 }
 
 // Velocity Verlet is symplectic: the energy error stays bounded (no drift). Drift is the
@@ -237,7 +253,7 @@ TEST(ElasticSheets, FreeVibrationConservesEnergy) {
     const double len = free_length(spec);
     for (Eigen::Index l = 0; l < m.num_cgps(); ++l) {
       if (spec.is_clamped(l)) continue;
-      const double z = static_cast<double>(l / spec.nx_cg) * spec.spacing_bohr / len;
+      const double z = static_cast<double>(l / spec.nx_cg) * spec.height_spacing_bohr / len;
       s.positions_bohr.col(l) += 0.005 * len * (6 * z * z - 4 * z * z * z + z * z * z * z) / 3.0 *
                                  sheet_normal(spec);
     }
@@ -295,7 +311,7 @@ TEST(ElasticSheets, LjContactStaysStable) {
     g1.ny_cg = 10;
     g1.theta_deg = 0.0;  // normal along z
     SheetSpec g2 = g1;
-    g2.base_bohr = {0.0, 0.0, 1.3 * g1.spacing_bohr};
+    g2.base_bohr = {0.0, 0.0, 1.3 * g1.width_spacing_bohr};
     config.sheets = {g1, g2};
     ElasticSheetModel m(config, kin);
     ASSERT_TRUE(m.has_contact());
@@ -325,16 +341,16 @@ TEST(ElasticSheets, LjContactStaysStable) {
       ASSERT_TRUE(m.positions().allFinite() && m.velocities().allFinite()) << "substep " << n;
       const double g = gap();
       min_gap = std::min(min_gap, g);
-      if (g < g1.spacing_bohr) approached = true;
-      if (approached && g > 1.2 * g1.spacing_bohr) separated = true;
+      if (g < g1.width_spacing_bohr) approached = true;
+      if (approached && g > 1.2 * g1.width_spacing_bohr) separated = true;
       e_max = std::max(e_max, energy());
       e_min = std::min(e_min, energy());
     }
     std::printf("%s: closest approach %.3f dx_CG, energy in [%.4f, %.4f] x E0\n", label(kin),
-                min_gap / g1.spacing_bohr, e_min / e0, e_max / e0);
+                min_gap / g1.width_spacing_bohr, e_min / e0, e_max / e0);
     EXPECT_TRUE(approached) << label(kin);
     EXPECT_TRUE(separated) << label(kin);
-    EXPECT_GT(min_gap, 0.5 * g1.spacing_bohr) << label(kin);
+    EXPECT_GT(min_gap, 0.5 * g1.width_spacing_bohr) << label(kin);
     EXPECT_LT(e_max / e0, 1.1) << label(kin);
     EXPECT_GT(e_min / e0, 0.9) << label(kin);
   }

@@ -47,14 +47,16 @@ TEST(SolidModels, SheetLayoutMatchesSpec) {
   EXPECT_EQ(paper.num_cgps(), 200);
   EXPECT_EQ(paper.marked_cgp(), 39 * 5 + 2);  // middle of the top edge (Fig. 4)
   // dx_CG = 0.2561 um (A_L = 1) and 2e6 carbon atoms = 4.0e-20 kg per CGP (DESIGN 4.3).
-  EXPECT_NEAR(paper.spacing_bohr * PhysicalConstants::bohr_m, 0.2561e-6, 1e-12);
+  EXPECT_NEAR(paper.width_spacing_bohr * PhysicalConstants::bohr_m, 0.2561e-6, 1e-12);
+  EXPECT_NEAR(paper.height_spacing_bohr * PhysicalConstants::bohr_m, 0.2561e-6, 1e-12);
   EXPECT_NEAR(paper.cgp_mass_me * PhysicalConstants::electron_mass_kg / 4.0e-20, 1.0, 0.005);
   for (Eigen::Index l = 0; l < paper.num_cgps(); ++l) EXPECT_EQ(paper.is_clamped(l), l < 5);
 
   for (const double theta : {0.0, 30.0, 45.0, 60.0, 90.0}) {
     SheetSpec s;
     s.theta_deg = theta;
-    s.spacing_bohr = 2.0;
+    s.width_spacing_bohr = 2.0;  // a rectangular lattice, like the RCGP's
+    s.height_spacing_bohr = 3.0;
     s.base_bohr = {10.0, 3.0, -7.0};
     const Eigen::Matrix3Xd x = flat_sheet_positions(s);
     ASSERT_EQ(x.cols(), 200);
@@ -67,18 +69,18 @@ TEST(SolidModels, SheetLayoutMatchesSpec) {
       for (int i = 0; i < s.nx_cg; ++i) {
         const Eigen::Vector3d p = x.col(s.index(i, j));
         EXPECT_NEAR((p - s.base_bohr).dot(n), 0.0, 1e-12) << "flat, through the base point";
-        EXPECT_NEAR(p.y() - s.base_bohr.y(), 2.0 * j, 1e-12) << "rows stand on the plate";
+        EXPECT_NEAR(p.y() - s.base_bohr.y(), 3.0 * j, 1e-12) << "rows stand on the plate";
         if (i + 1 < s.nx_cg) {
           EXPECT_NEAR((x.col(s.index(i + 1, j)) - p).norm(), 2.0, 1e-12);
         }
         if (j + 1 < s.ny_cg) {
-          EXPECT_NEAR((x.col(s.index(i, j + 1)) - p - Eigen::Vector3d(0, 2.0, 0)).norm(), 0.0,
+          EXPECT_NEAR((x.col(s.index(i, j + 1)) - p - Eigen::Vector3d(0, 3.0, 0)).norm(), 0.0,
                       1e-12);
         }
       }
     // The bottom row is centred on the base point; the marked CGP tops the middle column.
     EXPECT_NEAR((x.col(s.index(2, 0)) - s.base_bohr).norm(), 0.0, 1e-12);
-    EXPECT_NEAR((x.col(s.marked_cgp()) - s.base_bohr - Eigen::Vector3d(0, 78.0, 0)).norm(), 0.0,
+    EXPECT_NEAR((x.col(s.marked_cgp()) - s.base_bohr - Eigen::Vector3d(0, 117.0, 0)).norm(), 0.0,
                 1e-12);
   }
   // Angle of attack: 90 deg faces the flow (normal along x), 0 deg is parallel to it.
@@ -93,7 +95,7 @@ TEST(SolidModels, SheetLayoutMatchesSpec) {
   bad.clamped_rows = 40;
   EXPECT_THROW(check_sheet_spec(bad), std::invalid_argument);
   bad = SheetSpec{};
-  bad.spacing_bohr = -1.0;
+  bad.height_spacing_bohr = -1.0;
   EXPECT_THROW((void)flat_sheet_positions(bad), std::invalid_argument);
   bad = SheetSpec{};
   bad.nx_cg = 1;
@@ -104,7 +106,7 @@ TEST(SolidModels, RigidModelHoldsSheetsAndReportsForces) {
   SheetSpec g1;
   g1.theta_deg = 0.0;
   SheetSpec g2 = g1;
-  g2.base_bohr = {0.0, 0.0, 4.0 * g1.spacing_bohr};  // a pair, span-wise gap
+  g2.base_bohr = {0.0, 0.0, 4.0 * g1.width_spacing_bohr};  // a pair, span-wise gap
   SolidConfig config;
   config.sheets = {g1, g2};
   const auto model = make_solid_model("rigid", config);

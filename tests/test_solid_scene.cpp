@@ -163,7 +163,8 @@ TEST(SolidScene, PaperSolidScenesValidate) {
   EXPECT_EQ(sheet.nx_cg, 5);
   EXPECT_EQ(sheet.ny_cg, 40);
   EXPECT_EQ(sheet.clamped_rows, 1);
-  EXPECT_NEAR(sheet.spacing_bohr * PhysicalConstants::bohr_m, 0.2561e-6, 1e-18);
+  EXPECT_NEAR(sheet.width_spacing_bohr * PhysicalConstants::bohr_m, 0.2561e-6, 1e-18);
+  EXPECT_NEAR(sheet.height_spacing_bohr * PhysicalConstants::bohr_m, 0.2561e-6, 1e-18);
   EXPECT_NEAR(sheet.cgp_mass_me * PhysicalConstants::electron_mass_kg, 3.989e-20, 0.001e-20);
   EXPECT_NEAR(free.tip_displacement_bohr * PhysicalConstants::bohr_m, 0.5e-6, 1e-18);
   EXPECT_TRUE(free.dt_is_default);
