@@ -43,6 +43,19 @@ double UnitConverter::force_au_N() {
 }
 double UnitConverter::velocity_ratio() const { return velocity_au_m_s() / lattice_speed_m_s(); }
 double UnitConverter::force_ratio() const { return force_au_N() / force_lb_N(); }
+double UnitConverter::length_lb_from_bohr(double x_bohr) const {
+  return x_bohr * PhysicalConstants::bohr_m / in_.dx_m;
+}
+
+double UnitConverter::length_bohr_from_lb(double x_lb) const {
+  return x_lb * in_.dx_m / PhysicalConstants::bohr_m;
+}
+
+double UnitConverter::momentum_lb_from_au(double p_au) const {
+  const double p_au_si = PhysicalConstants::electron_mass_kg * velocity_au_m_s();
+  return p_au * p_au_si / (force_lb_N() * dt_lb_s());
+}
+
 double UnitConverter::viscosity_m2_s(double tau) const {
   return (tau - 0.5) / 3.0 * in_.dx_m * in_.dx_m / dt_lb_s();
 }

@@ -57,6 +57,13 @@ class UnitConverter {
   double force_lb_from_au(double f_au) const { return force_ratio() * f_au; }
   double force_au_from_lb(double f_lb) const { return f_lb / force_ratio(); }
 
+  /// Lengths: bohr (the solid) <-> lattice spacings (the fluid).
+  double length_lb_from_bohr(double x_bohr) const;
+  double length_bohr_from_lb(double x_lb) const;
+  /// Momentum: m_e bohr / t_AU (the solid) -> rho_0 dx^3 c = F_LB dt_LB (the fluid's unit
+  /// of momentum, in which an LB-step impulse J = g dA is counted).
+  double momentum_lb_from_au(double p_au) const;
+
   /// Physical <-> lattice for the fluid alone.
   double velocity_m_s(double u_lb) const { return u_lb * lattice_speed_m_s(); }
   double time_s(double steps) const { return steps * dt_lb_s(); }

@@ -9,6 +9,10 @@ double LinearSheetForce::evaluate(const Eigen::Matrix3Xd& x, Eigen::Matrix3Xd& f
   double energy = 0.0;
   for (const SheetBlock& s : sheets_) {
     Eigen::Matrix3Xd u = s.axes.transpose() * (x.middleCols(s.first, s.count) - s.reference_bohr);
+    // K annihilates a rigid translation exactly, but K t in floating point is round-off of
+    // the size of t: take the mean displacement out so that a sheet carried far by the flow
+    // does not leak momentum (its internal forces must sum to zero).
+    u.colwise() -= u.rowwise().mean();
     const Eigen::Map<const Eigen::VectorXd> u_flat(u.data(), 3 * s.count);
     const Eigen::VectorXd ku = s.stiffness * u_flat;
     energy += 0.5 * u_flat.dot(ku);

@@ -1,0 +1,101 @@
+#include "solid/solid_coupler.hpp"
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+#include "protocol/units.hpp"
+
+namespace cosim::solid {
+
+namespace {
+
+[[noreturn]] void fail(int line, const std::string& what) {
+  throw std::invalid_argument(std::string(__FILE__) + ":" + std::to_string(line) + ": " + what);
+}
+
+}  // namespace
+
+SolidCoupler::SolidCoupler(SolidModel& model, const protocol::UnitConverter& units,
+                           std::vector<double> marker_area_lb, const Eigen::Vector3d& origin_lb)
+    : model_(model), units_(units), area_(std::move(marker_area_lb)), origin_(origin_lb) {
+  if (static_cast<Eigen::Index>(area_.size()) != model_.num_cgps())
+    fail(__LINE__, std::to_string(area_.size()) + " marker areas for " +
+                       std::to_string(model_.num_cgps()) + " CGPs");
+  force_au_ = Eigen::Matrix3Xd::Zero(3, model_.num_cgps());
+}
+
+Eigen::Matrix3Xd SolidCoupler::positions_lb() const {
+  Eigen::Matrix3Xd x(3, model_.num_cgps());
+  for (Eigen::Index l = 0; l < x.cols(); ++l)
+    for (int c = 0; c < 3; ++c) x(c, l) = units_.length_lb_from_bohr(model_.positions()(c, l)) + origin_[c];
+  return x;
+}
+
+Eigen::Vector3d SolidCoupler::momentum_lb() const {
+  Eigen::Vector3d p = Eigen::Vector3d::Zero();
+  for (Eigen::Index l = 0; l < model_.num_cgps(); ++l)
+    p += model_.masses()[l] * model_.velocities().col(l);
+  for (int c = 0; c < 3; ++c) p[c] = units_.momentum_lb_from_au(p[c]);
+  return p;
+}
+
+IntervalResult SolidCoupler::advance(const FluidSample& sample, bool rigid) {
+  const Eigen::Index n = model_.num_cgps();
+  if (sample.rho_lb.size() != n || sample.velocity_lb.cols() != n)
+    fail(__LINE__, "a fluid sample of " + std::to_string(sample.rho_lb.size()) +
+                       " markers for " + std::to_string(n) + " CGPs");
+  if (!sample.rho_lb.allFinite() || !sample.velocity_lb.allFinite() ||
+      !(sample.rho_lb.array() > 0.0).all())
+    fail(__LINE__, "the fluid sample holds a non-finite value or a non-positive density");
+
+  IntervalResult r;
+  r.impulse_lb = Eigen::Matrix3Xd::Zero(3, n);
+  if (rigid) {
+    // The spin-up: sheets held, U_B = 0, one LB interval of g dA.
+    for (Eigen::Index l = 0; l < n; ++l)
+      r.impulse_lb.col(l) = -2.0 * sample.rho_lb[l] * area_[static_cast<std::size_t>(l)] *
+                            sample.velocity_lb.col(l);
+    r.position_lb = positions_lb();
+    return r;
+  }
+
+  const int a_t = units_.inputs().time_ratio;
+  const double dt_au = units_.dt_cg_s() / protocol::PhysicalConstants::time_au_s;
+  r.position_lb = 0.5 * positions_lb();
+  for (int k = 0; k < a_t; ++k) {
+    for (Eigen::Index l = 0; l < n; ++l) {
+      const double rho_da = 2.0 * sample.rho_lb[l] * area_[static_cast<std::size_t>(l)];
+      for (int c = 0; c < 3; ++c) {
+        const double u_b = units_.velocity_lb_from_au(model_.velocities()(c, l));
+        const double g_da = rho_da * (u_b - sample.velocity_lb(c, l));  // on the fluid (Eq. 19)
+        force_au_(c, l) = units_.force_au_from_lb(-g_da);               // on the CGP (Eq. 20)
+      }
+    }
+    model_.substep(dt_au, force_au_);
+    const Eigen::Vector3d received_au = force_au_.rowwise().sum() * dt_au;
+    for (int c = 0; c < 3; ++c) r.received_impulse_lb[c] += units_.momentum_lb_from_au(received_au[c]);
+    // The impulse the fluid receives is the one the CGPs got, with the opposite sign, in
+    // the fluid's units: -F_CGP dt_CG / (F_LB dt_LB) = -F_CGP,lb / A_T.
+    for (Eigen::Index l = 0; l < n; ++l)
+      for (int c = 0; c < 3; ++c)
+        r.impulse_lb(c, l) -= units_.force_lb_from_au(force_au_(c, l)) / a_t;
+    r.position_lb += (k + 1 < a_t ? 1.0 : 0.5) * positions_lb();
+  }
+  r.position_lb /= a_t;
+  r.substeps = a_t;
+  return r;
+}
+
+std::vector<double> marker_areas_lb(const std::vector<SheetSpec>& sheets,
+                                    const protocol::UnitConverter& units) {
+  std::vector<double> area;
+  for (const SheetSpec& s : sheets) {
+    const double a = units.length_lb_from_bohr(s.width_spacing_bohr) *
+                     units.length_lb_from_bohr(s.height_spacing_bohr);
+    area.insert(area.end(), static_cast<std::size_t>(s.num_cgps()), a);
+  }
+  return area;
+}
+
+}  // namespace cosim::solid
