@@ -55,7 +55,7 @@ struct MarkerSample {
 /// delta_h^2 across it); the condition is then met as a steady state of repeated steps, not
 /// in one step. Wu and Shu (2009) iterate or solve for it; this project does not.
 ///
-/// Both forms are below; the test MomentumExchangeReducedFormEqualsPopulationSum checks
+/// Both forms are below; the test ReducedForceEqualsPopulationSum checks
 /// that they agree.
 inline Vec3 momentum_exchange_force(double rho, const Vec3& u, const Vec3& U_B) {
   return {2.0 * rho * (U_B[0] - u[0]), 2.0 * rho * (U_B[1] - u[1]), 2.0 * rho * (U_B[2] - u[2])};

@@ -23,11 +23,16 @@
 #include <optional>
 #include <string>
 
+#include <cstdlib>
+#include <iostream>
+
+#include "fluid/coupled_fluid.hpp"
 #include "fluid/field_writer.hpp"
 #include "fluid/flow_monitor.hpp"
 #include "fluid/fluid_solver.hpp"
 #include "fluid/monitor_log.hpp"
 #include "fluid/scene_config.hpp"
+#include "protocol/channels.hpp"
 #include "protocol/units.hpp"
 
 namespace cosim::fluid {
@@ -117,23 +122,6 @@ void print_header(const FluidScene& s, const protocol::UnitConverter& units) {
   std::fflush(stdout);
 }
 
-void initialize(FluidSolver& solver, const FluidScene& s) {
-  if (s.initial == InitialFlow::Rest) {
-    solver.initialize_uniform(1.0, {0.0, 0.0, 0.0});
-    return;
-  }
-  int inlet = 0;
-  while (s.params.faces[inlet].kind != FaceKind::Inlet) ++inlet;  // load_scene ensures one
-  const FaceSpec& spec = s.params.faces[inlet];
-  const int axis = face_axis(inlet);
-  const double inward = face_side(inlet) == 0 ? 1.0 : -1.0;
-  solver.initialize([&](int, int y, int) {
-    double u[3] = {0.0, 0.0, 0.0};
-    u[axis] = inward * inlet_profile(spec, y);
-    return CellState{1.0, u[0], u[1], u[2]};
-  });
-}
-
 /// The carriage-return progress line on stderr, at most twice a second on a terminal;
 /// when stderr is not a terminal (a log file), one plain line every 10 s instead.
 class Progress {
@@ -184,7 +172,7 @@ int run(const FluidScene& s, bool quiet) {
   print_header(s, units);
 
   FluidSolver solver(s.params);
-  initialize(solver, s);
+  initialize_flow(solver, s);
 
   const HealthLimits limits{s.mach_limit};
   Progress progress(!quiet, s.steps, dt_us, s.params.shape.cells());
@@ -264,6 +252,12 @@ int main_impl(int argc, char** argv) {
       app.add_option("--threads", threads, "OpenMP threads, 0 = OpenMP's default (run.threads)");
   app.add_flag("--quiet", quiet, "no progress line on stderr");
   app.add_flag("--check", check, "validate the scene, print the header, and exit");
+  std::string token, channel_prefix, lcm_url;
+  app.add_option("--token", token,
+                 "coupled scenes: the run's token (default: the environment's COSIM_RUN_TOKEN)");
+  app.add_option("--channel-prefix", channel_prefix,
+                 "coupled scenes: LCM channel prefix (overrides coupling.channel_prefix)");
+  app.add_option("--lcm-url", lcm_url, "coupled scenes: LCM URL (overrides coupling.lcm_url)");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -292,6 +286,23 @@ int main_impl(int argc, char** argv) {
     if (scene.threads > 0) omp_set_num_threads(scene.threads);
     print_header(scene, protocol::UnitConverter(in));
     return kExitOk;
+  }
+  if (scene.coupling) {
+    if (token.empty())
+      if (const char* env = std::getenv("COSIM_RUN_TOKEN")) token = env;
+    if (!channel_prefix.empty()) {
+      try {
+        protocol::validate_channel_prefix(channel_prefix);
+      } catch (const std::invalid_argument& e) {
+        std::fprintf(stderr, "fluid: --channel-prefix %s: %s\n", channel_prefix.c_str(), e.what());
+        return kExitBadInput;
+      }
+    }
+    protocol::UnitInputs in;
+    in.dx_m = scene.dx_um * 1e-6;
+    if (scene.threads > 0) omp_set_num_threads(scene.threads);
+    print_header(scene, protocol::UnitConverter(in));
+    return run_coupled_fluid(scene, {token, channel_prefix, lcm_url, quiet}, std::cout, std::cerr);
   }
   return run(scene, quiet);
 }

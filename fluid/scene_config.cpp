@@ -1,5 +1,7 @@
 #include "fluid/scene_config.hpp"
 
+#include "protocol/channels.hpp"
+
 #include <unistd.h>
 
 #include <algorithm>
@@ -63,8 +65,17 @@ const std::vector<Section>& schema() {
       {"body_force", {"x", "y", "z"}},
       {"run", {"steps", "monitor_every", "mach_limit", "threads", "initial"}},
       {"output", {"directory", "fields_every"}},
+      {"coupling",
+       {"time_ratio", "rigid_steps", "handshake_timeout_s", "peer_timeout_s", "resend_after_s",
+        "lcm_url", "channel_prefix"}},
   };
   return s;
+}
+
+/// Sections of a coupled scene that belong to the solid process (solid/solid_scene.cpp
+/// checks them); the fluid only requires [coupling] beside them.
+bool is_solid_section(std::string_view name) {
+  return name == "solid" || name == "sheet" || name == "contact";
 }
 
 std::string join(const std::vector<const char*>& items, const char* prefix,
@@ -199,6 +210,13 @@ class Reader {
     std::vector<const char*> sections;
     for (const Section& s : schema()) sections.push_back(s.name);
     for (auto&& [k, v] : root_) {
+      if (is_solid_section(k.str())) {
+        if (!root_.get("coupling"))
+          fail(k.source().begin.line,
+               "[" + std::string(k.str()) + "]: a solid section needs a [coupling] section (a "
+               "coupled scene); a fluid-only scene has no sheets");
+        continue;
+      }
       const Section* sec = find_section(k.str());
       if (!sec) {
         const std::string name(k.str());
@@ -367,6 +385,52 @@ void load_grid(const Reader& r, FluidScene& s) {
                ": the two population grids need " + human_bytes(double(need)) +
                ", more than this machine's memory (" + human_bytes(double(have)) +
                "); reduce nx, ny, nz");
+}
+
+void load_coupling(const Reader& r, FluidScene& s) {
+  if (!r.section("coupling")) return;
+  CouplingSettings c;
+  if (const auto v = r.integer("coupling", "time_ratio")) {
+    if (*v < 1 || *v > 1000000)
+      r.bad(*r.node("coupling", "time_ratio"), "coupling.time_ratio",
+            "must be an integer from 1 to 1000000 (A_T = dt_LB / dt_CG)");
+    c.time_ratio = int(*v);
+  }
+  if (const auto v = r.integer("coupling", "rigid_steps")) {
+    if (*v < 0)
+      r.bad(*r.node("coupling", "rigid_steps"), "coupling.rigid_steps", "must be an integer >= 0");
+    c.rigid_steps = *v;
+  }
+  for (auto [key, target] : {std::pair{"handshake_timeout_s", &c.handshake_timeout_s},
+                             std::pair{"peer_timeout_s", &c.peer_timeout_s},
+                             std::pair{"resend_after_s", &c.resend_after_s}}) {
+    if (const auto v = r.number("coupling", key)) {
+      if (!(*v > 0.0) || *v > 86400.0)
+        r.bad(*r.node("coupling", key), std::string("coupling.") + key,
+              "must be a number of seconds in (0, 86400]");
+      *target = *v;
+    }
+  }
+  if (!(c.resend_after_s < c.peer_timeout_s))
+    r.fail(r.section_line("coupling"),
+           "coupling.resend_after_s = " + std::to_string(c.resend_after_s) +
+               ": must be below coupling.peer_timeout_s = " + std::to_string(c.peer_timeout_s));
+  if (const auto v = r.string("coupling", "lcm_url")) {
+    const bool udpm = v->rfind("udpm://", 0) == 0;
+    if (udpm ? v->find("ttl=0") == std::string::npos : v->rfind("memq://", 0) != 0)
+      r.bad(*r.node("coupling", "lcm_url"), "coupling.lcm_url",
+            "must be a udpm:// URL with ttl=0 (packets never leave this machine) or memq://");
+    c.lcm_url = *v;
+  }
+  if (const auto v = r.string("coupling", "channel_prefix")) {
+    try {
+      protocol::validate_channel_prefix(*v);
+    } catch (const std::invalid_argument& e) {
+      r.bad(*r.node("coupling", "channel_prefix"), "coupling.channel_prefix", e.what());
+    }
+    c.channel_prefix = *v;
+  }
+  s.coupling = c;
 }
 
 void load_run(const Reader& r, FluidScene& s) {
@@ -648,6 +712,7 @@ FluidScene load_scene(const std::string& path) {
   load_body_force(r, s);
   load_fluid(r, s);
   load_output_and_initial(r, s);
+  load_coupling(r, s);
 
   // What the solver itself would refuse; the checks above should have caught all of it.
   const std::string err = BoundaryConditions::check(s.params.faces);
@@ -685,5 +750,23 @@ void apply_overrides(FluidScene& s, const SceneOverrides& o) {
     s.output_dir = *o.output_dir;
   }
 }
+
+void initialize_flow(FluidSolver& solver, const FluidScene& s) {
+  if (s.initial == InitialFlow::Rest) {
+    solver.initialize_uniform(1.0, {0.0, 0.0, 0.0});
+    return;
+  }
+  int inlet = 0;
+  while (s.params.faces[inlet].kind != FaceKind::Inlet) ++inlet;  // load_scene ensures one
+  const FaceSpec& spec = s.params.faces[inlet];
+  const int axis = face_axis(inlet);
+  const double inward = face_side(inlet) == 0 ? 1.0 : -1.0;
+  solver.initialize([&](int, int y, int) {
+    double u[3] = {0.0, 0.0, 0.0};
+    u[axis] = inward * inlet_profile(spec, y);
+    return CellState{1.0, u[0], u[1], u[2]};
+  });
+}
+
 
 }  // namespace cosim::fluid

@@ -37,6 +37,17 @@ struct SceneLimits {
   static constexpr double paper_dx_um = 0.2561;  ///< Table 1
 };
 
+/// [coupling] of a coupled scene (protocol/README.md): read by both processes.
+struct CouplingSettings {
+  int time_ratio = 150;            ///< A_T = dt_LB / dt_CG (Eq. 16)
+  std::int64_t rigid_steps = 0;    ///< spin-up LB steps with the sheets held rigid
+  double handshake_timeout_s = 120.0;
+  double peer_timeout_s = 30.0;
+  double resend_after_s = 0.5;
+  std::string lcm_url = "udpm://239.255.76.67:7667?ttl=0";
+  std::string channel_prefix = "COSIM_";
+};
+
 /// A validated fluid-only scene: the solver's parameters plus what the run needs.
 struct FluidScene {
   std::string path;         ///< the file it came from
@@ -59,6 +70,8 @@ struct FluidScene {
   std::string output_dir;         ///< relative paths are relative to the working directory
   double mach_limit = SceneLimits::default_mach_limit;
   int threads = 0;  ///< 0: OpenMP's default (OMP_NUM_THREADS or all cores)
+  /// Present in a coupled scene: the fluid then runs with a solid process over LCM.
+  std::optional<CouplingSettings> coupling;
 };
 
 /// Reads and validates a scene file. Unknown keys or sections, wrong types, values out of
@@ -74,6 +87,10 @@ struct SceneOverrides {
   std::optional<int> threads;
 };
 void apply_overrides(FluidScene& scene, const SceneOverrides& overrides);
+
+/// Initial state of a scene's run: rho = 1 with u = 0 (run.initial = "rest"), or the inlet
+/// profile of the first inlet face extended through the domain ("inlet").
+void initialize_flow(FluidSolver& solver, const FluidScene& scene);
 
 /// Bytes of the two population grids (19 doubles per cell, with ghosts and padding).
 std::size_t population_bytes(const GridShape& shape);

@@ -1,8 +1,14 @@
 // `solid`: runs a solid model on its own, without a fluid (standalone mode, for validation):
 // free vibration in vacuum from an initial perturbation, or the static deflection under a
-// uniform pressure reached by dynamic relaxation.
+// uniform pressure reached by dynamic relaxation. A scene with a [coupling] section runs
+// coupled to the fluid over LCM instead (coupled_solid.hpp, protocol/README.md).
 //
 //   solid SCENE.toml [--substeps N] [--output DIR] [--quiet] [--check]
+//   solid COUPLED.toml --token T [--channel-prefix P] [--lcm-url U] [--output DIR] [--quiet]
+//                      [--check]       (the token may come from $COSIM_RUN_TOKEN instead)
+//
+// Exit status of a coupled run: protocol/README.md section 9 (0 done, 1 system, 2 bad input
+// or refused handshake or malformed message, 3 unhealthy, 4 peer lost).
 //
 // Exit status: 0 the run finished; 1 an output or system error; 2 the scene file, the
 // command line or the model's construction is invalid, or [run] dt_s is above the model's
@@ -27,7 +33,9 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
+#include <iostream>
 #include <memory>
 #include <numbers>
 #include <optional>
@@ -40,8 +48,10 @@
 #include "protocol/hdf5_handle.hpp"
 #include "protocol/hdf5_quiet.hpp"
 #include "protocol/units.hpp"
+#include "solid/coupled_solid.hpp"
 #include "solid/model_registry.hpp"
 #include "solid/sheet_spec.hpp"
+#include "solid/solid_h5.hpp"
 #include "solid/solid_model.hpp"
 #include "solid/solid_scene.hpp"
 
@@ -54,7 +64,6 @@ using Clock = std::chrono::steady_clock;
 using protocol::PhysicalConstants;
 using protocol::UnitConverter;
 using protocol::H5Id;
-using protocol::h5_check;
 
 constexpr double kMicrometre = 1e-6;
 /// First root of cos(x) cosh(x) = -1: the clamped-free beam's first mode (Euler-Bernoulli).
@@ -144,36 +153,6 @@ struct Series {
   std::vector<double> time_s, displacement_um, normal_um, kinetic_J, elastic_J, total_J;
   std::size_t rows() const { return substep.size(); }
 };
-
-void write_dataset(hid_t file, const char* name, hid_t file_type, hid_t mem_type,
-                   const std::vector<hsize_t>& dims, const void* data) {
-  const std::string what = std::string("cannot write the dataset ") + name;
-  const H5Id space(H5Screate_simple(int(dims.size()), dims.data(), nullptr), H5Sclose, what);
-  const H5Id dset(H5Dcreate2(file, name, file_type, space.get(), H5P_DEFAULT, H5P_DEFAULT,
-                             H5P_DEFAULT),
-                  H5Dclose, what);
-  if (dims.front() > 0)
-    h5_check(H5Dwrite(dset.get(), mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data), what);
-}
-
-void write_attribute(hid_t file, const char* name, const std::string& value) {
-  const std::string what = std::string("cannot write the attribute ") + name;
-  const H5Id type(H5Tcopy(H5T_C_S1), H5Tclose, what);
-  h5_check(H5Tset_size(type.get(), std::max<std::size_t>(1, value.size())), what);
-  const H5Id space(H5Screate(H5S_SCALAR), H5Sclose, what);
-  const H5Id attr(H5Acreate2(file, name, type.get(), space.get(), H5P_DEFAULT, H5P_DEFAULT),
-                  H5Aclose, what);
-  const std::string padded = value.empty() ? std::string(1, '\0') : value;
-  h5_check(H5Awrite(attr.get(), type.get(), padded.data()), what);
-}
-
-void write_attribute(hid_t file, const char* name, double value) {
-  const std::string what = std::string("cannot write the attribute ") + name;
-  const H5Id space(H5Screate(H5S_SCALAR), H5Sclose, what);
-  const H5Id attr(H5Acreate2(file, name, H5T_IEEE_F64LE, space.get(), H5P_DEFAULT, H5P_DEFAULT),
-                  H5Aclose, what);
-  h5_check(H5Awrite(attr.get(), H5T_NATIVE_DOUBLE, &value), what);
-}
 
 void create_output_directory(const SolidScene& scene) {
   std::error_code ec;
@@ -537,16 +516,23 @@ int run(const SolidScene& s, SolidModel& model, bool quiet) {
 int main_impl(int argc, char** argv) {
   CLI::App app{
       "Runs a solid model on its own (no fluid): free vibration from a perturbation, or the "
-      "static deflection under a uniform pressure.\nExit status: 0 done, 1 output/system "
-      "error, 2 invalid scene, command line or model, 3 non-finite state.",
+      "static deflection under a uniform pressure; or, for a scene with [coupling], coupled to "
+      "the fluid over LCM.\nExit status: 0 done, 1 output/system error, 2 invalid scene, "
+      "command line or model (coupled: also a refused handshake or a malformed message), 3 "
+      "non-finite state, 4 (coupled) the fluid was lost or stopped with an error.",
       "solid"};
-  std::string scene_path, output;
+  std::string scene_path, output, token, channel_prefix, lcm_url;
   std::int64_t substeps = 0;
   bool quiet = false, check = false;
   app.add_option("scene", scene_path, "solid scene file (TOML), e.g. scenes/sheet_free_vibration.toml")
       ->required();
   CLI::Option* o_substeps = app.add_option("--substeps", substeps, "number of substeps (run.substeps)");
   CLI::Option* o_output = app.add_option("--output", output, "output directory (output.directory)");
+  CLI::Option* o_token =
+      app.add_option("--token", token, "coupled: the run's token (default: $COSIM_RUN_TOKEN)");
+  CLI::Option* o_prefix = app.add_option("--channel-prefix", channel_prefix,
+                                         "coupled: LCM channel prefix (coupling.channel_prefix)");
+  CLI::Option* o_url = app.add_option("--lcm-url", lcm_url, "coupled: LCM URL (coupling.lcm_url)");
   app.add_flag("--quiet", quiet, "no progress line on stderr");
   app.add_flag("--check", check, "validate the scene, build the model, print the header, and exit");
   try {
@@ -564,13 +550,30 @@ int main_impl(int argc, char** argv) {
     SolidSceneOverrides ov;
     if (o_substeps->count()) ov.substeps = substeps;
     if (o_output->count()) ov.output_dir = output;
+    if (o_prefix->count()) ov.channel_prefix = channel_prefix;
+    if (o_url->count()) ov.lcm_url = lcm_url;
     apply_overrides(scene, ov);
-    model = build_model(scene);
-    check_time_step(scene, *model);
+    if (o_token->count() && !scene.coupled())
+      throw SolidSceneError("command line: --token: only for a coupled scene (one with a "
+                            "[coupling] section)");
+    if (!scene.coupled()) {
+      model = build_model(scene);
+      check_time_step(scene, *model);
+    }
   } catch (const SolidSceneError& e) {
     std::fflush(stdout);
     std::fprintf(stderr, "%s\n", one_line(e.what()).c_str());
     return kExitBadInput;
+  }
+  if (scene.coupled()) {
+    CoupledSolidOptions co;
+    co.token = token;
+    if (!o_token->count())
+      if (const char* env = std::getenv("COSIM_RUN_TOKEN")) co.token = env;
+    co.quiet = quiet;
+    co.check_only = check;
+    std::fflush(stdout);
+    return run_coupled_solid(scene, co, std::cout, std::cerr);
   }
   print_header(scene, *model);
   if (check) return kExitOk;

@@ -10,11 +10,14 @@
 #include <fstream>
 #include <sstream>
 #include <string_view>
+#include <stdexcept>
 #include <system_error>
+#include <utility>
 #include <vector>
 
 #include <toml++/toml.h>
 
+#include "protocol/channels.hpp"
 #include "protocol/units.hpp"
 #include "solid/model_registry.hpp"
 #include "solid/sheet_spec.hpp"
@@ -34,6 +37,13 @@
 //    must be free.
 //  - dt_s > 0: the upper limit is the model's stable step 2 / omega_max, checked by the
 //    `solid` executable once the model is built (it is not known before).
+//  - [coupling] (the same limits as fluid/scene_config.cpp, which reads the same keys):
+//    time_ratio 1..1e6 (an int32 on the wire; a million substeps per LB step is beyond any
+//    sheet of the paper, whose A_T is 150); timeouts in (0, 86400] s (a day: longer is a
+//    typo, and the milliseconds of PeerWatch stay far from overflow); resend_after_s below
+//    peer_timeout_s (PeerWatch: re-requests come before the peer is given up); lcm_url
+//    udpm:// with ttl=0 or memq:// only (protocol/README.md section 1: packets never leave
+//    the machine).
 
 namespace cosim::solid {
 
@@ -44,11 +54,18 @@ using protocol::PhysicalConstants;
 
 constexpr double kMicrometre = 1e-6;
 
+/// Which kind of scene a section belongs to.
+enum class Use { Both, Standalone, Coupled };
+
 /// Keys allowed in each section; everything else is an error.
 struct Section {
   const char* name;
   bool array;  ///< an array of tables ([[name]]) instead of one table ([name])
   std::vector<const char*> keys;
+  Use use = Use::Both;
+  /// Keys of the same section that the fluid reads in a coupled scene: allowed there and
+  /// left unread ([grid] nx, ny, nz; [output] fields_every).
+  std::vector<const char*> fluid_keys = {};
 };
 
 const std::vector<Section>& schema() {
@@ -63,12 +80,35 @@ const std::vector<Section>& schema() {
        true,
        {"nx_cg", "ny_cg", "spacing_um", "base_um", "theta_deg", "clamped_rows",
         "atoms_per_cgp"}},
-      {"run", false, {"mode", "substeps", "dt_s", "record_every"}},
-      {"perturbation", false, {"tip_displacement_um"}},
-      {"load", false, {"pressure_Pa", "damping_ratio"}},
-      {"output", false, {"directory"}},
+      {"run", false, {"mode", "substeps", "dt_s", "record_every"}, Use::Standalone},
+      {"perturbation", false, {"tip_displacement_um"}, Use::Standalone},
+      {"load", false, {"pressure_Pa", "damping_ratio"}, Use::Standalone},
+      {"output", false, {"directory"}, Use::Both, {"fields_every"}},
+      {"grid", false, {"dx_um"}, Use::Coupled, {"nx", "ny", "nz"}},
+      {"coupling",
+       false,
+       {"time_ratio", "rigid_steps", "handshake_timeout_s", "peer_timeout_s", "resend_after_s",
+        "lcm_url", "channel_prefix"},
+       Use::Coupled},
   };
   return s;
+}
+
+/// The fluid's own sections of a coupled scene (fluid/scene_config.cpp reads them); the
+/// solid leaves them unread. [run] is the solid's in a standalone scene only.
+const std::vector<const char*>& fluid_sections() {
+  static const std::vector<const char*> s = {"fluid",         "inlet",      "boundaries",
+                                             "wall_velocity", "body_force", "run"};
+  return s;
+}
+
+bool is_fluid_section(std::string_view name) {
+  const auto& f = fluid_sections();
+  return std::any_of(f.begin(), f.end(), [&](const char* n) { return name == n; });
+}
+
+bool used_in(const Section& s, bool coupled) {
+  return s.use == Use::Both || (s.use == Use::Coupled) == coupled;
 }
 
 std::string join(const std::vector<const char*>& items, const char* prefix,
@@ -83,11 +123,22 @@ std::string join(const std::vector<const char*>& items, const char* prefix,
   return out;
 }
 
-std::string section_list() {
+std::string section_name(const Section& s) {
+  return s.array ? std::string("[[") + s.name + "]]" : std::string("[") + s.name + "]";
+}
+
+/// The sections a scene of this kind may have, for messages.
+std::string section_list(bool coupled) {
   std::string out;
   for (const Section& s : schema()) {
+    if (!used_in(s, coupled)) continue;
     if (!out.empty()) out += ", ";
-    out += s.array ? std::string("[[") + s.name + "]]" : std::string("[") + s.name + "]";
+    out += section_name(s);
+  }
+  if (coupled) {
+    out += "; the fluid's ";
+    for (std::size_t i = 0; i < fluid_sections().size(); ++i)
+      out += std::string(i ? ", [" : "[") + fluid_sections()[i] + "]";
   }
   return out;
 }
@@ -217,20 +268,33 @@ class Reader {
     fail(s.line, s.key(key) + ": missing; " + what);
   }
 
-  /// Every section and key must be in the schema; [[sheet]] must be an array of tables,
-  /// the others single tables.
-  void check_known_keys() const {
+  /// Every section and key must be in the schema of the scene's kind (coupled: with a
+  /// [coupling] section); [[sheet]] must be an array of tables, the others single tables.
+  /// In a coupled scene the fluid's sections and keys are left to the fluid.
+  void check_known_keys(bool coupled) const {
     std::vector<const char*> sections;
-    for (const Section& s : schema()) sections.push_back(s.name);
+    for (const Section& s : schema())
+      if (used_in(s, coupled)) sections.push_back(s.name);
+    if (coupled)
+      for (const char* f : fluid_sections()) sections.push_back(f);
     for (auto&& [k, v] : root_) {
       const std::string name(k.str());
+      if (coupled && is_fluid_section(name)) continue;  // the fluid's (fluid/scene_config.cpp)
       const Section* sec = find_section(name);
+      if (sec && !used_in(*sec, coupled)) {
+        if (coupled)
+          fail(k.source().begin.line,
+               section_name(*sec) + ": not used in a coupled scene (one with [coupling]): the "
+                                    "fluid drives the sheets; remove the section, or remove "
+                                    "[coupling] for a standalone run");
+        sec = nullptr;  // [grid] or [coupling] in a standalone scene: unknown, as before
+      }
       if (!sec) {
         if (v.is_table() || v.is_array_of_tables())
           fail(k.source().begin.line, "[" + name + "]: unknown section; allowed: " +
-                                          section_list() + suggestion(name, sections));
+                                          section_list(coupled) + suggestion(name, sections));
         bad(v, name, "unknown key at the top level; keys belong in one of the sections " +
-                         section_list() + suggestion(name, sections));
+                         section_list(coupled) + suggestion(name, sections));
       }
       if (sec->array) {
         if (!v.is_array_of_tables())
@@ -240,13 +304,14 @@ class Reader {
                    "]] with keys " + join(sec->keys, "", ""));
         std::size_t i = 0;
         for (const toml::node& e : *v.as_array())
-          check_keys(*sec, *e.as_table(), std::string(sec->name) + "[" + std::to_string(i++) + "]");
+          check_keys(*sec, *e.as_table(), std::string(sec->name) + "[" + std::to_string(i++) + "]",
+                     coupled);
       } else {
         if (!v.is_table())
           bad(v, sec->name,
               std::string("must be a table: a section [") + sec->name + "] with keys " +
-                  join(sec->keys, "", ""));
-        check_keys(*sec, *v.as_table(), sec->name);
+                  join(allowed_keys(*sec, coupled), "", ""));
+        check_keys(*sec, *v.as_table(), sec->name, coupled);
       }
     }
   }
@@ -336,16 +401,24 @@ class Reader {
   }
 
  private:
-  void check_keys(const Section& sec, const toml::table& t, const std::string& name) const {
+  static std::vector<const char*> allowed_keys(const Section& sec, bool coupled) {
+    std::vector<const char*> keys = sec.keys;
+    if (coupled) keys.insert(keys.end(), sec.fluid_keys.begin(), sec.fluid_keys.end());
+    return keys;
+  }
+
+  void check_keys(const Section& sec, const toml::table& t, const std::string& name,
+                  bool coupled) const {
+    const std::vector<const char*> keys = allowed_keys(sec, coupled);
     for (auto&& [kk, vv] : t) {
       const std::string key(kk.str());
-      const bool known = std::any_of(sec.keys.begin(), sec.keys.end(),
-                                     [&](const char* a) { return key == a; });
+      const bool known =
+          std::any_of(keys.begin(), keys.end(), [&](const char* a) { return key == a; });
       if (!known)
         bad(vv, name + "." + key,
             std::string("unknown key in ") + (sec.array ? "[[" : "[") + sec.name +
-                (sec.array ? "]]" : "]") + "; allowed: " + join(sec.keys, "", "") +
-                suggestion(key, sec.keys));
+                (sec.array ? "]]" : "]") + "; allowed: " + join(keys, "", "") +
+                suggestion(key, keys));
     }
   }
 
@@ -501,6 +574,60 @@ void load_sheets(const Reader& r, SolidScene& s) {
   }
 }
 
+void load_grid(const Reader& r, SolidScene& s) {
+  const Scope sec = r.section("grid");
+  if (const auto v = r.positive(sec, "dx_um", "micrometres per lattice cell, dx_LB = dx_CG"))
+    s.dx_m = *v * kMicrometre;
+}
+
+void load_coupling(const Reader& r, SolidScene& s) {
+  const Scope sec = r.section("coupling");
+  CouplingSettings c;
+  if (const auto v = r.integer_in(sec, "time_ratio", 1, CouplingSettings::time_ratio_max,
+                                  " (A_T = dt_LB / dt_CG: CGP substeps per LB step)"))
+    c.time_ratio = *v;
+  if (const auto v = r.integer(sec, "rigid_steps")) {
+    if (*v < 0)
+      r.bad(*sec.node("rigid_steps"), sec.key("rigid_steps"),
+            "must be an integer >= 0 (LB steps of spin-up with the sheets held rigid)");
+    c.rigid_steps = *v;
+  }
+  for (const auto& [key, target] : {std::pair{"handshake_timeout_s", &c.handshake_timeout_s},
+                                    std::pair{"peer_timeout_s", &c.peer_timeout_s},
+                                    std::pair{"resend_after_s", &c.resend_after_s}}) {
+    if (const auto v = r.number(sec, key)) {
+      if (!(*v > 0.0) || *v > CouplingSettings::timeout_max_s)
+        r.bad(*sec.node(key), sec.key(key), "must be a number of seconds in (0, 86400]");
+      *target = *v;
+    }
+  }
+  if (!(c.resend_after_s < c.peer_timeout_s)) {
+    // Reported at resend_after_s if the file sets it, else at peer_timeout_s.
+    const std::string why = "resend requests must come before the peer is given up";
+    if (sec.node("resend_after_s"))
+      r.bad(*sec.node("resend_after_s"), sec.key("resend_after_s"),
+            "must be below coupling.peer_timeout_s = " + format_double(c.peer_timeout_s) +
+                (sec.node("peer_timeout_s") ? "" : " (the default)") + "; " + why);
+    r.bad(*sec.node("peer_timeout_s"), sec.key("peer_timeout_s"),
+          "must be above coupling.resend_after_s = " + format_double(c.resend_after_s) +
+              " (the default); " + why);
+  }
+  if (const auto v = r.string(sec, "lcm_url")) {
+    if (const std::string why = lcm_url_problem(*v); !why.empty())
+      r.bad(*sec.node("lcm_url"), sec.key("lcm_url"), why);
+    c.lcm_url = *v;
+  }
+  if (const auto v = r.string(sec, "channel_prefix")) {
+    try {
+      protocol::validate_channel_prefix(*v);
+    } catch (const std::invalid_argument& e) {
+      r.bad(*sec.node("channel_prefix"), sec.key("channel_prefix"), e.what());
+    }
+    c.channel_prefix = *v;
+  }
+  s.coupling = c;
+}
+
 void load_run(const Reader& r, SolidScene& s) {
   const Scope sec = r.section("run");
   if (!sec.table)
@@ -565,12 +692,45 @@ void load_mode_sections(const Reader& r, SolidScene& s) {
 
 }  // namespace
 
+std::string lcm_url_problem(std::string_view url) {
+  const std::string allowed = std::string("a coupled run talks over udpm:// with ttl=0, so that "
+                                          "packets never leave this machine (default ") +
+                              std::string(CouplingSettings::default_lcm_url) +
+                              "), or over memq:// (one process)";
+  if (url.starts_with("memq://")) return "";
+  if (!url.starts_with("udpm://")) return "not allowed: " + allowed;
+  const std::size_t q = url.find('?');
+  bool ttl0 = false;
+  if (q != std::string_view::npos) {
+    std::string_view rest = url.substr(q + 1);
+    while (!rest.empty()) {
+      const std::size_t amp = rest.find('&');
+      const std::string_view item = rest.substr(0, amp);
+      rest = amp == std::string_view::npos ? std::string_view() : rest.substr(amp + 1);
+      if (!item.starts_with("ttl=")) continue;
+      if (item != "ttl=0")
+        return std::string(item) + " is not allowed: the ttl must be 0; " + allowed;
+      ttl0 = true;
+    }
+  }
+  if (!ttl0) return "has no ttl=0: " + allowed;
+  return "";
+}
+
+protocol::UnitInputs SolidScene::unit_inputs() const {
+  protocol::UnitInputs in;  // Table 1's air
+  in.dx_m = dx_m;
+  if (coupling) in.time_ratio = coupling->time_ratio;
+  return in;
+}
+
 double cantilever_load_shape(double s) { return (6.0 * s * s - 4.0 * s * s * s + s * s * s * s) / 3.0; }
 
 SolidScene load_solid_scene(const std::string& path) {
   const toml::table root = parse(path);
   const Reader r(path, root);
-  r.check_known_keys();
+  const bool coupled = root.contains("coupling");
+  r.check_known_keys(coupled);
 
   SolidScene s;
   s.path = path;
@@ -588,8 +748,17 @@ SolidScene load_solid_scene(const std::string& path) {
   load_solid(r, s);
   load_contact(r, s);
   load_sheets(r, s);
-  load_run(r, s);
-  load_mode_sections(r, s);
+  if (coupled) {
+    load_grid(r, s);
+    load_coupling(r, s);
+    s.dt_s = protocol::UnitConverter(s.unit_inputs()).dt_cg_s();  // dt_CG = dt_LB / A_T
+    s.dt_is_default = true;
+    s.substeps = 0;
+    s.record_every = 1;
+  } else {
+    load_run(r, s);
+    load_mode_sections(r, s);
+  }
 
   s.output_dir = "out/" + s.name;
   const Scope out = r.section("output");
@@ -601,16 +770,42 @@ SolidScene load_solid_scene(const std::string& path) {
 }
 
 void apply_overrides(SolidScene& s, const SolidSceneOverrides& o) {
-  const auto fail = [](const std::string& opt, const std::string& value, const char* msg) {
+  const auto fail = [](const std::string& opt, const std::string& value, const std::string& msg) {
     throw SolidSceneError(one_line("command line: " + opt + " = " + value + ": " + msg));
   };
+  const auto quoted = [](const std::string& v) {
+    std::string q(1, '"');  // not "\"" + ...: GCC 12 warns falsely (-Wrestrict)
+    q += one_line(v);
+    q += '"';
+    return shorten(q);
+  };
+  const char* only_coupled = "only for a coupled scene (one with a [coupling] section)";
   if (o.substeps) {
+    if (s.coupled())
+      fail("--substeps", std::to_string(*o.substeps),
+           "only for a standalone scene; in a coupled scene the fluid's [run] steps set the "
+           "length of the run");
     if (*o.substeps < 1) fail("--substeps", std::to_string(*o.substeps), "must be an integer >= 1");
     s.substeps = *o.substeps;
   }
   if (o.output_dir) {
     if (o.output_dir->empty()) fail("--output", "\"\"", "must not be empty");
     s.output_dir = *o.output_dir;
+  }
+  if (o.channel_prefix) {
+    if (!s.coupled()) fail("--channel-prefix", quoted(*o.channel_prefix), only_coupled);
+    try {
+      protocol::validate_channel_prefix(*o.channel_prefix);
+    } catch (const std::invalid_argument& e) {
+      fail("--channel-prefix", quoted(*o.channel_prefix), e.what());
+    }
+    s.coupling->channel_prefix = *o.channel_prefix;
+  }
+  if (o.lcm_url) {
+    if (!s.coupled()) fail("--lcm-url", quoted(*o.lcm_url), only_coupled);
+    if (const std::string why = lcm_url_problem(*o.lcm_url); !why.empty())
+      fail("--lcm-url", quoted(*o.lcm_url), why);
+    s.coupling->lcm_url = *o.lcm_url;
   }
 }
 

@@ -1,14 +1,18 @@
-// Scene files (TOML) of the solid server run on its own (standalone mode: no fluid, for
-// validation). Parsed and validated here into plain typed structs, so that models never see
-// a TOML table (STYLE: configuration apart from physics). The schema is documented in
-// scenes/README.md ("Solid scenes") and at load_solid_scene below.
+// Scene files (TOML) of the solid server: run on its own (standalone mode: no fluid, for
+// validation), or coupled to the fluid over LCM (a scene with a [coupling] section, read by
+// both processes; protocol/README.md). Parsed and validated here into plain typed structs,
+// so that models never see a TOML table (STYLE: configuration apart from physics). The
+// schema is documented in scenes/README.md ("Solid scenes", "Coupled scenes") and at
+// load_solid_scene below.
 #pragma once
 
 #include <cstdint>
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 
+#include "protocol/units.hpp"
 #include "solid/solid_config.hpp"
 
 namespace cosim::solid {
@@ -36,7 +40,27 @@ struct SolidSceneLimits {
   static constexpr double bending_poisson_max = 0.5;  ///< exclusive
 };
 
-/// A validated standalone solid scene. Every quantity a model sees is in Hartree atomic
+/// [coupling] of a coupled scene (protocol/README.md sections 1, 2, 6-8); the fluid reads
+/// the same keys from the same file.
+struct CouplingSettings {
+  static constexpr std::string_view default_lcm_url = "udpm://239.255.76.67:7667?ttl=0";
+  static constexpr int time_ratio_max = 1000000;
+  static constexpr double timeout_max_s = 86400.0;
+
+  int time_ratio = 150;               ///< A_T = dt_LB / dt_CG (Eq. 16), CGP substeps per LB step
+  std::int64_t rigid_steps = 0;       ///< spin-up LB steps with the sheets held rigid
+  double handshake_timeout_s = 120.0; ///< no welcome_t within it: exit 4
+  double peer_timeout_s = 30.0;       ///< the fluid silent this long: stop_t(4), exit 4
+  double resend_after_s = 0.5;        ///< silence before a resend_t; < peer_timeout_s
+  std::string lcm_url = std::string(default_lcm_url);  ///< udpm with ttl=0, or memq://
+  std::string channel_prefix = "COSIM_";  ///< protocol/channels.hpp
+};
+
+/// Why an LCM URL may not be used ("" if it may): a coupled run talks over udpm:// with
+/// ttl=0 only (packets never leave this machine), or over memq:// (one process, tests).
+std::string lcm_url_problem(std::string_view url);
+
+/// A validated solid scene, standalone or coupled. Every quantity a model sees is in Hartree atomic
 /// units (inside `config`); the run settings keep the SI units of the file.
 struct SolidScene {
   std::string path;         ///< the file it came from
@@ -60,18 +84,40 @@ struct SolidScene {
   double damping_ratio = 1.0;
 
   std::string output_dir;  ///< relative paths are relative to the working directory
+
+  /// [coupling]: set iff the file has that section (a coupled scene). Then mode, substeps,
+  /// record_every, tip_displacement_bohr, pressure_Pa and damping_ratio are unused (the
+  /// scene's [run] is the fluid's) and dt_s is dt_CG = dt_LB / A_T.
+  std::optional<CouplingSettings> coupling;
+  /// [grid] dx_um (coupled scenes): dx_LB = dx_CG, metres.
+  double dx_m = 0.2561e-6;
+
+  bool coupled() const { return coupling.has_value(); }
+  /// The unit inputs both servers announce in hello_t: dx from [grid] dx_um, A_T from
+  /// [coupling] time_ratio, the air of Table 1. @pre coupled()
+  protocol::UnitInputs unit_inputs() const;
 };
 
 /// Reads and validates a solid scene file. Unknown keys or sections, wrong types, values
 /// out of range, a missing required key, an unknown model name, TOML syntax errors and a
 /// missing file all throw SolidSceneError; nothing else escapes.
+///
+/// A scene with a [coupling] section is coupled: the solid reads [scene], [solid],
+/// [[sheet]], [contact], [output] directory, [grid] dx_um and [coupling]; the fluid's
+/// sections ([grid] nx/ny/nz, [fluid], [inlet], [boundaries], [wall_velocity], [body_force],
+/// [run], [output] fields_every) are left to the fluid, unread; [perturbation] and [load]
+/// belong to standalone runs and are refused.
 SolidScene load_solid_scene(const std::string& path);
 
-/// Command-line overrides of [run] substeps and [output] directory; validated with the
-/// rules of the file and reported as "command line: --substeps = 0: ...".
+/// Command-line overrides of [run] substeps (standalone), [output] directory, and
+/// [coupling] channel_prefix and lcm_url (coupled); validated with the rules of the file and
+/// reported as "command line: --substeps = 0: ...". An override for the other kind of
+/// scene is refused the same way.
 struct SolidSceneOverrides {
   std::optional<std::int64_t> substeps;
   std::optional<std::string> output_dir;
+  std::optional<std::string> channel_prefix;
+  std::optional<std::string> lcm_url;
 };
 void apply_overrides(SolidScene& scene, const SolidSceneOverrides& overrides);
 

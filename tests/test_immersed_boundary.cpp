@@ -183,7 +183,7 @@ TEST(ImmersedBoundary, SampleAndSpreadReachTheSolver) {
     EXPECT_NEAR(after[std::size_t(c)] - before[std::size_t(c)], sumJ[std::size_t(c)], 1e-13);
 }
 
-TEST(ImmersedBoundary, MomentumExchangeReducedFormEqualsPopulationSum) {
+TEST(ImmersedBoundary, ReducedForceEqualsPopulationSum) {
   std::mt19937 rng(11);
   std::uniform_real_distribution<double> uni(-1.0, 1.0);
   // Arbitrary (non-equilibrium) populations at a marker.

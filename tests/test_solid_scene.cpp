@@ -1,7 +1,9 @@
 // Solid scene files and the standalone `solid` executable: every malformed file is rejected
 // with one line that names the key, the value and what is allowed; every shipped sheet scene
 // loads with the paper's sheet in atomic units; the executable maps a bad scene to exit
-// status 2 and runs a rigid scene to the end, writing solid.h5.
+// status 2 and runs a rigid scene to the end, writing solid.h5. Coupled scenes (with
+// [coupling]) load for the solid with the fluid's sections left unread, and their [coupling]
+// values are checked like every other key.
 #include <gtest/gtest.h>
 #include <hdf5.h>
 #include <sys/wait.h>
@@ -87,6 +89,40 @@ const std::vector<BadCase>& bad_cases() {
       {"dt_negative.toml", {":10: run.dt_s = -3e-12: must be > 0"}},
       {"epsilon_zero.toml", {":6: contact.epsilon_eV = 0: must be > 0"}},
       {"syntax_error.toml", {"syntax_error.toml:6:11: TOML syntax error"}},
+      // Coupled scenes (with [coupling]): the keys both servers read.
+      {"coupling_ttl_missing.toml",
+       {":5: coupling.lcm_url = \"udpm://239.255.76.67:7667\": has no ttl=0",
+        "packets never leave this machine"}},
+      {"coupling_ttl_one.toml",
+       {":5: coupling.lcm_url = \"udpm://239.255.76.67:7667?ttl=1\": ttl=1 is not allowed: "
+        "the ttl must be 0"}},
+      {"coupling_lcm_tcp.toml",
+       {":5: coupling.lcm_url = \"tcpq://localhost:7700\": not allowed", "or over memq://"}},
+      {"coupling_resend_not_below_peer.toml",
+       {":6: coupling.resend_after_s = 2: must be below coupling.peer_timeout_s = 1;"}},
+      {"coupling_peer_below_default_resend.toml",
+       {":5: coupling.peer_timeout_s = 0.25: must be above coupling.resend_after_s = 0.5 (the "
+        "default)"}},
+      {"coupling_peer_timeout_zero.toml",
+       {":5: coupling.peer_timeout_s = 0: must be a number of seconds in (0, 86400]"}},
+      {"coupling_bad_prefix.toml",
+       {":5: coupling.channel_prefix = \"RUN-1_\": channel prefix \"RUN-1_\" has a character not "
+        "allowed at position 3"}},
+      {"coupling_unknown_key.toml",
+       {":5: coupling.rigid_step = 100: unknown key in [coupling]; allowed: time_ratio, "
+        "rigid_steps,",
+        "did you mean \"rigid_steps\""}},
+      {"coupling_time_ratio_zero.toml",
+       {":5: coupling.time_ratio = 0: must be an integer from 1 to 1000000"}},
+      {"coupling_perturbation.toml",
+       {":6: [perturbation]: not used in a coupled scene (one with [coupling])"}},
+      {"coupling_grid_dx_zero.toml", {":4: grid.dx_um = 0: must be > 0"}},
+      {"coupling_unknown_section.toml",
+       {":2: [fluids]: unknown section; allowed: [scene], [solid], [contact], [[sheet]], "
+        "[output], [grid], [coupling]; the fluid's [fluid],",
+        "did you mean \"fluid\""}},
+      {"coupling_output_unknown_key.toml",
+       {":8: output.fields_evry = 10: unknown key in [output]; allowed: directory, fields_every"}},
   };
   return cases;
 }
@@ -177,6 +213,127 @@ TEST(SolidScene, PaperSolidScenesValidate) {
   EXPECT_EQ(load.damping_ratio, 1.0);
 }
 
+// A coupled scene (one file for both servers): the solid reads its sections, [grid] dx_um
+// and [coupling], and leaves the fluid's sections ([grid] nx/ny/nz, [fluid], [inlet],
+// [boundaries], [wall_velocity], [body_force], [run], [output] fields_every) unread, even
+// where they hold what the solid would refuse.
+TEST(SolidScene, CoupledSceneParses) {
+  const fs::path dir = fs::temp_directory_path() /
+                       ("cosim_test_solid_scene_" + std::to_string(getpid()) + "_coupled");
+  fs::create_directories(dir);
+  const fs::path path = dir / "coupled.toml";
+  std::ofstream(path) << "[scene]\nname = \"sheet_in_flow\"\n\n"
+                         "[grid]\nnx = 120\nny = 60\nnz = 90\ndx_um = 0.5\n\n"
+                         "[fluid]\nreynolds = 40\nreference_length_um = 8.8\n\n"
+                         "[inlet]\nu_max = 0.104\nprofile = \"blasius\"\nboundary_layer_um = 1.5\n\n"
+                         "[boundaries]\nx_min = \"inlet\"\nx_max = \"outflow\"\ny_min = \"wall\"\n"
+                         "y_max = \"free_slip\"\nz_min = \"periodic\"\nz_max = \"periodic\"\n\n"
+                         "[wall_velocity]\ny_min = [0, 0, 0]\n\n[body_force]\nx = 0\n\n"
+                         "[run]\nsteps = 45000\nmonitor_every = 500\nmode = \"not the solid's\"\n\n"
+                         "[solid]\nmodel = \"rigid\"\n\n"
+                         "[[sheet]]\nnx_cg = 5\nny_cg = 40\nbase_um = [7.68, 0, 11.5]\n\n"
+                         "[coupling]\ntime_ratio = 300\nrigid_steps = 15000\nhandshake_timeout_s = 60\n"
+                         "peer_timeout_s = 10\nresend_after_s = 0.25\n"
+                         "lcm_url = \"udpm://239.255.76.67:7667?ttl=0\"\nchannel_prefix = \"RUN_ab12_\"\n\n"
+                         "[output]\ndirectory = \"out/sheet_in_flow\"\nfields_every = 1000\n";
+  const SolidScene s = load_solid_scene(path.string());
+  EXPECT_TRUE(s.coupled());
+  ASSERT_TRUE(s.coupling.has_value());
+  const cosim::solid::CouplingSettings& c = *s.coupling;
+  EXPECT_EQ(c.time_ratio, 300);
+  EXPECT_EQ(c.rigid_steps, 15000);
+  EXPECT_EQ(c.handshake_timeout_s, 60.0);
+  EXPECT_EQ(c.peer_timeout_s, 10.0);
+  EXPECT_EQ(c.resend_after_s, 0.25);
+  EXPECT_EQ(c.lcm_url, "udpm://239.255.76.67:7667?ttl=0");
+  EXPECT_EQ(c.channel_prefix, "RUN_ab12_");
+  EXPECT_EQ(s.name, "sheet_in_flow");
+  EXPECT_EQ(s.model, "rigid");
+  EXPECT_EQ(s.output_dir, "out/sheet_in_flow");
+  ASSERT_EQ(s.config.sheets.size(), 1u);
+  EXPECT_NEAR(s.config.sheets[0].base_bohr[2] * PhysicalConstants::bohr_m, 11.5e-6, 1e-18);
+  // Units for the handshake: dx from [grid], A_T from [coupling], the air of Table 1.
+  EXPECT_DOUBLE_EQ(s.dx_m, 0.5e-6);
+  const cosim::protocol::UnitInputs in = s.unit_inputs();
+  EXPECT_DOUBLE_EQ(in.dx_m, 0.5e-6);
+  EXPECT_EQ(in.time_ratio, 300);
+  EXPECT_EQ(in.sound_speed_m_s, cosim::protocol::UnitInputs{}.sound_speed_m_s);
+  const cosim::protocol::UnitConverter u(in);
+  EXPECT_DOUBLE_EQ(s.dt_s, u.dt_lb_s() / 300);
+
+  // The defaults of [coupling], and of [grid] dx_um (Table 1); [coupling] may be empty.
+  std::ofstream(path) << "[[sheet]]\n\n[coupling]\n";
+  const SolidScene d = load_solid_scene(path.string());
+  ASSERT_TRUE(d.coupled());
+  EXPECT_EQ(d.coupling->time_ratio, 150);
+  EXPECT_EQ(d.coupling->rigid_steps, 0);
+  EXPECT_EQ(d.coupling->handshake_timeout_s, 120.0);
+  EXPECT_EQ(d.coupling->peer_timeout_s, 30.0);
+  EXPECT_EQ(d.coupling->resend_after_s, 0.5);
+  EXPECT_EQ(d.coupling->lcm_url, "udpm://239.255.76.67:7667?ttl=0");
+  EXPECT_EQ(d.coupling->channel_prefix, "COSIM_");
+  EXPECT_DOUBLE_EQ(d.dx_m, 0.2561e-6);
+  EXPECT_NEAR(d.dt_s, 2.9735e-12, 0.0001e-12);
+  EXPECT_EQ(d.model, "rcgp");
+
+  // memq:// (one process) is allowed; the standalone scenes stay standalone.
+  std::ofstream(path) << "[[sheet]]\n\n[coupling]\nlcm_url = \"memq://\"\n";
+  EXPECT_EQ(load_solid_scene(path.string()).coupling->lcm_url, "memq://");
+  EXPECT_FALSE(
+      load_solid_scene((kSource / "scenes" / "sheet_free_vibration.toml").string()).coupled());
+  fs::remove_all(dir);
+}
+
+// The command line's --channel-prefix and --lcm-url go through the file's checks, and only
+// with a coupled scene; --substeps only with a standalone one.
+TEST(SolidScene, CoupledCommandLineOverridesAreValidated) {
+  const fs::path dir = fs::temp_directory_path() /
+                       ("cosim_test_solid_scene_" + std::to_string(getpid()) + "_overrides");
+  fs::create_directories(dir);
+  const fs::path path = dir / "coupled.toml";
+  std::ofstream(path) << "[[sheet]]\n\n[coupling]\n";
+  SolidScene s = load_solid_scene(path.string());
+  cosim::solid::SolidSceneOverrides o;
+  o.channel_prefix = "RUN_0123456789abcdef_";
+  o.lcm_url = "memq://";
+  cosim::solid::apply_overrides(s, o);
+  EXPECT_EQ(s.coupling->channel_prefix, "RUN_0123456789abcdef_");
+  EXPECT_EQ(s.coupling->lcm_url, "memq://");
+
+  const auto refused = [&](SolidScene scene, const cosim::solid::SolidSceneOverrides& ov) {
+    try {
+      cosim::solid::apply_overrides(scene, ov);
+    } catch (const SolidSceneError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  o = {};
+  o.channel_prefix = "a b";
+  EXPECT_NE(refused(s, o).find("command line: --channel-prefix = \"a b\": channel prefix \"a b\" "
+                               "has a character not allowed at position 1"),
+            std::string::npos)
+      << refused(s, o);
+  o = {};
+  o.lcm_url = "udpm://239.255.76.67:7667?ttl=3";
+  EXPECT_NE(refused(s, o).find("command line: --lcm-url = \"udpm://239.255.76.67:7667?ttl=3\": "
+                               "ttl=3 is not allowed"),
+            std::string::npos)
+      << refused(s, o);
+  o = {};
+  o.substeps = 10;
+  EXPECT_NE(refused(s, o).find("command line: --substeps = 10: only for a standalone scene"),
+            std::string::npos)
+      << refused(s, o);
+  const SolidScene standalone =
+      load_solid_scene((kSource / "scenes" / "sheet_free_vibration.toml").string());
+  o = {};
+  o.lcm_url = "memq://";
+  EXPECT_NE(refused(standalone, o).find("--lcm-url = \"memq://\": only for a coupled scene"),
+            std::string::npos);
+  fs::remove_all(dir);
+}
+
 // The perturbation's shape is the static deflection of a uniformly loaded cantilever,
 // w = (6 s^2 - 4 s^3 + s^4) / 3: w(0) = w'(0) = 0 at the clamp, moment w'' and shear w''' zero
 // at the free end, w'''' constant (the load), w(1) = 1.
@@ -214,12 +371,13 @@ std::string slurp(const fs::path& p) {
 
 std::string quote(const std::string& s) { return "'" + s + "'"; }
 
-/// Runs `solid ARGS` with stdout and stderr captured in files of a scratch directory.
-RunResult run_solid(const std::string& args, const fs::path& scratch) {
+/// Runs `solid ARGS` with stdout and stderr captured in files of a scratch directory
+/// (`args` is the whole command line when with_exe is false).
+RunResult run_solid(const std::string& args, const fs::path& scratch, bool with_exe = true) {
   fs::create_directories(scratch);
   const fs::path out = scratch / "stdout.txt", err = scratch / "stderr.txt";
-  const std::string cmd = quote(SOLID_EXE) + " " + args + " >" + quote(out.string()) + " 2>" +
-                          quote(err.string()) + " </dev/null";
+  const std::string cmd = (with_exe ? quote(SOLID_EXE) + " " : std::string()) + args + " >" +
+                          quote(out.string()) + " 2>" + quote(err.string()) + " </dev/null";
   const int raw = std::system(cmd.c_str());
   RunResult r;
   r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
@@ -281,6 +439,42 @@ TEST(SolidExecutable, BadSolidSceneExitsTwoWithOneLine) {
   EXPECT_EQ(lines(d.err), 1u) << d.err;
   EXPECT_NE(d.err.find("run.dt_s = 1e-09: above the stable step"), std::string::npos) << d.err;
   EXPECT_NE(d.err.find("the largest allowed is"), std::string::npos) << d.err;
+  fs::remove_all(scratch);
+}
+
+// A coupled scene: without a token, 2 and one line saying where the token comes from;
+// --check builds the model and prints the header without any LCM; --token with a standalone
+// scene is refused.
+TEST(SolidExecutable, CoupledSceneNeedsAToken) {
+  const fs::path scratch = scratch_dir("coupled");
+  fs::remove_all(scratch);
+  fs::create_directories(scratch);
+  const fs::path scene = scratch / "coupled.toml";
+  std::ofstream(scene) << "[grid]\nnx = 16\nny = 16\nnz = 16\n\n[run]\nsteps = 10\n\n"
+                          "[solid]\nmodel = \"rigid\"\n\n[[sheet]]\nnx_cg = 2\nny_cg = 3\n\n"
+                          "[coupling]\nlcm_url = \"memq://\"\n";
+  const std::string out = " --output " + quote((scratch / "out").string());
+  const RunResult r = run_solid("env -u COSIM_RUN_TOKEN " + quote(SOLID_EXE) + " " +
+                                    quote(scene.string()) + " --quiet" + out,
+                                scratch, false);
+  EXPECT_EQ(r.status, 2) << r.out << r.err;
+  EXPECT_EQ(lines(r.err), 1u) << r.err;
+  EXPECT_NE(r.err.find("needs the run's token: --token TOKEN or the environment variable "
+                       "COSIM_RUN_TOKEN"),
+            std::string::npos)
+      << r.err;
+
+  const RunResult c = run_solid(quote(scene.string()) + " --check" + out, scratch);
+  EXPECT_EQ(c.status, 0) << c.out << c.err;
+  EXPECT_NE(c.out.find("solid: coupled scene"), std::string::npos) << c.out;
+  EXPECT_NE(c.out.find("A_T = 150"), std::string::npos) << c.out;
+  EXPECT_FALSE(fs::exists(scratch / "out"));
+
+  const RunResult t = run_solid(
+      quote((kSource / "scenes" / "sheet_free_vibration.toml").string()) + " --token abc", scratch);
+  EXPECT_EQ(t.status, 2) << t.out << t.err;
+  EXPECT_NE(t.err.find("command line: --token: only for a coupled scene"), std::string::npos)
+      << t.err;
   fs::remove_all(scratch);
 }
 

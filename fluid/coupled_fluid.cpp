@@ -1,0 +1,403 @@
+#include "fluid/coupled_fluid.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <deque>
+#include <filesystem>
+#include <map>
+#include <optional>
+#include <thread>
+#include <vector>
+
+#include <lcm/lcm-cpp.hpp>
+
+#include "cosimlcm/fluid_state_t.hpp"
+#include "cosimlcm/hello_t.hpp"
+#include "cosimlcm/resend_t.hpp"
+#include "cosimlcm/solid_state_t.hpp"
+#include "cosimlcm/stop_t.hpp"
+#include "cosimlcm/welcome_t.hpp"
+#include "fluid/flow_monitor.hpp"
+#include "fluid/fluid_solver.hpp"
+#include "fluid/immersed_boundary.hpp"
+#include "fluid/monitor_log.hpp"
+#include "protocol/channels.hpp"
+#include "protocol/handshake.hpp"
+#include "protocol/step_sequencer.hpp"
+#include "protocol/units.hpp"
+
+namespace cosim::fluid {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+constexpr int kOk = 0, kSystem = 1, kBadInput = 2, kUnhealthy = 3, kPeerLost = 4;
+constexpr const char* kVersion = "1";
+constexpr const char* kFluidModel = "d3q19-bgk-guo";
+
+std::chrono::milliseconds ms(double seconds) {
+  return std::chrono::milliseconds(static_cast<long long>(seconds * 1000.0));
+}
+
+/// A run-ending condition: exit code and the one-line reason.
+struct Ending {
+  int code;
+  std::string reason;
+};
+
+/// The coordinator and the fluid's side of the protocol.
+class CoupledFluid {
+ public:
+  CoupledFluid(const FluidScene& s, const CoupledFluidOptions& o, std::ostream& out)
+      : s_(s), c_(*s.coupling), o_(o), out_(out),
+        ch_(o.channel_prefix.empty() ? c_.channel_prefix : o.channel_prefix),
+        lcm_(o.lcm_url.empty() ? c_.lcm_url : o.lcm_url),
+        foreign_(o.token, [this](const std::string& line) { out_ << "fluid: " << line << "\n"; }),
+        solid_seq_(0),
+        watch_(ms(c_.peer_timeout_s), ms(c_.resend_after_s)) {
+    protocol::UnitInputs in;
+    in.dx_m = s.dx_um * 1e-6;
+    in.time_ratio = c_.time_ratio;
+    units_ = protocol::UnitConverter(in);
+  }
+
+  int run() {
+    if (!lcm_.good()) return end({kSystem, "cannot open LCM at " + url()});
+    lcm_.subscribe(ch_.hello, &CoupledFluid::on_hello, this);
+    lcm_.subscribe(ch_.solid_state, &CoupledFluid::on_solid_state, this);
+    lcm_.subscribe(ch_.resend, &CoupledFluid::on_resend, this);
+    lcm_.subscribe(ch_.stop, &CoupledFluid::on_stop, this);
+
+    if (auto e = handshake()) return end(*e);
+    FluidSolver solver(s_.params);
+    initialize_flow(solver, s_);
+    const ImmersedBoundary ib(solver);
+    const HealthLimits limits{s_.mach_limit};
+    std::filesystem::create_directories(s_.output_dir);
+    const double dt_us = units_.dt_lb_s() * 1e6;
+    MonitorLog log((std::filesystem::path(s_.output_dir) / "monitor.h5").string(), dt_us);
+    const FlowSummary first = summarize(solver);
+    const double mass0 = first.mass;
+    log.append(first);
+
+    const auto n = static_cast<std::size_t>(num_cgps_);
+    std::vector<Vec3> x(n), j(n);
+    std::vector<MarkerSample> samples(n);
+    const Clock::time_point start = Clock::now();
+    Clock::time_point last_progress = start;
+    for (std::int64_t step = 0; step < s_.steps; ++step) {
+      if (auto e = wait_for_solid_state(step)) return end(*e);
+      const cosimlcm::solid_state_t& m = inbox_.at(step);
+      if (auto e = check_solid_state(m, step)) return end(*e);
+      for (std::size_t l = 0; l < n; ++l) {
+        x[l] = {m.position_lb[l][0], m.position_lb[l][1], m.position_lb[l][2]};
+        j[l] = {m.impulse_lb[l][0], m.impulse_lb[l][1], m.impulse_lb[l][2]};
+      }
+      inbox_.erase(inbox_.begin(), inbox_.upper_bound(step));
+      solid_seq_.advance();
+      // Eqs. 21-24 and 25-26: spread J_l at X_l, collide with the forcing, stream.
+      ib.spread(solver, x, j);
+      solver.step();
+      const bool last = step + 1 == s_.steps;
+      if ((step + 1) % s_.monitor_every == 0 || last) {
+        const FlowSummary sum = summarize(solver);
+        const std::string problem = health_problem(sum, limits);
+        if (!problem.empty())
+          return end({kUnhealthy, "unhealthy flow after step " + std::to_string(step + 1) + ": " + problem});
+        log.append(sum);
+        out_ << format_summary(sum, dt_us, mass0) << "\n";
+        out_.flush();
+      }
+      if (!last) {
+        ib.sample(solver, x, samples);  // Eq. 17 at X_l
+        publish_fluid_state(step + 1, samples);
+      }
+      if (!o_.quiet && Clock::now() - last_progress > std::chrono::seconds(2)) {
+        last_progress = Clock::now();
+        std::fprintf(stderr, "fluid: step %lld/%lld\n", static_cast<long long>(step + 1),
+                     static_cast<long long>(s_.steps));
+      }
+    }
+    publish_stop(s_.steps, kOk, "");
+    const double wall = std::chrono::duration<double>(Clock::now() - start).count();
+    out_ << "fluid: coupled run done, " << s_.steps << " LB steps in " << wall << " s; "
+         << counters() << "; output in " << s_.output_dir << "\n";
+    return kOk;
+  }
+
+ private:
+  std::string url() const { return o_.lcm_url.empty() ? c_.lcm_url : o_.lcm_url; }
+
+  protocol::Hello fluid_hello() const {
+    protocol::Hello h;
+    h.token = o_.token;
+    h.role = "fluid";
+    h.model = kFluidModel;
+    h.version = kVersion;
+    h.scene_hash = protocol::scene_hash_of_file(s_.path);
+    h.dx_m = units_.dx_m();
+    h.dt_lb_s = units_.dt_lb_s();
+    h.sound_speed_m_s = units_.inputs().sound_speed_m_s;
+    h.air_density_kg_m3 = units_.air_density_kg_m3();
+    h.time_ratio = c_.time_ratio;
+    h.dt_cg_s = units_.dt_cg_s();
+    h.stable_dt_cg_s = 0.0;
+    h.num_cgps = 0;
+    return h;
+  }
+
+  static protocol::Hello from_lcm(const cosimlcm::hello_t& m) {
+    protocol::Hello h;
+    h.token = m.token;
+    h.role = m.role;
+    h.model = m.model;
+    h.version = m.version;
+    h.scene_hash = m.scene_hash;
+    h.dx_m = m.dx_m;
+    h.dt_lb_s = m.dt_lb_s;
+    h.sound_speed_m_s = m.sound_speed_m_s;
+    h.air_density_kg_m3 = m.air_density_kg_m3;
+    h.time_ratio = m.time_ratio;
+    h.dt_cg_s = m.dt_cg_s;
+    h.stable_dt_cg_s = m.stable_dt_cg_s;
+    h.num_cgps = m.num_cgps;
+    return h;
+  }
+
+  std::optional<Ending> handshake() {
+    const protocol::Hello mine = fluid_hello();
+    cosimlcm::hello_t own{};
+    own.token = mine.token;
+    own.role = mine.role;
+    own.model = mine.model;
+    own.version = mine.version;
+    own.scene_hash = mine.scene_hash;
+    own.dx_m = mine.dx_m;
+    own.dt_lb_s = mine.dt_lb_s;
+    own.sound_speed_m_s = mine.sound_speed_m_s;
+    own.air_density_kg_m3 = mine.air_density_kg_m3;
+    own.time_ratio = mine.time_ratio;
+    own.dt_cg_s = mine.dt_cg_s;
+    own.stable_dt_cg_s = 0.0;
+    own.num_cgps = 0;
+    lcm_.publish(ch_.hello, &own);
+    const Clock::time_point deadline = Clock::now() + ms(c_.handshake_timeout_s);
+    while (!solid_hello_) {
+      if (stop_) return stop_;
+      if (Clock::now() > deadline) {
+        publish_stop(0, kPeerLost, "no solid hello_t within the handshake timeout");
+        return Ending{kPeerLost, "no solid announced itself on " + ch_.hello + " within " +
+                                     std::to_string(c_.handshake_timeout_s) + " s"};
+      }
+      lcm_.handleTimeout(50);
+    }
+    const protocol::HandshakeResult r =
+        protocol::check_handshake(mine, from_lcm(*solid_hello_), o_.token);
+    welcome_ = cosimlcm::welcome_t{};
+    welcome_->token = o_.token;
+    welcome_->accepted = r.accepted ? 1 : 0;
+    welcome_->reason = r.reason;
+    welcome_->total_steps = s_.steps;
+    welcome_->rigid_steps = c_.rigid_steps;
+    welcome_->time_ratio = r.accepted ? r.time_ratio : c_.time_ratio;
+    for (int k = 0; k < 3; ++k) {
+      lcm_.publish(ch_.welcome, &*welcome_);
+      if (!r.accepted) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    if (!r.accepted) return Ending{kBadInput, r.reason};
+    num_cgps_ = solid_hello_->num_cgps;
+    out_ << "fluid: handshake accepted: solid model " << solid_hello_->model << ", "
+         << num_cgps_ << " CGPs, A_T = " << r.time_ratio << ", " << s_.steps
+         << " LB steps (" << c_.rigid_steps << " rigid)" << std::endl;
+    watch_.heard(Clock::now());
+    return std::nullopt;
+  }
+
+  std::optional<Ending> wait_for_solid_state(std::int64_t step) {
+    while (!inbox_.count(step)) {
+      if (stop_) return stop_;
+      lcm_.handleTimeout(10);
+      if (inbox_.count(step)) break;
+      switch (watch_.poll(Clock::now())) {
+        case protocol::PeerWatch::Action::Wait:
+          break;
+        case protocol::PeerWatch::Action::Resend: {
+          cosimlcm::resend_t r{};
+          r.token = o_.token;
+          r.step = step;
+          r.what = "solid_state";
+          lcm_.publish(ch_.resend, &r);
+          ++resends_asked_;
+          break;
+        }
+        case protocol::PeerWatch::Action::GiveUp: {
+          const std::string why = "the solid was silent for " +
+                                  std::to_string(c_.peer_timeout_s) +
+                                  " s while the fluid waited for solid_state_t of step " +
+                                  std::to_string(step);
+          publish_stop(step, kPeerLost, why);
+          return Ending{kPeerLost, why};
+        }
+      }
+    }
+    return std::nullopt;
+  }
+
+  std::optional<Ending> check_solid_state(const cosimlcm::solid_state_t& m, std::int64_t step) {
+    const auto bad = [&](int code, const std::string& what) {
+      const std::string why = "solid_state_t of step " + std::to_string(step) + ": " + what;
+      publish_stop(step, code, why);
+      return Ending{code, why};
+    };
+    if (m.num_cgps != num_cgps_ || std::ssize(m.position_lb) != num_cgps_ ||
+        std::ssize(m.impulse_lb) != num_cgps_)
+      return bad(kBadInput, "num_cgps = " + std::to_string(m.num_cgps) + ", expected " +
+                                std::to_string(num_cgps_));
+    const std::int64_t dynamic_from = std::max<std::int64_t>(c_.rigid_steps, 1);
+    const int substeps = step < dynamic_from ? 0 : c_.time_ratio;
+    if (m.substeps != substeps)
+      return bad(kBadInput, "substeps = " + std::to_string(m.substeps) + ", expected " +
+                                std::to_string(substeps));
+    const double t = double(std::max<std::int64_t>(0, step - dynamic_from + 1)) * units_.dt_lb_s();
+    if (std::abs(m.solid_time_s - t) > 1e-9 * std::max(t, units_.dt_lb_s()))
+      return bad(kBadInput, "solid_time_s = " + std::to_string(m.solid_time_s) + ", expected " +
+                                std::to_string(t));
+    for (std::int32_t l = 0; l < num_cgps_; ++l) {
+      const auto& p = m.position_lb[static_cast<std::size_t>(l)];
+      const auto& i = m.impulse_lb[static_cast<std::size_t>(l)];
+      if (p.size() != 3 || i.size() != 3)
+        return bad(kBadInput, "CGP " + std::to_string(l) + " has a vector of the wrong size");
+      for (int c = 0; c < 3; ++c)
+        if (!std::isfinite(p[static_cast<std::size_t>(c)]) || !std::isfinite(i[static_cast<std::size_t>(c)]))
+          return bad(kUnhealthy, "a non-finite position or impulse at CGP " + std::to_string(l));
+    }
+    return std::nullopt;
+  }
+
+  void publish_fluid_state(std::int64_t step, const std::vector<MarkerSample>& samples) {
+    cosimlcm::fluid_state_t m{};
+    m.token = o_.token;
+    m.seq = fluid_seq_++;
+    m.step = step;
+    m.num_cgps = num_cgps_;
+    m.rho_lb.resize(samples.size());
+    m.velocity_lb.resize(samples.size());
+    for (std::size_t l = 0; l < samples.size(); ++l) {
+      m.rho_lb[l] = samples[l].rho;
+      m.velocity_lb[l] = {samples[l].u[0], samples[l].u[1], samples[l].u[2]};
+    }
+    lcm_.publish(ch_.fluid_state, &m);
+    sent_.push_back(std::move(m));
+    while (sent_.size() > 2) sent_.pop_front();
+  }
+
+  void publish_stop(std::int64_t step, int code, const std::string& reason) {
+    cosimlcm::stop_t m{};
+    m.token = o_.token;
+    m.step = step;
+    m.exit_code = code;
+    m.reason = reason;
+    for (int k = 0; k < 3; ++k) {
+      lcm_.publish(ch_.stop, &m);
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+  }
+
+  void on_hello(const lcm::ReceiveBuffer*, const std::string& channel, const cosimlcm::hello_t* m) {
+    if (!foreign_.admit(channel, m->token)) return;
+    if (m->role != "solid") return;  // our own announcement
+    watch_.heard(Clock::now());
+    if (!solid_hello_) solid_hello_ = *m;
+    else if (welcome_) lcm_.publish(ch_.welcome, &*welcome_);  // a lost welcome
+  }
+
+  void on_solid_state(const lcm::ReceiveBuffer*, const std::string& channel,
+                      const cosimlcm::solid_state_t* m) {
+    if (!foreign_.admit(channel, m->token)) return;
+    watch_.heard(Clock::now());
+    switch (solid_seq_.offer(m->step, m->seq)) {
+      case protocol::StepSequencer::Verdict::Accept:
+      case protocol::StepSequencer::Verdict::Early:
+        if (m->step < s_.steps + 1 && inbox_.size() < 8) inbox_.emplace(m->step, *m);
+        break;
+      default:
+        break;
+    }
+  }
+
+  void on_resend(const lcm::ReceiveBuffer*, const std::string& channel, const cosimlcm::resend_t* m) {
+    if (!foreign_.admit(channel, m->token)) return;
+    if (m->what != "fluid_state") return;  // our own requests come back on the bus
+    watch_.heard(Clock::now());
+    for (const cosimlcm::fluid_state_t& f : sent_)
+      if (f.step == m->step) {
+        lcm_.publish(ch_.fluid_state, &f);
+        ++resends_answered_;
+      }
+  }
+
+  void on_stop(const lcm::ReceiveBuffer*, const std::string& channel, const cosimlcm::stop_t* m) {
+    if (!foreign_.admit(channel, m->token)) return;
+    if (stop_) return;
+    stop_ = Ending{m->exit_code == 0 ? kPeerLost : kPeerLost,
+                   "the solid stopped at step " + std::to_string(m->step) + " with exit code " +
+                       std::to_string(m->exit_code) + ": " + m->reason};
+  }
+
+  std::string counters() const {
+    return "foreign " + std::to_string(foreign_.total()) + ", duplicates " +
+           std::to_string(solid_seq_.duplicates()) + ", stale " + std::to_string(solid_seq_.stale()) +
+           ", early " + std::to_string(solid_seq_.early()) + ", resends asked " +
+           std::to_string(resends_asked_) + " answered " + std::to_string(resends_answered_);
+  }
+
+  int end(const Ending& e) {
+    out_.flush();
+    last_reason_ = e.reason;
+    return e.code;
+  }
+
+ public:
+  std::string last_reason_;
+
+ private:
+  const FluidScene& s_;
+  const CouplingSettings c_;
+  const CoupledFluidOptions& o_;
+  std::ostream& out_;
+  protocol::Channels ch_;
+  lcm::LCM lcm_;
+  protocol::ForeignCounter foreign_;
+  protocol::StepSequencer solid_seq_;
+  protocol::PeerWatch watch_;
+  protocol::UnitConverter units_;
+  std::optional<cosimlcm::hello_t> solid_hello_;
+  std::optional<cosimlcm::welcome_t> welcome_;
+  std::optional<Ending> stop_;
+  std::map<std::int64_t, cosimlcm::solid_state_t> inbox_;
+  std::deque<cosimlcm::fluid_state_t> sent_;
+  std::int32_t num_cgps_ = 0;
+  std::int64_t fluid_seq_ = 0;
+  std::int64_t resends_asked_ = 0, resends_answered_ = 0;
+};
+
+}  // namespace
+
+int run_coupled_fluid(const FluidScene& scene, const CoupledFluidOptions& options,
+                      std::ostream& out, std::ostream& err) {
+  if (!scene.coupling) {
+    err << "fluid: " << scene.path << ": not a coupled scene (no [coupling] section)\n";
+    return kBadInput;
+  }
+  if (options.token.empty()) {
+    err << "fluid: a coupled run needs the run's token: --token TOKEN or COSIM_RUN_TOKEN\n";
+    return kBadInput;
+  }
+  CoupledFluid run(scene, options, out);
+  const int code = run.run();
+  if (code != kOk) err << "fluid: coupled run stopped: " << run.last_reason_ << "\n";
+  return code;
+}
+
+}  // namespace cosim::fluid

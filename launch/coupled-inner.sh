@@ -1,0 +1,61 @@
+#!/usr/bin/env bash
+# Started by run-coupled.sh (inside the private network namespace when root): sets up the
+# loopback for multicast, starts fluid, solid and optionally lcm-logger, and supervises them.
+#   coupled-inner.sh ROOT SCENE OUTPUT PREFIX LOG QUIET
+set -uo pipefail
+root=$1 scene=$2 output=$3 prefix=$4 log=$5 quiet=$6
+grace=${COSIM_SURVIVOR_GRACE_S:-45}
+
+if [ "$(id -u)" -eq 0 ]; then
+  # A fresh namespace has lo down and no multicast route (DESIGN 2.3).
+  ip link set lo up
+  ip link set lo multicast on
+  ip route add 224.0.0.0/4 dev lo 2>/dev/null || true
+fi
+
+logger_pid=""
+if [ "$log" -eq 1 ]; then
+  url=$(sed -n 's/^[[:space:]]*lcm_url[[:space:]]*=[[:space:]]*"\(.*\)".*/\1/p' "$scene" | head -1)
+  url=${url:-udpm://239.255.76.67:7667?ttl=0}
+  lcm-logger -f -c "${prefix}.*" -l "$url" "$output/traffic.lcmlog" >"$output/logger.log" 2>&1 &
+  logger_pid=$!
+  sleep 0.3
+fi
+
+"$root/build/fluid/fluid" "$scene" --output "$output" --channel-prefix "$prefix" $quiet \
+  >"$output/fluid.log" 2>&1 &
+fluid=$!
+echo $fluid >"$output/fluid.pid"
+"$root/build/solid/solid" "$scene" --output "$output" --channel-prefix "$prefix" $quiet \
+  >"$output/solid.log" 2>&1 &
+solid=$!
+echo $solid >"$output/solid.pid"
+
+# Wait for the first to end (wait -n -p: bash 5.1; a finished child stays a zombie, so
+# kill -0 cannot tell).
+wait -n -p first_pid $fluid $solid
+s_first=$?
+if [ "$first_pid" = "$fluid" ]; then first=fluid; other=solid; b=$solid; else first=solid; other=fluid; b=$fluid; fi
+echo $s_first >"$output/$first.exit"
+
+# The survivor should stop by itself (end of run, or its peer timeout); then it is killed.
+sleep "$grace" &
+sleeper=$!
+wait -n -p second_pid $b $sleeper
+s_other=$?
+if [ "$second_pid" = "$sleeper" ]; then
+  echo "run-coupled: $other still running ${grace} s after $first ended; stopping it" >&2
+  kill -TERM $b 2>/dev/null; sleep 1; kill -KILL $b 2>/dev/null
+  wait $b; s_other=$?
+else
+  kill $sleeper 2>/dev/null; wait $sleeper 2>/dev/null
+fi
+echo $s_other >"$output/$other.exit"
+[ -n "$logger_pid" ] && kill -INT $logger_pid 2>/dev/null && wait $logger_pid 2>/dev/null
+
+for n in fluid solid; do
+  s=$(cat "$output/$n.exit")
+  if [ "$s" != 0 ]; then echo "run-coupled: $n exited $s: $(grep -v '^\s*$' "$output/$n.log" | tail -1)" >&2; fi
+done
+if [ $s_first -ne 0 ]; then exit $s_first; fi
+exit $s_other

@@ -1,0 +1,69 @@
+#!/usr/bin/env bash
+# Runs a coupled scene: the fluid server (which hosts the coordinator) and the solid server
+# as two processes talking over LCM (DESIGN 2.3, protocol/README.md).
+#
+#   bash launch/run-coupled.sh SCENE.toml [--output DIR] [--log] [--no-build] [--quiet]
+#
+# As root, both processes run in a private network namespace (unshare -n; lo up with
+# multicast, 224.0.0.0/4 routed to lo), so no packet leaves this machine; otherwise they
+# run on the host with the scene's ttl=0 URL. Each run gets its own token and channel
+# prefix. --log records every channel of the run with lcm-logger into OUTPUT/traffic.lcmlog.
+# When one process dies, the other is given COSIM_SURVIVOR_GRACE_S seconds (default 45) to
+# notice and stop by itself (it writes its output and the reason), then it is killed. The
+# exit status is the first failure's; OUTPUT/fluid.exit and OUTPUT/solid.exit hold each
+# process's own status, OUTPUT/fluid.log and OUTPUT/solid.log their output.
+set -euo pipefail
+root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+
+usage() { echo "usage: bash launch/run-coupled.sh SCENE.toml [--output DIR] [--log] [--no-build] [--quiet]" >&2; exit 2; }
+[ $# -ge 1 ] || usage
+scene=$1; shift
+output=""; log=0; build=1; quiet=""
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --output) [ $# -ge 2 ] || usage; output=$2; shift 2 ;;
+    --log) log=1; shift ;;
+    --no-build) build=0; shift ;;
+    --quiet) quiet="--quiet"; shift ;;
+    *) echo "run-coupled: unknown option $1" >&2; usage ;;
+  esac
+done
+[ -f "$scene" ] || { echo "run-coupled: $scene: no such scene file" >&2; exit 2; }
+scene=$(cd "$(dirname "$scene")" && pwd)/$(basename "$scene")
+
+if [ $build -eq 1 ]; then
+  bash "$root/launch/bootstrap.sh"
+  bash "$root/launch/build.sh" >/dev/null
+fi
+name=$(basename "$scene" .toml)
+output=${output:-$root/out/$name}
+mkdir -p "$output"
+output=$(cd "$output" && pwd)
+rm -f "$output/fluid.exit" "$output/solid.exit" "$output/fluid.pid" "$output/solid.pid"
+
+token=$(od -An -N8 -tx1 /dev/urandom | tr -d ' \n')
+prefix="COSIM_${token:0:8}_"
+export COSIM_RUN_TOKEN=$token
+
+inner=(bash "$root/launch/coupled-inner.sh" "$root" "$scene" "$output" "$prefix" "$log" "$quiet")
+echo "run-coupled: scene $scene, token $token, channels ${prefix}*, output $output"
+if [ "$(id -u)" -eq 0 ] && command -v unshare >/dev/null 2>&1; then
+  set +e
+  unshare -n "${inner[@]}"
+  status=$?
+  set -e
+else
+  echo "run-coupled: not root: running on the host network with the scene's ttl=0 URL" >&2
+  set +e
+  "${inner[@]}"
+  status=$?
+  set -e
+  if [ $status -eq 1 ] && grep -q "cannot open LCM" "$output/fluid.log" 2>/dev/null; then
+    echo "run-coupled: LCM could not open its multicast socket: enable multicast on lo" \
+         "(ip link set lo multicast on; ip route add 224.0.0.0/4 dev lo) or run as root" >&2
+  fi
+fi
+echo "run-coupled: fluid exit $(cat "$output/fluid.exit" 2>/dev/null || echo '?'), solid exit" \
+     "$(cat "$output/solid.exit" 2>/dev/null || echo '?'); outputs in $output" \
+     "(monitor.h5, solid.h5, fluid.log, solid.log$([ "$log" -eq 1 ] && echo ', traffic.lcmlog'))"
+exit $status

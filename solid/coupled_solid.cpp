@@ -1,0 +1,795 @@
+#include "solid/coupled_solid.hpp"
+
+#include <hdf5.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <deque>
+#include <filesystem>
+#include <iterator>
+#include <limits>
+#include <map>
+#include <memory>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <system_error>
+#include <thread>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+#include <lcm/lcm-cpp.hpp>
+
+#include "cosimlcm/fluid_state_t.hpp"
+#include "cosimlcm/hello_t.hpp"
+#include "cosimlcm/resend_t.hpp"
+#include "cosimlcm/solid_state_t.hpp"
+#include "cosimlcm/stop_t.hpp"
+#include "cosimlcm/welcome_t.hpp"
+#include "protocol/channels.hpp"
+#include "protocol/handshake.hpp"
+#include "protocol/hdf5_handle.hpp"
+#include "protocol/hdf5_quiet.hpp"
+#include "protocol/step_sequencer.hpp"
+#include "protocol/units.hpp"
+#include "solid/model_registry.hpp"
+#include "solid/sheet_spec.hpp"
+#include "solid/solid_coupler.hpp"
+#include "solid/solid_h5.hpp"
+#include "solid/solid_model.hpp"
+
+namespace cosim::solid {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using protocol::PhysicalConstants;
+using protocol::UnitConverter;
+using Rows3 = std::vector<std::vector<double>>;
+
+constexpr const char* kProtocolVersion = "1";      // protocol/README.md
+constexpr auto kHelloEvery = std::chrono::milliseconds(200);  // section 6
+constexpr int kStopCopies = 3;                                // section 8
+constexpr auto kStopSpacing = std::chrono::milliseconds(20);
+constexpr std::size_t kKeptMessages = 2;  // section 7: at least the last two
+constexpr std::size_t kEarlyHeld = 8;
+constexpr int kPollMs = 20;  // the longest single wait for LCM, so that timers are checked
+constexpr auto kProgressEvery = std::chrono::seconds(1);
+constexpr double kMicrometre = 1e-6;
+
+/// The solid's frame on the lattice: its plate surface y = 0 is the fluid's half-way
+/// bounce-back wall at lattice y = -1/2; x and z: lattice = physical / dx
+/// (protocol/README.md section 4).
+const Eigen::Vector3d kOriginLb(0.0, -0.5, 0.0);
+
+double um_from_bohr(double bohr) { return bohr * PhysicalConstants::bohr_m / kMicrometre; }
+double joule_from_hartree(double e) {
+  return e * UnitConverter::force_au_N() * PhysicalConstants::bohr_m;  // E_h = F_AU l_AU
+}
+
+std::string one_line(std::string s) {
+  for (char& c : s)
+    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) c = ' ';
+  while (!s.empty() && s.back() == ' ') s.pop_back();
+  return s;
+}
+
+std::string fmt(const char* f, double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, f, v);
+  return buf;
+}
+
+std::string indent(const std::string& text) {
+  std::string out;
+  std::size_t start = 0;
+  while (start < text.size()) {
+    std::size_t end = text.find('\n', start);
+    if (end == std::string::npos) end = text.size();
+    out += "  " + text.substr(start, end - start) + "\n";
+    start = end + 1;
+  }
+  return out;
+}
+
+/// Sheet, column and row of CGP `l` of the model's array.
+std::string describe_cgp(const SolidConfig& c, Eigen::Index l) {
+  for (std::size_t s = 0; s < c.sheets.size(); ++s) {
+    const Eigen::Index first = first_cgp(c, s), n = c.sheets[s].num_cgps();
+    if (l >= first && l < first + n) {
+      const Eigen::Index k = l - first;
+      return "CGP " + std::to_string(l) + " (sheet " + std::to_string(s) + ", i = " +
+             std::to_string(k % c.sheets[s].nx_cg) + ", j = " +
+             std::to_string(k / c.sheets[s].nx_cg) + ")";
+    }
+  }
+  return "CGP " + std::to_string(l);
+}
+
+Clock::duration seconds(double s) {
+  return std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(s));
+}
+
+/// A run-ending condition: the exit code, the one-line reason, and whether this side
+/// announces it with stop_t (its own errors; not a refused handshake or the peer's stop_t).
+struct Ending {
+  int code = exit_code::ok;
+  std::string reason;
+  bool publish_stop = false;
+};
+
+/// The time series of OUTPUT/solid.h5, one row per LB step (step 0 included), kept in
+/// memory and written once at the end.
+struct CoupledSeries {
+  int sheets = 0;
+  std::vector<std::int64_t> step;
+  std::vector<double> time_s, solid_time_s, displacement_um, normal_um, fluid_force_N, kinetic_J,
+      elastic_J, total_J;
+  std::size_t rows() const { return step.size(); }
+};
+
+class CoupledSolid {
+ public:
+  CoupledSolid(const SolidScene& scene, const CoupledSolidOptions& options, std::ostream& out,
+               std::ostream& err)
+      : s_(scene), c_(*scene.coupling), o_(options), out_(out), err_(err),
+        ch_(c_.channel_prefix), units_(scene.unit_inputs()),
+        watch_(peer_timeout_ms(c_), resend_after_ms(c_)) {}
+
+  CoupledSolid(const CoupledSolid&) = delete;
+  CoupledSolid& operator=(const CoupledSolid&) = delete;
+
+  ~CoupledSolid() {
+    if (bus_ != nullptr)
+      for (lcm::Subscription* sub : subs_)
+        if (sub != nullptr) bus_->unsubscribe(sub);
+  }
+
+  int run() {
+    if (const auto e = build()) return report(*e);
+    print_header();
+    if (o_.check_only) return exit_code::ok;
+    foreign_.emplace(o_.token, [this](const std::string& line) { out_ << "solid: " << line << "\n"; });
+    if (const auto e = open_output()) return report(*e);
+    if (const auto e = open_bus()) return report(*e);
+    if (const auto e = handshake()) return finish(*e);
+    out_ << "solid: handshake accepted: " << total_steps_ << " LB steps (" << rigid_steps_
+         << " rigid), A_T = " << c_.time_ratio << "\n";
+    out_.flush();
+    start_ = last_progress_ = Clock::now();
+
+    // Step 0: the initial positions, zero impulses (section 5).
+    publish_state(0, 0, coupler_->positions_lb(), Eigen::Matrix3Xd::Zero(3, n_));
+    record(0, nullptr);
+    watch_.heard(Clock::now());
+    for (;;) {
+      if (const auto e = wait_for_fluid_state()) return finish(*e);
+      const cosimlcm::fluid_state_t m = std::move(*pending_);
+      pending_.reset();
+      if (const auto e = interval(m)) return finish(*e);
+      seq_.advance();
+      if (std::optional<cosimlcm::fluid_state_t> held = early_.take(seq_.expected_step()))
+        offer(std::move(*held));
+      early_.drop_before(seq_.expected_step());
+      progress();
+      if (fatal_) return finish(*fatal_);
+    }
+  }
+
+ private:
+  static std::chrono::milliseconds resend_after_ms(const CouplingSettings& c) {
+    return std::chrono::milliseconds(
+        std::max<long long>(1, static_cast<long long>(std::floor(c.resend_after_s * 1e3))));
+  }
+  static std::chrono::milliseconds peer_timeout_ms(const CouplingSettings& c) {
+    // Above resend_after_ms whenever resend_after_s < peer_timeout_s (the scene's rule).
+    return std::chrono::milliseconds(
+        std::max<long long>(resend_after_ms(c).count() + 1,
+                            static_cast<long long>(std::ceil(c.peer_timeout_s * 1e3))));
+  }
+
+  // ---- set-up ----
+
+  std::optional<Ending> build() {
+    try {
+      model_ = make_solid_model(s_.model, s_.config);
+    } catch (const std::invalid_argument& e) {
+      return Ending{exit_code::bad_input, s_.path + ": solid.model = \"" + s_.model + "\": " + e.what()};
+    } catch (const std::runtime_error& e) {
+      return Ending{exit_code::bad_input, s_.path + ": solid.model = \"" + s_.model +
+                                              "\": the construction failed: " + e.what()};
+    }
+    n_ = model_->num_cgps();
+    if (n_ < 1 || n_ > std::numeric_limits<std::int32_t>::max())
+      return Ending{exit_code::bad_input,
+                    s_.path + ": " + std::to_string(n_) +
+                        " CGPs; a coupled run exchanges 1 to 2^31 - 1 markers (int32 num_cgps)"};
+    coupler_ = std::make_unique<SolidCoupler>(*model_, units_, marker_areas_lb(s_.config.sheets, units_),
+                                              kOriginLb);
+    return std::nullopt;
+  }
+
+  /// The model's stable substep in seconds; a model without dynamics (rigid: +infinity)
+  /// announces the largest double, since hello_t carries positive finite numbers only.
+  double stable_dt_cg_s() const {
+    const double s = model_->stable_time_step() * PhysicalConstants::time_au_s;
+    return std::isfinite(s) ? s : std::numeric_limits<double>::max();
+  }
+
+  void print_header() {
+    out_ << "solid: coupled scene " << s_.name << (s_.description.empty() ? "" : ": ")
+         << s_.description << " (" << s_.path << ")\n";
+    out_ << indent(model_->startup_report());
+    out_ << "  sheets   " << s_.config.sheets.size() << " sheet(s), " << n_ << " CGPs (markers)\n";
+    for (std::size_t k = 0; k < s_.config.sheets.size(); ++k) {
+      const SheetSpec& sh = s_.config.sheets[k];
+      char line[512];
+      std::snprintf(line, sizeof line,
+                    "    sheet %zu: %d x %d CGPs, spacing %.4g x %.4g um = %.4g x %.4g dx, "
+                    "theta %.4g deg, %d clamped row(s), base (%.4g, %.4g, %.4g) um\n",
+                    k, sh.nx_cg, sh.ny_cg, um_from_bohr(sh.width_spacing_bohr),
+                    um_from_bohr(sh.height_spacing_bohr), units_.length_lb_from_bohr(sh.width_spacing_bohr),
+                    units_.length_lb_from_bohr(sh.height_spacing_bohr), sh.theta_deg, sh.clamped_rows,
+                    um_from_bohr(sh.base_bohr[0]), um_from_bohr(sh.base_bohr[1]),
+                    um_from_bohr(sh.base_bohr[2]));
+      out_ << line;
+    }
+    const double stable = model_->stable_time_step() * PhysicalConstants::time_au_s;
+    out_ << "  units    dx = " << fmt("%.6g", units_.dx_m() / kMicrometre)
+         << " um, dt_LB = " << fmt("%.6g", units_.dt_lb_s()) << " s, A_T = " << c_.time_ratio
+         << ", dt_CG = " << fmt("%.6g", units_.dt_cg_s()) << " s; stable step of the model "
+         << (std::isfinite(stable) ? fmt("%.6g s", stable) + " (dt_CG is " +
+                                         fmt("%.3g", units_.dt_cg_s() / stable) + " of it" +
+                                         (units_.dt_cg_s() > stable ? ": the coordinator will refuse it)" : ")")
+                                   : std::string("none (no dynamics)"))
+         << "\n";
+    out_ << "  coupling channels " << ch_.prefix << "*, LCM " << c_.lcm_url
+         << ", rigid_steps " << c_.rigid_steps << " (the welcome_t's count), timeouts: handshake "
+         << fmt("%g", c_.handshake_timeout_s) << " s, peer " << fmt("%g", c_.peer_timeout_s)
+         << " s, resend after " << fmt("%g", c_.resend_after_s) << " s; output " << s_.output_dir
+         << "\n";
+    out_.flush();
+  }
+
+  std::optional<Ending> open_output() {
+    std::error_code ec;
+    std::filesystem::create_directories(s_.output_dir, ec);
+    if (ec)
+      return Ending{exit_code::system,
+                    "cannot create the output directory " + s_.output_dir + ": " + ec.message()};
+    return std::nullopt;
+  }
+
+  std::optional<Ending> open_bus() {
+    if (o_.bus != nullptr) {
+      bus_ = o_.bus;
+    } else {
+      own_bus_ = std::make_unique<lcm::LCM>(c_.lcm_url);
+      if (!own_bus_->good())
+        return Ending{exit_code::system,
+                      "cannot open LCM at " + c_.lcm_url +
+                          " (for udpm: is the loopback interface up with a multicast route?)"};
+      bus_ = own_bus_.get();
+    }
+    subs_.push_back(bus_->subscribe(ch_.welcome, &CoupledSolid::on_welcome, this));
+    subs_.push_back(bus_->subscribe(ch_.fluid_state, &CoupledSolid::on_fluid_state, this));
+    subs_.push_back(bus_->subscribe(ch_.resend, &CoupledSolid::on_resend, this));
+    subs_.push_back(bus_->subscribe(ch_.stop, &CoupledSolid::on_stop, this));
+    for (const lcm::Subscription* sub : subs_)
+      if (sub == nullptr)
+        return Ending{exit_code::system, "cannot subscribe to the channels " + ch_.prefix + "* on " +
+                                             c_.lcm_url};
+    return std::nullopt;
+  }
+
+  // ---- the handshake (section 6) ----
+
+  cosimlcm::hello_t make_hello() const {
+    cosimlcm::hello_t h{};
+    h.token = o_.token;
+    h.role = "solid";
+    h.model = s_.model;
+    h.version = kProtocolVersion;
+    h.scene_hash = protocol::scene_hash_of_file(s_.path);
+    h.dx_m = units_.dx_m();
+    h.dt_lb_s = units_.dt_lb_s();
+    h.sound_speed_m_s = units_.inputs().sound_speed_m_s;
+    h.air_density_kg_m3 = units_.air_density_kg_m3();
+    h.time_ratio = c_.time_ratio;
+    h.dt_cg_s = units_.dt_cg_s();
+    h.stable_dt_cg_s = stable_dt_cg_s();
+    h.num_cgps = static_cast<std::int32_t>(n_);
+    return h;
+  }
+
+  std::optional<Ending> handshake() {
+    cosimlcm::hello_t hello{};
+    try {
+      hello = make_hello();
+    } catch (const std::runtime_error& e) {  // the scene file cannot be hashed
+      return Ending{exit_code::system, e.what()};
+    }
+    const Clock::time_point deadline = Clock::now() + seconds(c_.handshake_timeout_s);
+    Clock::time_point next_hello = Clock::now();
+    while (!welcome_) {
+      if (fatal_) return fatal_;
+      if (stop_) return peer_stop();
+      const Clock::time_point now = Clock::now();
+      if (now >= deadline)
+        return Ending{exit_code::peer_lost,
+                      "no welcome_t on " + ch_.welcome + " within handshake_timeout_s = " +
+                          fmt("%g", c_.handshake_timeout_s) + " s (" + std::to_string(hellos_) +
+                          " hello_t sent); is the fluid running with the same token, channel "
+                          "prefix and LCM URL?",
+                      true};
+      if (now >= next_hello) {
+        publish(ch_.hello, hello);
+        ++hellos_;
+        next_hello = now + kHelloEvery;
+      }
+      pump(std::min(next_hello, deadline) - Clock::now());
+    }
+    const cosimlcm::welcome_t& w = *welcome_;
+    if (!w.accepted) {
+      const std::string why = one_line(w.reason);
+      return Ending{exit_code::bad_input,
+                    why.rfind("handshake refused", 0) == 0 ? why : "handshake refused: " + why};
+    }
+    const auto malformed = [&](const std::string& what) {
+      return Ending{exit_code::bad_input, "welcome_t: " + what, true};
+    };
+    if (w.time_ratio != c_.time_ratio)
+      return malformed("time_ratio = " + std::to_string(w.time_ratio) +
+                       ", but this solid runs A_T = " + std::to_string(c_.time_ratio) +
+                       " ([coupling] time_ratio)");
+    if (w.total_steps < 1) return malformed("total_steps = " + std::to_string(w.total_steps) + ", expected >= 1");
+    if (w.rigid_steps < 0) return malformed("rigid_steps = " + std::to_string(w.rigid_steps) + ", expected >= 0");
+    total_steps_ = w.total_steps;
+    rigid_steps_ = w.rigid_steps;
+    return std::nullopt;
+  }
+
+  // ---- the lock-step loop (sections 5, 7, 8) ----
+
+  /// Waits until the awaited fluid_state_t is accepted (pending_), asking for it again
+  /// after every resend_after_s of silence; an ending on stop_t, a timeout or an LCM error.
+  std::optional<Ending> wait_for_fluid_state() {
+    while (!pending_) {
+      if (fatal_) return fatal_;
+      if (stop_) return peer_stop();
+      pump(std::chrono::milliseconds(kPollMs));
+      if (pending_ || stop_ || fatal_) continue;
+      switch (watch_.poll(Clock::now())) {
+        case protocol::PeerWatch::Action::Wait:
+          break;
+        case protocol::PeerWatch::Action::Resend:
+          request_resend();
+          break;
+        case protocol::PeerWatch::Action::GiveUp:
+          return Ending{exit_code::peer_lost,
+                        "the fluid was silent for " + fmt("%g", c_.peer_timeout_s) +
+                            " s (peer_timeout_s) while the solid waited for fluid_state_t of step " +
+                            std::to_string(seq_.expected_step()) + " on " + ch_.fluid_state + " (" +
+                            std::to_string(watch_.resends_since_heard()) + " resend_t sent)",
+                        true};
+      }
+      progress();
+    }
+    return std::nullopt;
+  }
+
+  /// The checks of section 5 on an accepted fluid_state_t: sizes (2), finite and rho > 0 (3).
+  std::optional<Ending> check_fluid_state(const cosimlcm::fluid_state_t& m) const {
+    const std::string where = "fluid_state_t of step " + std::to_string(m.step) + ": ";
+    const auto malformed = [&](const std::string& what) {
+      return Ending{exit_code::bad_input, where + what, true};
+    };
+    if (m.step >= total_steps_)
+      return malformed("the run has total_steps = " + std::to_string(total_steps_) +
+                       " (welcome_t); the last fluid_state_t is for step " +
+                       std::to_string(total_steps_ - 1));
+    if (m.num_cgps != n_)
+      return malformed("num_cgps = " + std::to_string(m.num_cgps) + ", expected " +
+                       std::to_string(n_) + " (the solid's hello_t)");
+    if (std::ssize(m.rho_lb) != n_ || std::ssize(m.velocity_lb) != n_)
+      return malformed("rho_lb has " + std::to_string(m.rho_lb.size()) + " and velocity_lb " +
+                       std::to_string(m.velocity_lb.size()) + " entries, expected " +
+                       std::to_string(n_));
+    for (std::size_t l = 0; l < m.velocity_lb.size(); ++l)
+      if (m.velocity_lb[l].size() != 3)
+        return malformed("velocity_lb[" + std::to_string(l) + "] has " +
+                         std::to_string(m.velocity_lb[l].size()) + " components, expected 3");
+    for (std::size_t l = 0; l < m.rho_lb.size(); ++l) {
+      const auto unhealthy = [&](const std::string& what) {
+        return Ending{exit_code::unhealthy,
+                      where + describe_cgp(s_.config, static_cast<Eigen::Index>(l)) + ": " + what,
+                      true};
+      };
+      if (!std::isfinite(m.rho_lb[l]))
+        return unhealthy("rho_lb = " + fmt("%g", m.rho_lb[l]) + " is not finite");
+      if (!(m.rho_lb[l] > 0.0))
+        return unhealthy("rho_lb = " + fmt("%g", m.rho_lb[l]) + "; the density must be > 0");
+      for (std::size_t c = 0; c < 3; ++c)
+        if (!std::isfinite(m.velocity_lb[l][c]))
+          return unhealthy("velocity_lb[" + std::to_string(c) + "] = " +
+                           fmt("%g", m.velocity_lb[l][c]) + " is not finite");
+    }
+    return std::nullopt;
+  }
+
+  /// One LB interval for fluid_state_t(m) (section 5, steps 1-4).
+  std::optional<Ending> interval(const cosimlcm::fluid_state_t& m) {
+    if (const auto e = check_fluid_state(m)) return e;
+    FluidSample sample;
+    sample.rho_lb.resize(n_);
+    sample.velocity_lb.resize(3, n_);
+    for (Eigen::Index l = 0; l < n_; ++l) {
+      const auto k = static_cast<std::size_t>(l);
+      sample.rho_lb[l] = m.rho_lb[k];
+      for (Eigen::Index c = 0; c < 3; ++c)
+        sample.velocity_lb(c, l) = m.velocity_lb[k][static_cast<std::size_t>(c)];
+    }
+    const bool rigid = m.step < rigid_steps_;
+    IntervalResult r;
+    try {
+      r = coupler_->advance(sample, rigid);
+    } catch (const std::exception& e) {
+      if (const std::string bad = non_finite_state(); !bad.empty())
+        return Ending{exit_code::unhealthy, "non-finite solid state in the interval of step " +
+                                                std::to_string(m.step) + ": " + bad, true};
+      return Ending{exit_code::system, "the interval of step " + std::to_string(m.step) + ": " +
+                                           one_line(e.what()), true};
+    }
+    std::string bad = non_finite_state();
+    if (bad.empty() && !(r.position_lb.allFinite() && r.impulse_lb.allFinite()))
+      bad = "a non-finite position or impulse for the fluid";
+    if (!bad.empty())
+      return Ending{exit_code::unhealthy, "non-finite solid state after the interval of step " +
+                                              std::to_string(m.step) + ": " + bad, true};
+    total_substeps_ += r.substeps;
+    publish_state(m.step, r.substeps, r.position_lb, r.impulse_lb);
+    record(m.step, &r);
+    return std::nullopt;
+  }
+
+  /// The first CGP with a non-finite position or velocity, as a diagnosis; "" if none.
+  std::string non_finite_state() const {
+    const Eigen::Matrix3Xd& x = model_->positions();
+    const Eigen::Matrix3Xd& v = model_->velocities();
+    if (x.allFinite() && v.allFinite()) return "";
+    for (Eigen::Index l = 0; l < x.cols(); ++l) {
+      const bool bad_x = !x.col(l).allFinite(), bad_v = !v.col(l).allFinite();
+      if (bad_x || bad_v)
+        return describe_cgp(s_.config, l) + ": " + (bad_x ? "position" : "velocity") + " not finite";
+    }
+    return "";
+  }
+
+  // ---- publishing ----
+
+  template <class Message>
+  void publish(const std::string& channel, const Message& m) {
+    if (bus_->publish(channel, &m) != 0 && !fatal_)
+      fatal_ = Ending{exit_code::system, "cannot publish on " + channel + " (LCM at " + c_.lcm_url + ")",
+                      true};
+  }
+
+  void publish_state(std::int64_t step, int substeps, const Eigen::Matrix3Xd& x,
+                     const Eigen::Matrix3Xd& j) {
+    cosimlcm::solid_state_t m{};
+    m.token = o_.token;
+    m.seq = solid_seq_++;
+    m.step = step;
+    m.substeps = substeps;
+    m.solid_time_s = static_cast<double>(total_substeps_) * units_.dt_cg_s();
+    m.num_cgps = static_cast<std::int32_t>(n_);
+    m.position_lb.assign(static_cast<std::size_t>(n_), std::vector<double>(3));
+    m.impulse_lb.assign(static_cast<std::size_t>(n_), std::vector<double>(3));
+    for (Eigen::Index l = 0; l < n_; ++l)
+      for (Eigen::Index c = 0; c < 3; ++c) {
+        m.position_lb[static_cast<std::size_t>(l)][static_cast<std::size_t>(c)] = x(c, l);
+        m.impulse_lb[static_cast<std::size_t>(l)][static_cast<std::size_t>(c)] = j(c, l);
+      }
+    publish(ch_.solid_state, m);
+    last_step_ = step;
+    sent_.push_back(std::move(m));
+    while (sent_.size() > kKeptMessages) sent_.pop_front();
+  }
+
+  void request_resend() {
+    cosimlcm::resend_t r{};
+    r.token = o_.token;
+    r.step = seq_.expected_step();
+    r.what = "fluid_state";
+    publish(ch_.resend, r);
+    ++resends_asked_;
+  }
+
+  void publish_stop(int code, const std::string& reason) {
+    cosimlcm::stop_t m{};
+    m.token = o_.token;
+    m.step = last_step_;
+    m.exit_code = code;
+    m.reason = one_line(reason);
+    for (int k = 0; k < kStopCopies; ++k) {
+      if (k > 0) std::this_thread::sleep_for(kStopSpacing);
+      bus_->publish(ch_.stop, &m);  // best effort: the run ends either way
+    }
+  }
+
+  // ---- receiving ----
+
+  /// Dispatches what arrives within `wait` (at most kPollMs at a time, never forever).
+  void pump(Clock::duration wait) {
+    const auto ms = std::chrono::duration_cast<std::chrono::milliseconds>(wait).count();
+    const int timeout = static_cast<int>(std::clamp<long long>(ms, 0, kPollMs));
+    if (bus_->handleTimeout(timeout) < 0 && !fatal_)
+      fatal_ = Ending{exit_code::system, "LCM failed while receiving on " + c_.lcm_url, true};
+  }
+
+  /// Decodes a message of the run; false (counted) if it does not decode or carries another
+  /// run's token.
+  template <class Message>
+  bool receive(const lcm::ReceiveBuffer* rbuf, const std::string& channel, Message& m) {
+    if (m.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size)) < 0) {
+      if (undecodable_[channel]++ == 0)
+        out_ << "solid: a message on " << channel << " does not decode as " << Message::getTypeName()
+             << " (another protocol version on this channel?); such messages are counted and "
+                "ignored\n";
+      return false;
+    }
+    return foreign_->admit(channel, m.token);
+  }
+
+  void on_welcome(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
+    cosimlcm::welcome_t m{};
+    if (!receive(rbuf, channel, m)) return;
+    if (!welcome_) welcome_ = std::move(m);  // later copies answer our repeated hellos
+  }
+
+  void on_fluid_state(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
+    cosimlcm::fluid_state_t m{};
+    if (!receive(rbuf, channel, m)) return;
+    watch_.heard(Clock::now());
+    offer(std::move(m));
+  }
+
+  void offer(cosimlcm::fluid_state_t m) {
+    switch (seq_.offer(m.step, m.seq)) {
+      case protocol::StepSequencer::Verdict::Accept:
+        pending_ = std::move(m);
+        break;
+      case protocol::StepSequencer::Verdict::Early: {
+        const std::int64_t step = m.step;
+        early_.store(step, std::move(m));
+        if (seq_.missing_expected() && welcome_) request_resend();  // a gap: ask at once
+        break;
+      }
+      case protocol::StepSequencer::Verdict::Duplicate:
+      case protocol::StepSequencer::Verdict::Stale:
+        break;  // counted by the sequencer, never applied twice
+    }
+  }
+
+  void on_resend(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
+    cosimlcm::resend_t m{};
+    if (!receive(rbuf, channel, m)) return;
+    if (m.what != "solid_state") return;  // our own request for fluid_state, heard back
+    ++resend_requests_;
+    for (const cosimlcm::solid_state_t& sent : sent_)
+      if (sent.step == m.step) {
+        publish(ch_.solid_state, sent);  // unchanged: same seq, bit for bit
+        ++resends_answered_;
+        return;
+      }
+    // A step not reached yet (it comes when ready) or no longer kept: ignored.
+  }
+
+  void on_stop(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
+    cosimlcm::stop_t m{};
+    if (!receive(rbuf, channel, m)) return;
+    if (!stop_) stop_ = std::move(m);
+  }
+
+  Ending peer_stop() const {
+    const cosimlcm::stop_t& m = *stop_;
+    if (m.exit_code == exit_code::ok) return Ending{exit_code::ok, "", false};
+    return Ending{exit_code::peer_lost,
+                  "the fluid stopped the run at step " + std::to_string(m.step) +
+                      " with exit code " + std::to_string(m.exit_code) + ": " +
+                      (m.reason.empty() ? std::string("(no reason given)") : one_line(m.reason)),
+                  false};
+  }
+
+  // ---- output ----
+
+  /// A row of solid.h5 for step `step`; `r` is the interval that produced it (null: step 0).
+  void record(std::int64_t step, const IntervalResult* r) {
+    const SolidObservables o = model_->observables();
+    if (series_.sheets == 0) series_.sheets = static_cast<int>(s_.config.sheets.size());
+    const double ek = joule_from_hartree(o.kinetic_energy_au);
+    const double ee = joule_from_hartree(o.elastic_energy_au);
+    series_.step.push_back(step);
+    series_.time_s.push_back(static_cast<double>(step) * units_.dt_lb_s());
+    series_.solid_time_s.push_back(static_cast<double>(total_substeps_) * units_.dt_cg_s());
+    for (std::size_t k = 0; k < s_.config.sheets.size(); ++k) {
+      const SheetSpec& sh = s_.config.sheets[k];
+      const Eigen::Vector3d d = o.marked_displacement_bohr[k];
+      for (int c = 0; c < 3; ++c) series_.displacement_um.push_back(um_from_bohr(d[c]));
+      series_.normal_um.push_back(um_from_bohr(d.dot(sheet_normal(sh))));
+      // The fluid's mean force on the sheet over the interval: -sum_l J_l / dt_LB, every
+      // CGP of the sheet (clamped ones included), lattice force F_LB -> N.
+      Eigen::Vector3d f = Eigen::Vector3d::Zero();
+      if (r != nullptr)
+        f = -r->impulse_lb.middleCols(first_cgp(s_.config, k), sh.num_cgps()).rowwise().sum() *
+            units_.force_lb_N();
+      for (int c = 0; c < 3; ++c) series_.fluid_force_N.push_back(f[c]);
+    }
+    series_.kinetic_J.push_back(ek);
+    series_.elastic_J.push_back(ee);
+    series_.total_J.push_back(ek + ee);
+  }
+
+  std::string output_path() const {
+    return (std::filesystem::path(s_.output_dir) / "solid.h5").string();
+  }
+
+  void write_series() const {
+    const std::string path = output_path();
+    const protocol::H5Quiet quiet;
+    protocol::H5Id file(H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose,
+                        "cannot create " + path);
+    const hid_t f = file.get();
+    const CoupledSeries& s = series_;
+    const hsize_t n = s.rows(), ns = static_cast<hsize_t>(s.sheets);
+    write_dataset(f, "step", H5T_STD_I64LE, H5T_NATIVE_INT64, {n}, s.step.data());
+    write_dataset(f, "time_s", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n}, s.time_s.data());
+    write_dataset(f, "solid_time_s", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n}, s.solid_time_s.data());
+    write_dataset(f, "marked_displacement_um", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n, ns, 3},
+                  s.displacement_um.data());
+    write_dataset(f, "marked_normal_displacement_um", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n, ns},
+                  s.normal_um.data());
+    write_dataset(f, "fluid_force_N", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n, ns, 3},
+                  s.fluid_force_N.data());
+    write_dataset(f, "kinetic_energy_J", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n}, s.kinetic_J.data());
+    write_dataset(f, "elastic_energy_J", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n}, s.elastic_J.data());
+    write_dataset(f, "total_energy_J", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n}, s.total_J.data());
+    write_attribute(f, "scene", s_.name);
+    write_attribute(f, "model", s_.model);
+    write_attribute(f, "mode", "coupled");
+    write_attribute(f, "token", o_.token);
+    write_attribute(f, "dt_s", units_.dt_cg_s());
+    write_attribute(f, "dt_lb_s", units_.dt_lb_s());
+    write_attribute(f, "time_ratio", static_cast<double>(c_.time_ratio));
+    write_attribute(f, "total_steps", static_cast<double>(total_steps_));
+    write_attribute(f, "rigid_steps", static_cast<double>(rigid_steps_));
+    file.close("cannot close " + path);
+  }
+
+  void progress() {
+    if (o_.quiet) return;
+    const Clock::time_point now = Clock::now();
+    if (now - last_progress_ < kProgressEvery) return;
+    last_progress_ = now;
+    const double wall = std::chrono::duration<double>(now - start_).count();
+    const double rate = wall > 0.0 ? static_cast<double>(last_step_) / wall : 0.0;
+    const double left = static_cast<double>(std::max<std::int64_t>(0, total_steps_ - 1 - last_step_));
+    char line[256];
+    std::snprintf(line, sizeof line,
+                  "solid: step %lld/%lld  t = %.4g us  %.3g LB steps/s  ETA %.0f s%s\n",
+                  static_cast<long long>(last_step_), static_cast<long long>(total_steps_),
+                  static_cast<double>(last_step_) * units_.dt_lb_s() * 1e6, rate,
+                  rate > 0.0 ? left / rate : 0.0, last_step_ < rigid_steps_ ? "  (rigid)" : "");
+    err_ << line;
+    err_.flush();
+  }
+
+  std::string counters() const {
+    std::int64_t undecodable = 0;
+    for (const auto& [channel, n] : undecodable_) undecodable += n;
+    return "foreign " + std::to_string(foreign_ ? foreign_->total() : 0) + ", duplicates " +
+           std::to_string(seq_.duplicates()) + ", stale " + std::to_string(seq_.stale()) +
+           ", early " + std::to_string(seq_.early()) + ", resends asked " +
+           std::to_string(resends_asked_) + ", resend requests " + std::to_string(resend_requests_) +
+           " answered " + std::to_string(resends_answered_) + ", undecodable " +
+           std::to_string(undecodable);
+  }
+
+  /// Ends the run: stop_t for our own errors, solid.h5, the counters, the one-line reason.
+  int finish(Ending e) {
+    if (e.publish_stop && bus_ != nullptr) publish_stop(e.code, e.reason);
+    if (series_.rows() > 0) {
+      try {
+        write_series();
+      } catch (const std::exception& x) {
+        if (e.code == exit_code::ok) e = Ending{exit_code::system, one_line(x.what()), false};
+        else err_ << "solid: " << one_line(x.what()) << "\n";
+      }
+    }
+    if (series_.rows() == 0) {
+      out_ << "solid: coupled run stopped before the handshake completed (" << hellos_
+           << " hello_t sent); " << counters() << "\n";
+    } else {
+      const double wall = std::chrono::duration<double>(Clock::now() - start_).count();
+      out_ << "solid: coupled run " << (e.code == exit_code::ok ? "done" : "stopped")
+           << " at step " << last_step_ << " of " << total_steps_ << ", " << total_substeps_
+           << " substeps (" << fmt("%.5g", static_cast<double>(total_substeps_) * units_.dt_cg_s() * 1e6)
+           << " us) in " << fmt("%.1f", wall) << " s; " << counters() << "; " << series_.rows()
+           << " rows in " << output_path() << "\n";
+    }
+    return report(e);
+  }
+
+  int report(const Ending& e) {
+    out_.flush();
+    if (e.code != exit_code::ok) {
+      err_ << "solid: " << one_line(e.reason) << "\n";
+      err_.flush();
+    }
+    return e.code;
+  }
+
+  const SolidScene& s_;
+  const CouplingSettings c_;
+  const CoupledSolidOptions& o_;
+  std::ostream& out_;
+  std::ostream& err_;
+  const protocol::Channels ch_;
+  const UnitConverter units_;
+
+  std::unique_ptr<SolidModel> model_;
+  std::unique_ptr<SolidCoupler> coupler_;
+  Eigen::Index n_ = 0;
+
+  std::unique_ptr<lcm::LCM> own_bus_;
+  lcm::LCM* bus_ = nullptr;
+  std::vector<lcm::Subscription*> subs_;
+
+  std::optional<protocol::ForeignCounter> foreign_;
+  protocol::StepSequencer seq_{1};  // fluid_state_t(1) is the first the solid waits for
+  protocol::PeerWatch watch_;
+  protocol::EarlyBuffer<cosimlcm::fluid_state_t> early_{kEarlyHeld};
+
+  std::optional<cosimlcm::welcome_t> welcome_;
+  std::optional<cosimlcm::stop_t> stop_;
+  std::optional<cosimlcm::fluid_state_t> pending_;
+  std::optional<Ending> fatal_;  // an LCM failure seen inside a handler
+  std::deque<cosimlcm::solid_state_t> sent_;
+
+  std::int64_t total_steps_ = 0, rigid_steps_ = 0;
+  std::int64_t solid_seq_ = 0, last_step_ = 0, total_substeps_ = 0;
+  std::int64_t hellos_ = 0, resends_asked_ = 0, resend_requests_ = 0, resends_answered_ = 0;
+  std::map<std::string, std::int64_t> undecodable_;
+
+  CoupledSeries series_;
+  Clock::time_point start_ = Clock::now(), last_progress_ = start_;
+};
+
+}  // namespace
+
+int run_coupled_solid(const SolidScene& scene, const CoupledSolidOptions& options,
+                      std::ostream& out, std::ostream& err) {
+  if (!scene.coupled()) {
+    err << "solid: " << scene.path << ": not a coupled scene (no [coupling] section)\n";
+    return exit_code::bad_input;
+  }
+  if (!options.check_only && options.token.empty()) {
+    err << "solid: a coupled scene needs the run's token: --token TOKEN or the environment "
+           "variable COSIM_RUN_TOKEN (the launcher draws one per run)\n";
+    return exit_code::bad_input;
+  }
+  try {
+    CoupledSolid run(scene, options, out, err);
+    return run.run();
+  } catch (const std::exception& e) {
+    out.flush();
+    err << "solid: " << one_line(e.what()) << "\n";
+    return exit_code::system;
+  }
+}
+
+}  // namespace cosim::solid

@@ -1,0 +1,109 @@
+// The coupled run as two processes over LCM, started by launch/run-coupled.sh (in a private
+// network namespace when root): it completes, and a killed peer stops the other.
+#include <gtest/gtest.h>
+#include <signal.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <thread>
+
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+const fs::path kSource = COSIM_SOURCE_DIR;
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+fs::path scratch(const std::string& name) {
+  const fs::path dir = fs::path(::testing::TempDir()) / ("cosim_" + name);
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+/// The small coupled scene with some keys replaced (a line "key = ..." per entry).
+fs::path scene_with(const fs::path& dir, const std::vector<std::pair<std::string, std::string>>& edits) {
+  std::istringstream in(slurp(kSource / "scenes" / "coupled_small.toml"));
+  std::ostringstream out;
+  for (std::string line; std::getline(in, line);) {
+    for (const auto& [key, value] : edits)
+      if (line.rfind(key + " ", 0) == 0 || line.rfind(key + "=", 0) == 0) line = key + " = " + value;
+    out << line << "\n";
+  }
+  const fs::path p = dir / "scene.toml";
+  std::ofstream(p) << out.str();
+  return p;
+}
+
+int run_launcher(const fs::path& scene, const fs::path& output, const std::string& extra = "") {
+  const std::string cmd = "bash " + (kSource / "launch" / "run-coupled.sh").string() + " " +
+                          scene.string() + " --output " + output.string() +
+                          " --no-build --quiet " + extra + " >" + (output / "launcher.log").string() +
+                          " 2>&1";
+  const int s = std::system(cmd.c_str());
+  return WIFEXITED(s) ? WEXITSTATUS(s) : -1;
+}
+
+TEST(TwoProcess, TwoProcessRunCompletes) {
+  const fs::path dir = scratch("two_process");
+  const fs::path out = dir / "out";
+  fs::create_directories(out);
+  const int status = run_launcher(kSource / "scenes" / "coupled_small.toml", out);
+  EXPECT_EQ(status, 0) << slurp(out / "launcher.log") << slurp(out / "fluid.log") << slurp(out / "solid.log");
+  EXPECT_EQ(slurp(out / "fluid.exit"), "0\n");
+  EXPECT_EQ(slurp(out / "solid.exit"), "0\n");
+  EXPECT_TRUE(fs::exists(out / "monitor.h5"));
+  EXPECT_TRUE(fs::exists(out / "solid.h5"));
+  EXPECT_NE(slurp(out / "fluid.log").find("coupled run done, 200 LB steps"), std::string::npos)
+      << slurp(out / "fluid.log");
+  fs::remove_all(dir);
+}
+
+TEST(TwoProcess, PeerDeathStopsTheOther) {
+  const fs::path dir = scratch("peer_death");
+  const fs::path out = dir / "out";
+  fs::create_directories(out);
+  const double timeout_s = 3.0;
+  const fs::path scene = scene_with(dir, {{"steps", "100000"}, {"peer_timeout_s", "3"}});
+  std::thread launcher([&] { run_launcher(scene, out); });
+  // Wait until the run is under way (the solid is past the handshake and stepping).
+  const Clock::time_point t0 = Clock::now();
+  bool running = false;
+  while (Clock::now() - t0 < std::chrono::seconds(60)) {
+    if (slurp(out / "fluid.log").find("handshake accepted") != std::string::npos &&
+        fs::exists(out / "solid.pid")) {
+      running = true;
+      break;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  ASSERT_TRUE(running) << slurp(out / "fluid.log") << slurp(out / "solid.log");
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  const pid_t solid = std::stoi(slurp(out / "solid.pid"));
+  const Clock::time_point killed = Clock::now();
+  ASSERT_EQ(kill(solid, SIGKILL), 0);
+  // The fluid notices within its peer timeout, exits 4 with the reason.
+  while (!fs::exists(out / "fluid.exit") && Clock::now() - killed < std::chrono::seconds(60))
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  const double took = std::chrono::duration<double>(Clock::now() - killed).count();
+  launcher.join();
+  EXPECT_EQ(slurp(out / "solid.exit"), "137\n");
+  EXPECT_EQ(slurp(out / "fluid.exit"), "4\n") << slurp(out / "fluid.log");
+  EXPECT_LT(took, timeout_s + 5.0);
+  EXPECT_NE(slurp(out / "fluid.log").find("the solid was silent for"), std::string::npos)
+      << slurp(out / "fluid.log");
+  fs::remove_all(dir);
+}
+
+}  // namespace
