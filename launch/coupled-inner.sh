@@ -13,20 +13,27 @@ if [ "$(id -u)" -eq 0 ]; then
   ip route add 224.0.0.0/4 dev lo 2>/dev/null || true
 fi
 
+url=$(sed -n 's/^[[:space:]]*lcm_url[[:space:]]*=[[:space:]]*"\(.*\)".*/\1/p' "$scene" | head -1)
+url=${url:-udpm://239.255.76.67:7667?ttl=0}
+export COSIM_CHANNEL_PREFIX=$prefix COSIM_LCM_URL=$url
 logger_pid=""
 if [ "$log" -eq 1 ]; then
-  url=$(sed -n 's/^[[:space:]]*lcm_url[[:space:]]*=[[:space:]]*"\(.*\)".*/\1/p' "$scene" | head -1)
-  url=${url:-udpm://239.255.76.67:7667?ttl=0}
   lcm-logger -f -c "${prefix}.*" -l "$url" "$output/traffic.lcmlog" >"$output/logger.log" 2>&1 &
   logger_pid=$!
   sleep 0.3
+fi
+
+extra_pid=""
+if [ -n "${COSIM_EXTRA_CMD:-}" ]; then
+  bash -c "$COSIM_EXTRA_CMD" >"$output/extra.log" 2>&1 &
+  extra_pid=$!
 fi
 
 "$root/build/fluid/fluid" "$scene" --output "$output" --channel-prefix "$prefix" $quiet \
   >"$output/fluid.log" 2>&1 &
 fluid=$!
 echo $fluid >"$output/fluid.pid"
-"$root/build/solid/solid" "$scene" --output "$output" --channel-prefix "$prefix" $quiet \
+${COSIM_SOLID_CMD:-$root/build/solid/solid} "$scene" --output "$output" --channel-prefix "$prefix" $quiet \
   >"$output/solid.log" 2>&1 &
 solid=$!
 echo $solid >"$output/solid.pid"
@@ -52,6 +59,7 @@ else
 fi
 echo $s_other >"$output/$other.exit"
 [ -n "$logger_pid" ] && kill -INT $logger_pid 2>/dev/null && wait $logger_pid 2>/dev/null
+[ -n "$extra_pid" ] && kill -TERM $extra_pid 2>/dev/null && wait $extra_pid 2>/dev/null
 
 for n in fluid solid; do
   s=$(cat "$output/$n.exit")

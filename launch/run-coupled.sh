@@ -3,6 +3,13 @@
 # as two processes talking over LCM (DESIGN 2.3, protocol/README.md).
 #
 #   bash launch/run-coupled.sh SCENE.toml [--output DIR] [--log] [--no-build] [--quiet]
+#                              [--solid-cmd CMD] [--extra CMD]
+#
+# --solid-cmd replaces build/solid/solid with another solid process that speaks the
+# protocol (it gets the same arguments: SCENE --output DIR --channel-prefix P [--quiet],
+# and the token in COSIM_RUN_TOKEN). --extra starts one more process in the same network
+# namespace for the run's duration (tests use it for a foreign publisher); it sees
+# COSIM_CHANNEL_PREFIX and COSIM_LCM_URL and is stopped at the end.
 #
 # As root, both processes run in a private network namespace (unshare -n; lo up with
 # multicast, 224.0.0.0/4 routed to lo), so no packet leaves this machine; otherwise they
@@ -15,16 +22,18 @@
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 
-usage() { echo "usage: bash launch/run-coupled.sh SCENE.toml [--output DIR] [--log] [--no-build] [--quiet]" >&2; exit 2; }
+usage() { echo "usage: bash launch/run-coupled.sh SCENE.toml [--output DIR] [--log] [--no-build] [--quiet] [--solid-cmd CMD] [--extra CMD]" >&2; exit 2; }
 [ $# -ge 1 ] || usage
 scene=$1; shift
-output=""; log=0; build=1; quiet=""
+output=""; log=0; build=1; quiet=""; solid_cmd=""; extra=""
 while [ $# -gt 0 ]; do
   case "$1" in
     --output) [ $# -ge 2 ] || usage; output=$2; shift 2 ;;
     --log) log=1; shift ;;
     --no-build) build=0; shift ;;
     --quiet) quiet="--quiet"; shift ;;
+    --solid-cmd) [ $# -ge 2 ] || usage; solid_cmd=$2; shift 2 ;;
+    --extra) [ $# -ge 2 ] || usage; extra=$2; shift 2 ;;
     *) echo "run-coupled: unknown option $1" >&2; usage ;;
   esac
 done
@@ -45,6 +54,8 @@ token=$(od -An -N8 -tx1 /dev/urandom | tr -d ' \n')
 prefix="COSIM_${token:0:8}_"
 export COSIM_RUN_TOKEN=$token
 
+export COSIM_SOLID_CMD=${solid_cmd:-$root/build/solid/solid}
+export COSIM_EXTRA_CMD=$extra
 inner=(bash "$root/launch/coupled-inner.sh" "$root" "$scene" "$output" "$prefix" "$log" "$quiet")
 echo "run-coupled: scene $scene, token $token, channels ${prefix}*, output $output"
 if [ "$(id -u)" -eq 0 ] && command -v unshare >/dev/null 2>&1; then
