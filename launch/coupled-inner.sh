@@ -37,6 +37,9 @@ ${COSIM_SOLID_CMD:-$root/build/solid/solid} "$scene" --output "$output" --channe
   >"$output/solid.log" 2>&1 &
 solid=$!
 echo $solid >"$output/solid.pid"
+if [ -z "$quiet" ]; then  # show the fluid's monitor lines (and the solid's end) as they come
+  tail -n +1 -f --pid=$fluid "$output/fluid.log" &
+fi
 
 # Wait for the first to end (wait -n -p: bash 5.1; a finished child stays a zombie, so
 # kill -0 cannot tell).

@@ -25,8 +25,8 @@ namespace cosim::protocol {
 /// Lock-step sequencing of one incoming channel.
 ///
 /// The consumer waits for exactly expected_step(). Each arriving message is offered with its
-/// step and its sequence number `seq` (the sender's publish counter on that channel,
-/// incremented on every publish, resends included):
+/// step and its sequence number `seq` (the sender's message counter on that channel;
+/// a resend republishes a message unchanged, its seq included; protocol/README.md 7):
 ///  - Accept:    step == expected_step(), the first copy: apply it (exactly once).
 ///  - Duplicate: step == expected_step() again after an Accept: drop it (handlers are
 ///               idempotent per step).
