@@ -62,14 +62,16 @@ IntervalResult SolidCoupler::advance(const FluidSample& sample, bool rigid) {
 
   const int a_t = units_.inputs().time_ratio;
   const double dt_au = units_.dt_cg_s() / protocol::PhysicalConstants::time_au_s;
-  r.position_lb = 0.5 * positions_lb();
+  // Trapezoid sum of the positions over the substep boundaries, in bohr (converted once).
+  Eigen::Matrix3Xd position_sum = 0.5 * model_.positions();
+  const double b_v = units_.velocity_ratio(), b_f = units_.force_ratio();  // Eq. 32
   for (int k = 0; k < a_t; ++k) {
     for (Eigen::Index l = 0; l < n; ++l) {
       const double rho_da = 2.0 * sample.rho_lb[l] * area_[static_cast<std::size_t>(l)];
       for (int c = 0; c < 3; ++c) {
-        const double u_b = units_.velocity_lb_from_au(model_.velocities()(c, l));
+        const double u_b = b_v * model_.velocities()(c, l);
         const double g_da = rho_da * (u_b - sample.velocity_lb(c, l));  // on the fluid (Eq. 19)
-        force_au_(c, l) = units_.force_au_from_lb(-g_da);               // on the CGP (Eq. 20)
+        force_au_(c, l) = -g_da / b_f;                                  // on the CGP (Eq. 20)
       }
     }
     model_.substep(dt_au, force_au_);
@@ -79,10 +81,13 @@ IntervalResult SolidCoupler::advance(const FluidSample& sample, bool rigid) {
     // the fluid's units: -F_CGP dt_CG / (F_LB dt_LB) = -F_CGP,lb / A_T.
     for (Eigen::Index l = 0; l < n; ++l)
       for (int c = 0; c < 3; ++c)
-        r.impulse_lb(c, l) -= units_.force_lb_from_au(force_au_(c, l)) / a_t;
-    r.position_lb += (k + 1 < a_t ? 1.0 : 0.5) * positions_lb();
+        r.impulse_lb(c, l) -= b_f * force_au_(c, l) / a_t;
+    position_sum += (k + 1 < a_t ? 1.0 : 0.5) * model_.positions();
   }
-  r.position_lb /= a_t;
+  r.position_lb.resize(3, n);
+  for (Eigen::Index l = 0; l < n; ++l)
+    for (int c = 0; c < 3; ++c)
+      r.position_lb(c, l) = units_.length_lb_from_bohr(position_sum(c, l) / a_t) + origin_[c];
   r.substeps = a_t;
   return r;
 }
