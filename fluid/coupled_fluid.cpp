@@ -356,7 +356,7 @@ class CoupledFluid {
   void on_stop(const lcm::ReceiveBuffer*, const std::string& channel, const cosimlcm::stop_t* m) {
     if (!foreign_.admit(channel, m->token)) return;
     if (stop_) return;
-    stop_ = Ending{m->exit_code == 0 ? kPeerLost : kPeerLost,
+    stop_ = Ending{m->exit_code == 0 ? kOk : kPeerLost,
                    "the solid stopped at step " + std::to_string(m->step) + " with exit code " +
                        std::to_string(m->exit_code) + ": " + m->reason};
   }
