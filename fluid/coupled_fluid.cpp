@@ -344,8 +344,9 @@ class CoupledFluid {
 
   void on_resend(const lcm::ReceiveBuffer*, const std::string& channel, const cosimlcm::resend_t* m) {
     if (!foreign_.admit(channel, m->token)) return;
-    if (m->what != "fluid_state") return;  // our own requests come back on the bus
-    watch_.heard(Clock::now());
+    // Our own requests come back on the bus. A peer's request is not news of progress
+    // (protocol/README.md 7-8): silence counts from the last message applied.
+    if (m->what != "fluid_state") return;
     for (const cosimlcm::fluid_state_t& f : sent_)
       if (f.step == m->step) {
         lcm_.publish(ch_.fluid_state, &f);

@@ -246,7 +246,6 @@ typedef struct {
   lcm_t *lcm;
   const char *token;
   char ch_hello[64], ch_welcome[64], ch_solid[64], ch_fluid[64], ch_resend[64], ch_stop[64];
-  int quiet;
   int32_t n;          /* markers */
   double (*x0)[3];    /* initial marker positions, lattice coordinates */
   double dA;          /* surface element of a marker, dx^2 */
@@ -610,11 +609,11 @@ static int run(int argc, char **argv) {
   if (!token || !*token) return usage("no run token: give --token T or set COSIM_RUN_TOKEN");
   if (!valid_prefix(prefix)) return usage("channel prefix: 1 to 32 characters from A-Z a-z 0-9 _ are allowed");
   if (!valid_url(url)) return usage("LCM URL: udpm://...?ttl=0 or memq:// is allowed");
+  if (s.nx_cg * s.ny_cg > 1000000) return usage("[[sheet]] nx_cg x ny_cg: at most 1000000 markers are allowed");
 
   Plate p;
   memset(&p, 0, sizeof p);
   p.token = token;
-  p.quiet = quiet;
   p.amplitude = amplitude;
   p.omega = 2.0 * kPi / period;
   p.time_ratio = s.time_ratio;
