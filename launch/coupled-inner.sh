@@ -18,9 +18,13 @@ url=${url:-udpm://239.255.76.67:7667?ttl=0}
 export COSIM_CHANNEL_PREFIX=$prefix COSIM_LCM_URL=$url
 logger_pid=""
 if [ "$log" -eq 1 ]; then
-  lcm-logger -f -c "${prefix}.*" -l "$url" "$output/traffic.lcmlog" >"$output/logger.log" 2>&1 &
+  lcm-logger -f -c "${prefix}.*" --lcm-url="$url" "$output/traffic.lcmlog" >"$output/logger.log" 2>&1 &
   logger_pid=$!
   sleep 0.3
+  if ! kill -0 $logger_pid 2>/dev/null; then
+    echo "run-coupled: lcm-logger did not start: $(head -1 "$output/logger.log")" >&2
+    exit 1
+  fi
 fi
 
 extra_pid=""

@@ -59,12 +59,15 @@ TEST(TwoProcess, TwoProcessRunCompletes) {
   const fs::path dir = scratch("two_process");
   const fs::path out = dir / "out";
   fs::create_directories(out);
-  const int status = run_launcher(kSource / "scenes" / "coupled_small.toml", out);
+  const int status = run_launcher(kSource / "scenes" / "coupled_small.toml", out, "--log");
   EXPECT_EQ(status, 0) << slurp(out / "launcher.log") << slurp(out / "fluid.log") << slurp(out / "solid.log");
   EXPECT_EQ(slurp(out / "fluid.exit"), "0\n");
   EXPECT_EQ(slurp(out / "solid.exit"), "0\n");
   EXPECT_TRUE(fs::exists(out / "monitor.h5"));
   EXPECT_TRUE(fs::exists(out / "solid.h5"));
+  // --log: lcm-logger recorded the run's channels (every LB step in both directions).
+  ASSERT_TRUE(fs::exists(out / "traffic.lcmlog")) << slurp(out / "launcher.log");
+  EXPECT_GT(fs::file_size(out / "traffic.lcmlog"), 200u * 2u * 100u);
   EXPECT_NE(slurp(out / "fluid.log").find("coupled run done, 200 LB steps"), std::string::npos)
       << slurp(out / "fluid.log");
   fs::remove_all(dir);
