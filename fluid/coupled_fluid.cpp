@@ -18,6 +18,7 @@
 #include "cosimlcm/solid_state_t.hpp"
 #include "cosimlcm/stop_t.hpp"
 #include "cosimlcm/welcome_t.hpp"
+#include "fluid/field_writer.hpp"
 #include "fluid/flow_monitor.hpp"
 #include "fluid/fluid_solver.hpp"
 #include "fluid/immersed_boundary.hpp"
@@ -80,6 +81,11 @@ class CoupledFluid {
     const FlowSummary first = summarize(solver);
     const double mass0 = first.mass;
     log.append(first);
+    std::optional<FieldWriter> fields;
+    if (s_.fields_every > 0) {
+      fields.emplace(s_.output_dir, s_.dx_um, dt_us);
+      fields->write(solver);
+    }
 
     const auto n = static_cast<std::size_t>(num_cgps_);
     std::vector<Vec3> x(n), j(n);
@@ -111,6 +117,15 @@ class CoupledFluid {
         log.append(sum);
         out_ << format_summary(sum, dt_us, mass0) << "\n";
         out_.flush();
+      }
+      if (fields && ((step + 1) % s_.fields_every == 0 || last)) {
+        // Only a healthy state is written: check it if the monitor did not just now.
+        if ((step + 1) % s_.monitor_every != 0 && !last) {
+          const std::string problem = health_problem(summarize(solver), limits);
+          if (!problem.empty())
+            return end({kUnhealthy, "unhealthy flow after step " + std::to_string(step + 1) + ": " + problem});
+        }
+        fields->write(solver);
       }
       if (!last) {
         ib.sample(solver, x, samples);  // Eq. 17 at X_l
