@@ -80,6 +80,7 @@ class CoupledFluid {
     MonitorLog log((std::filesystem::path(s_.output_dir) / "monitor.h5").string(), dt_us);
     const FlowSummary first = summarize(solver);
     const double mass0 = first.mass;
+    bulk_u_ = first.momentum[0] / first.mass;
     log.append(first);
     std::optional<FieldWriter> fields;
     if (s_.fields_every > 0) {
@@ -115,6 +116,7 @@ class CoupledFluid {
         if (!problem.empty())
           return end({kUnhealthy, "unhealthy flow after step " + std::to_string(step + 1) + ": " + problem});
         log.append(sum);
+        bulk_u_ = sum.momentum[0] / sum.mass;
         out_ << format_summary(sum, dt_us, mass0) << "\n";
         out_.flush();
       }
@@ -311,6 +313,7 @@ class CoupledFluid {
     m.token = o_.token;
     m.seq = fluid_seq_++;
     m.step = step;
+    m.bulk_velocity_lb = bulk_u_;
     m.num_cgps = num_cgps_;
     m.rho_lb.resize(samples.size());
     m.velocity_lb.resize(samples.size());
@@ -413,6 +416,7 @@ class CoupledFluid {
   std::int64_t fluid_seq_ = 0;
   std::int64_t resends_asked_ = 0, resends_answered_ = 0;
   double compute_s_ = 0.0, wait_s_ = 0.0, publish_s_ = 0.0;  ///< per-step timing (DESIGN 7)
+  double bulk_u_ = 0.0;  ///< U_b of the latest health check (Eq. 34), lattice units
 };
 
 }  // namespace

@@ -129,6 +129,13 @@ struct CoupledSeries {
   std::vector<std::int64_t> step;
   std::vector<double> time_s, solid_time_s, displacement_um, normal_um, fluid_force_N, kinetic_J,
       elastic_J, total_J;
+  /// U_b (Eq. 34) of the fluid_state_t behind each row, m/s; 0 at step 0.
+  std::vector<double> bulk_velocity_m_s;
+  /// C_x, C_y, C_z of each sheet (Eq. 33: F / (rho_f U_b^2 W H / 2)); C_D = C_x, and the
+  /// lift is C_z (span-wise) for a sheet turned about y, C_y normal to the plate.
+  std::vector<double> force_coefficients;
+  /// Area strain at the bottom, middle and top of each sheet's leading edge (Figs. 11, 14).
+  std::vector<double> edge_strain;
   std::size_t rows() const { return step.size(); }
 };
 
@@ -408,6 +415,10 @@ class CoupledSolid {
       if (m.velocity_lb[l].size() != 3)
         return malformed("velocity_lb[" + std::to_string(l) + "] has " +
                          std::to_string(m.velocity_lb[l].size()) + " components, expected 3");
+    if (!std::isfinite(m.bulk_velocity_lb))
+      return Ending{exit_code::unhealthy,
+                    where + "bulk_velocity_lb = " + fmt("%g", m.bulk_velocity_lb) + " is not finite",
+                    true};
     for (std::size_t l = 0; l < m.rho_lb.size(); ++l) {
       const auto unhealthy = [&](const std::string& what) {
         return Ending{exit_code::unhealthy,
@@ -457,7 +468,7 @@ class CoupledSolid {
                                               std::to_string(m.step) + ": " + bad, true};
     total_substeps_ += r.substeps;
     publish_state(m.step, r.substeps, r.position_lb, r.impulse_lb);
-    record(m.step, &r);
+    record(m.step, &r, m.bulk_velocity_lb);
     return std::nullopt;
   }
 
@@ -613,7 +624,7 @@ class CoupledSolid {
   // ---- output ----
 
   /// A row of solid.h5 for step `step`; `r` is the interval that produced it (null: step 0).
-  void record(std::int64_t step, const IntervalResult* r) {
+  void record(std::int64_t step, const IntervalResult* r, double bulk_velocity_lb = 0.0) {
     const SolidObservables o = model_->observables();
     if (series_.sheets == 0) series_.sheets = static_cast<int>(s_.config.sheets.size());
     const double ek = joule_from_hartree(o.kinetic_energy_au);
@@ -633,7 +644,22 @@ class CoupledSolid {
         f = -r->impulse_lb.middleCols(first_cgp(s_.config, k), sh.num_cgps()).rowwise().sum() *
             units_.force_lb_N();
       for (int c = 0; c < 3; ++c) series_.fluid_force_N.push_back(f[c]);
+      // Eq. 33 with rho_f = rho_air and A = W H, the area the sheet's CGPs carry.
+      const double area_m2 = static_cast<double>(sh.num_cgps()) * sh.cell_area_bohr2() *
+                             PhysicalConstants::bohr_m * PhysicalConstants::bohr_m;
+      const double u_b = units_.velocity_m_s(bulk_velocity_lb);
+      const double q = 0.5 * units_.air_density_kg_m3() * u_b * u_b * area_m2;
+      for (int c = 0; c < 3; ++c) series_.force_coefficients.push_back(q > 0.0 ? f[c] / q : 0.0);
+      // The leading edge: the side column further upstream (smaller x); CGPs on the first
+      // free row, the middle row and the top row.
+      const Eigen::Matrix3Xd ref = flat_sheet_positions(sh);
+      const int i_lead = ref(0, sh.index(0, 0)) <= ref(0, sh.index(sh.nx_cg - 1, 0)) ? 0 : sh.nx_cg - 1;
+      const Eigen::Index first = first_cgp(s_.config, k);
+      for (const int j : {std::min(sh.clamped_rows, sh.ny_cg - 1), sh.ny_cg / 2, sh.ny_cg - 1})
+        series_.edge_strain.push_back(
+            o.area_strain.size() > 0 ? o.area_strain[first + sh.index(i_lead, j)] : 0.0);
     }
+    series_.bulk_velocity_m_s.push_back(units_.velocity_m_s(bulk_velocity_lb));
     series_.kinetic_J.push_back(ek);
     series_.elastic_J.push_back(ee);
     series_.total_J.push_back(ek + ee);
@@ -660,6 +686,12 @@ class CoupledSolid {
                   s.normal_um.data());
     write_dataset(f, "fluid_force_N", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n, ns, 3},
                   s.fluid_force_N.data());
+    write_dataset(f, "bulk_velocity_m_s", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n},
+                  s.bulk_velocity_m_s.data());
+    write_dataset(f, "force_coefficients", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n, ns, 3},
+                  s.force_coefficients.data());
+    write_dataset(f, "leading_edge_strain", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n, ns, 3},
+                  s.edge_strain.data());
     write_dataset(f, "kinetic_energy_J", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n}, s.kinetic_J.data());
     write_dataset(f, "elastic_energy_J", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n}, s.elastic_J.data());
     write_dataset(f, "total_energy_J", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n}, s.total_J.data());

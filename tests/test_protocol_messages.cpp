@@ -183,6 +183,7 @@ TEST(Protocol, MessagesRoundTrip) {
     sent.token = token;
     sent.seq = 0;
     sent.step = most_negative + 1;
+    sent.bulk_velocity_lb = 0.10400000000000001;
     sent.num_cgps = 5;
     sent.rho_lb = {1.0, tiny, -0.0, huge, 0.9999999999999999};
     sent.velocity_lb = rows3(sent.num_cgps, 1e-3);
@@ -192,6 +193,7 @@ TEST(Protocol, MessagesRoundTrip) {
     EXPECT_EQ(got.token, sent.token);
     EXPECT_EQ(got.seq, sent.seq);
     EXPECT_EQ(got.step, sent.step);
+    EXPECT_SAME_BITS(sent.bulk_velocity_lb, got.bulk_velocity_lb, "bulk_velocity_lb");
     EXPECT_EQ(got.num_cgps, sent.num_cgps);
     ASSERT_EQ(got.rho_lb.size(), sent.rho_lb.size());
     for (std::size_t l = 0; l < sent.rho_lb.size(); ++l)
