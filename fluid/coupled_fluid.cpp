@@ -304,6 +304,18 @@ class CoupledFluid {
       for (int c = 0; c < 3; ++c)
         if (!std::isfinite(p[static_cast<std::size_t>(c)]) || !std::isfinite(i[static_cast<std::size_t>(c)]))
           return bad(kUnhealthy, "a non-finite position or impulse at CGP " + std::to_string(l));
+      // A marker must stay in the fluid along the non-periodic axes (cells span
+      // [-1/2, n - 1/2]); outside, its kernel finds no fluid and the sample is empty.
+      const int n_axis[3] = {s_.params.shape.nx, s_.params.shape.ny, s_.params.shape.nz};
+      for (int c = 0; c < 3; ++c) {
+        if (s_.params.faces[static_cast<std::size_t>(2 * c)].kind == FaceKind::Periodic) continue;
+        const double v = p[static_cast<std::size_t>(c)];
+        if (v < -0.5 - 1e-9 || v > n_axis[c] - 0.5)
+          return bad(kUnhealthy, "CGP " + std::to_string(l) + " left the fluid domain: " +
+                                     "xyz"[c] + " = " + std::to_string(v) + " cells, the domain spans [-0.5, " +
+                                     std::to_string(n_axis[c] - 0.5) + "] (a deflection larger than the " +
+                                     "domain: a larger domain, or the corotational model)");
+      }
     }
     return std::nullopt;
   }

@@ -1,0 +1,681 @@
+#!/usr/bin/python3
+"""Plots of coupled runs like the paper's figures (Inoue et al. 2010, section 3, Figs. 5-14).
+
+    /usr/bin/python3 launch/plot.py RUN_DIR [RUN_DIR ...] [--out DIR] [--label re|angle|ds|name]
+                                   [--plane FRACTION]
+    /usr/bin/python3 launch/plot.py --stats RUN_DIR [RUN_DIR ...]
+
+RUN_DIR is a coupled run's output folder (launch/run-coupled.sh --output): solid.h5 is
+required, monitor.h5 and field snapshots (fields_NNNNNN.h5) are plotted when present. With
+several runs every time series has one line per run (and per sheet, G1 solid, G2 dashed),
+labelled by the parameter parsed from the scene name (solid.h5 attribute `scene`, e.g.
+single_theta90_re40_reduced, pair_ds04p10_re40): --label re (Re), angle (theta), ds
+(span-wise gap), name (the scene name); by default the one that differs between the runs.
+One run with two sheets: G1 red, G2 blue, as in the paper.
+
+Time is measured from the release, t - t0 with t0 = rigid_steps dt_LB (the paper's
+t0 = 6.7 us): series of the free sheet start there, forces and coefficients show the rigid
+spin-up at negative times with a dotted line at the release. Lengths in um, times in us.
+
+Writes into --out (default RUN_DIR/plots for one run, else plots/ in the runs' common
+parent folder), one PNG per figure, and prints the path of each file written:
+  displacement.png        marked CGP (middle of the top edge): stream-wise x, normal to the
+                          plate y, span-wise z (Figs. 5, 7, 10)
+  coefficients.png        C_D = C_x, C_L = C_z (span-wise: the sheet is turned about y), and
+                          C_y normal to the plate (Eq. 33 with U_b of Eq. 34; Fig. 6)
+  forces.png              fluid force on each sheet, x, y, z (Figs. 8, 13)
+  strain.png              area strain at the top, middle and bottom of the leading edge (Fig. 14)
+  energy.png              kinetic, elastic and total energy of the sheets
+  monitor.png             fluid health: mass change and maximum Mach number (monitor.h5)
+  displacement_sheets.png several runs with two sheets: one row per run, G1 red, G2 blue (Fig. 10)
+  vorticity_y.png         y vorticity on the plane y = FRACTION L (default 1/2, Fig. 9; 1/3 for
+                          Fig. 12), nearest grid plane, L the channel height ny dx, of the last
+                          snapshot; vorticity_y_<scene>.png per run with several runs. CGP
+                          positions per step are not recorded, so the plane is drawn alone.
+
+--stats prints, per run and sheet, tab-separated: scene, sheet, final and maximum (largest
+|x|, signed) stream-wise displacement of the marked CGP in um, mean C_D and C_L over the last
+half of the free phase, and the oscillation frequency of the marked CGP after release in MHz
+(zero crossings of x minus its last-half mean, with 5% hysteresis; nan without oscillation).
+launch/sweep.sh uses it for its summary table.
+
+Exit status: 0 done; 1 system error (cannot write the plots); 2 bad arguments, or a missing
+or malformed run folder (one line on stderr naming the file and the dataset).
+"""
+import argparse
+import os
+import re
+import sys
+
+PROG = "plot.py"
+
+
+def fail(message, status=2):
+    print(f"{PROG}: {message}", file=sys.stderr)
+    sys.exit(status)
+
+
+try:
+    import numpy as np
+    import h5py
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.lines import Line2D
+except ImportError as e:  # run with a Python without the packages (use /usr/bin/python3)
+    fail(f"{e} (run with /usr/bin/python3; launch/bootstrap.sh installs python3-h5py, "
+         "python3-matplotlib, python3-numpy)", 1)
+
+
+class RunError(Exception):
+    """A missing or malformed run folder; the message names the file and the dataset."""
+
+
+# ----------------------------------------------------------------------------------------
+# Reading a run
+
+SERIES_1D = ("step", "time_s", "bulk_velocity_m_s", "kinetic_energy_J", "elastic_energy_J",
+             "total_energy_J")
+SERIES_3D = ("marked_displacement_um", "fluid_force_N", "force_coefficients", "leading_edge_strain")
+SCENE_PARAMS = {
+    "re": (re.compile(r"(?:^|_)re(\d+)(?:_|$)"), lambda m: int(m.group(1))),
+    "angle": (re.compile(r"(?:^|_)theta(\d+)(?:_|$)"), lambda m: int(m.group(1))),
+    "ds": (re.compile(r"(?:^|_)ds(\d+)p(\d+)(?:_|$)"), lambda m: float(f"{m.group(1)}.{m.group(2)}")),
+}
+
+
+def scene_params(scene):
+    """{'re': 40, 'angle': 90, 'ds': 4.1} for the parameters the scene name carries."""
+    out = {}
+    for key, (pattern, value) in SCENE_PARAMS.items():
+        m = pattern.search(scene)
+        if m:
+            out[key] = value(m)
+    return out
+
+
+def text_attr(attrs, name, path):
+    if name not in attrs:
+        raise RunError(f"{path}: attribute {name} missing")
+    v = attrs[name]
+    if isinstance(v, bytes):
+        return v.decode("utf-8", "replace")
+    if isinstance(v, np.ndarray) and v.size == 1:
+        v = v.item()
+        return v.decode("utf-8", "replace") if isinstance(v, bytes) else str(v)
+    return str(v)
+
+
+def number_attr(attrs, name, path):
+    if name not in attrs:
+        raise RunError(f"{path}: attribute {name} missing")
+    try:
+        v = float(np.asarray(attrs[name]).reshape(-1)[0])
+    except (TypeError, ValueError, IndexError):
+        raise RunError(f"{path}: attribute {name} is not a number")
+    if not np.isfinite(v):
+        raise RunError(f"{path}: attribute {name} is not finite")
+    return v
+
+
+def read_dataset(f, name, path, ndim):
+    if name not in f:
+        raise RunError(f"{path}: dataset {name} missing")
+    d = f[name]
+    if not isinstance(d, h5py.Dataset):
+        raise RunError(f"{path}: {name} is not a dataset")
+    if d.ndim != ndim:
+        raise RunError(f"{path}: dataset {name} has shape {d.shape}, expected {ndim} dimensions")
+    try:
+        return np.asarray(d[()], dtype=float)
+    except (TypeError, ValueError, OSError) as e:
+        raise RunError(f"{path}: dataset {name} cannot be read as numbers ({e})")
+
+
+def open_h5(path):
+    if not os.path.isfile(path):
+        raise RunError(f"{path}: missing (not a coupled run's output folder?)")
+    try:
+        return h5py.File(path, "r")
+    except OSError:
+        raise RunError(f"{path}: not a readable HDF5 file")
+
+
+class Run:
+    """One coupled run's output folder."""
+
+    def __init__(self, directory):
+        self.dir = directory
+        if not os.path.isdir(directory):
+            raise RunError(f"{directory}: no such run folder")
+        self._read_solid()
+        self._read_monitor()
+        self._find_fields()
+        self.params = scene_params(self.scene)
+        self.label = self.scene
+
+    def _read_solid(self):
+        path = os.path.join(self.dir, "solid.h5")
+        with open_h5(path) as f:
+            self.scene = text_attr(f.attrs, "scene", path)
+            self.model = text_attr(f.attrs, "model", path) if "model" in f.attrs else "?"
+            self.dt_lb = number_attr(f.attrs, "dt_lb_s", path)
+            self.rigid_steps = number_attr(f.attrs, "rigid_steps", path)
+            d = {name: read_dataset(f, name, path, 1) for name in SERIES_1D}
+            d.update({name: read_dataset(f, name, path, 3) for name in SERIES_3D})
+        n = d["step"].shape[0]
+        if n < 2:
+            raise RunError(f"{path}: dataset step has {n} row(s), at least 2 needed for a plot")
+        sheets = d["marked_displacement_um"].shape[1]
+        if sheets < 1:
+            raise RunError(f"{path}: dataset marked_displacement_um has no sheet")
+        for name in SERIES_1D:
+            if d[name].shape != (n,):
+                raise RunError(f"{path}: dataset {name} has shape {d[name].shape}, expected ({n},) "
+                               "like step")
+        for name in SERIES_3D:
+            if d[name].shape != (n, sheets, 3):
+                raise RunError(f"{path}: dataset {name} has shape {d[name].shape}, expected "
+                               f"({n}, {sheets}, 3) (rows, sheets, x y z)")
+        if self.dt_lb <= 0:
+            raise RunError(f"{path}: attribute dt_lb_s is {self.dt_lb}, expected > 0")
+        self.n, self.sheets = n, sheets
+        self.t0_us = self.rigid_steps * self.dt_lb * 1e6
+        self.t_us = d["time_s"] * 1e6 - self.t0_us          # time after release
+        self.step = d["step"]
+        self.disp = d["marked_displacement_um"]
+        self.force_nN = d["fluid_force_N"] * 1e9
+        self.coef = d["force_coefficients"]
+        self.strain = d["leading_edge_strain"]
+        self.energy = {k: d[f"{k}_energy_J"] for k in ("kinetic", "elastic", "total")}
+        self.free = self.step >= self.rigid_steps            # the sheet moves from here on
+        if np.count_nonzero(self.free) < 2:                 # a rigid run: show it all
+            self.free = np.ones(n, dtype=bool)
+
+    def _read_monitor(self):
+        path = os.path.join(self.dir, "monitor.h5")
+        self.monitor = None
+        if not os.path.exists(path):
+            return
+        with open_h5(path) as f:
+            m = {name: read_dataset(f, name, path, 1) for name in ("time_us", "mass", "max_mach")}
+        n = m["time_us"].shape[0]
+        for name in ("mass", "max_mach"):
+            if m[name].shape != (n,):
+                raise RunError(f"{path}: dataset {name} has shape {m[name].shape}, expected ({n},) "
+                               "like time_us")
+        if n >= 1:
+            m["t_us"] = m["time_us"] - self.t0_us
+            self.monitor = m
+
+    def _find_fields(self):
+        snaps = []
+        for name in os.listdir(self.dir):
+            m = re.fullmatch(r"fields_(\d+)\.h5", name)
+            if m:
+                snaps.append((int(m.group(1)), name))
+        self.last_fields = os.path.join(self.dir, max(snaps)[1]) if snaps else None
+
+    def vorticity_plane(self, fraction):
+        """omega_y on the x-z grid plane nearest y = fraction L, L = ny dx (the channel height)."""
+        path = self.last_fields
+        with open_h5(path) as f:
+            dx = number_attr(f.attrs, "dx_um", path)
+            time_us = number_attr(f.attrs, "time_us", path)
+            step = number_attr(f.attrs, "step", path)
+            if "vorticity" not in f or not isinstance(f["vorticity"], h5py.Dataset):
+                raise RunError(f"{path}: dataset vorticity missing")
+            w = f["vorticity"]
+            if w.ndim != 4 or w.shape[3] != 3 or min(w.shape[:3]) < 1:
+                raise RunError(f"{path}: dataset vorticity has shape {w.shape}, expected "
+                               "(nz, ny, nx, 3)")
+            nz, ny, nx = w.shape[:3]
+            j = int(min(max(round(fraction * ny), 0), ny - 1))
+            try:
+                plane = np.asarray(w[:, j, :, 1], dtype=float)   # [z][x], omega_y
+            except (TypeError, ValueError, OSError) as e:
+                raise RunError(f"{path}: dataset vorticity cannot be read ({e})")
+        return dict(plane=plane, dx=dx, j=j, ny=ny, nx=nx, nz=nz, time_us=time_us,
+                    step=int(step), path=path)
+
+
+# ----------------------------------------------------------------------------------------
+# Labels, colours, figure helpers
+
+LABEL_TEXT = {
+    "re": lambda v: f"Re = {v}",
+    "angle": lambda v: f"θ = {v}°",
+    "ds": lambda v: f"Δs = {v:.2f} µm",
+}
+SHEET_COLOURS = ["tab:red", "tab:blue", "tab:green", "tab:purple"]   # G1 red, G2 blue (paper)
+SHEET_STYLES = ["-", "--", ":", "-."]
+RUN_COLOURS = plt.get_cmap("tab10").colors
+COMPONENTS = ("x", "y", "z")
+
+
+def choose_labels(runs, mode):
+    """Sets run.label; returns the mode used. Sorts runs by the parameter (in place)."""
+    if mode is None:
+        mode = "name"
+        if len(runs) > 1:
+            for key in ("re", "angle", "ds"):
+                values = [r.params.get(key) for r in runs]
+                if None not in values and len(set(values)) > 1:
+                    mode = key
+                    break
+    for r in runs:
+        if mode != "name" and mode in r.params:
+            r.label = LABEL_TEXT[mode](r.params[mode])
+        else:
+            r.label = r.scene
+    if mode != "name" and all(mode in r.params for r in runs):
+        runs.sort(key=lambda r: r.params[mode])
+    seen = {}
+    for r in runs:
+        seen[r.label] = seen.get(r.label, 0) + 1
+    for r in runs:
+        if seen[r.label] > 1:   # the same scene (or value) twice: name the folders
+            r.label = f"{r.label} ({os.path.basename(os.path.normpath(r.dir))})"
+    return mode
+
+
+def lines(runs):
+    """(run, sheet index, colour, linestyle, label or None) for every sheet of every run."""
+    out = []
+    for i, r in enumerate(runs):
+        for s in range(r.sheets):
+            if len(runs) == 1:
+                colour, style = SHEET_COLOURS[s % len(SHEET_COLOURS)], "-"
+                label = f"G{s + 1}" if r.sheets > 1 else None
+            else:
+                colour, style = RUN_COLOURS[i % len(RUN_COLOURS)], SHEET_STYLES[s % len(SHEET_STYLES)]
+                label = r.label + (f", G{s + 1}" if r.sheets > 1 else "")
+            out.append((r, s, colour, style, label))
+    return out
+
+
+def describe(runs):
+    if len(runs) == 1:
+        r = runs[0]
+        return f"{r.scene} ({r.model}, {r.sheets} sheet{'s' if r.sheets > 1 else ''})"
+    text = f"{len(runs)} runs: " + ", ".join(r.label for r in runs)
+    return text if len(text) <= 90 else f"{len(runs)} runs"
+
+
+def time_label(runs):
+    t0 = {round(r.t0_us, 6) for r in runs}
+    release = f"$t_0$ = {t0.pop():.3g} µs" if len(t0) == 1 else "$t_0$ per run"
+    return f"time after release $t - t_0$ (µs), {release}"
+
+
+def style():
+    plt.rcParams.update({
+        "font.size": 9.5, "axes.titlesize": 9.5, "axes.labelsize": 9.5, "legend.fontsize": 8.5,
+        "figure.titlesize": 11, "lines.linewidth": 1.2, "axes.grid": True, "grid.alpha": 0.3,
+        "grid.linewidth": 0.6, "xtick.direction": "in", "ytick.direction": "in",
+        "xtick.top": True, "ytick.right": True, "xtick.minor.visible": True,
+        "ytick.minor.visible": True, "axes.formatter.useoffset": True,
+        "axes.formatter.use_mathtext": True, "axes.formatter.limits": (-3, 4),
+        "savefig.dpi": 150, "figure.dpi": 150, "legend.framealpha": 0.85,
+    })
+
+
+def panels(n, title, runs, height=2.2, width=7.0):
+    fig, axes = plt.subplots(n, 1, figsize=(width, 0.9 + height * n), sharex=True,
+                             constrained_layout=True, squeeze=False)
+    fig.suptitle(f"{title}\n{describe(runs)}")
+    return fig, axes[:, 0]
+
+
+def release_line(ax, first):
+    ax.axvline(0.0, color="0.35", ls=":", lw=1.0, zorder=1)
+    if first:
+        ax.annotate("release", xy=(0.0, 1.0), xycoords=("data", "axes fraction"),
+                    xytext=(3, -3), textcoords="offset points", ha="left", va="top",
+                    fontsize=8, color="0.3")
+
+
+def robust_ylim(ax, runs, values, keep):
+    """y limits over the samples kept (not the first 10% of the spin-up, where the impulsive
+    start is orders of magnitude off), with a note when something is off scale."""
+    lo, hi, clipped = np.inf, -np.inf, False
+    for r, v in zip(runs, values):
+        v = np.asarray(v)
+        k = keep(r)
+        vv = v[k]
+        vv = vv[np.isfinite(vv)]
+        if vv.size == 0:
+            continue
+        lo, hi = min(lo, vv.min()), max(hi, vv.max())
+        rest = v[~k]
+        rest = rest[np.isfinite(rest)]
+        if rest.size:
+            clipped = clipped or rest.min() < vv.min() or rest.max() > vv.max()
+    if not np.isfinite(lo):
+        return
+    pad = 0.06 * (hi - lo) if hi > lo else max(abs(hi), 1e-30) * 0.1
+    lo2, hi2 = lo - pad, hi + pad
+    ax.set_ylim(lo2, hi2)
+    if clipped:
+        ax.annotate("start-up transient off scale", xy=(0.005, 0.97), xycoords="axes fraction",
+                    ha="left", va="top", fontsize=7, color="0.4")
+
+
+def not_startup(r):
+    return r.step >= 0.1 * r.rigid_steps
+
+
+def legend(fig, ax, handles_labels, outside):
+    handles, labels = handles_labels
+    if len(labels) < 2:
+        return
+    if outside:
+        ax.legend(handles, labels, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
+    else:
+        ax.legend(handles, labels, loc="best")
+
+
+def collect_legend(entries):
+    handles, labels = [], []
+    for colour, style, label in entries:
+        if label is not None and label not in labels:
+            handles.append(Line2D([], [], color=colour, ls=style))
+            labels.append(label)
+    return handles, labels
+
+
+def save(fig, out, name, written):
+    path = os.path.join(out, name)
+    try:
+        fig.savefig(path, bbox_inches="tight")
+    except OSError as e:
+        fail(f"{path}: cannot write ({e.strerror or e})", 1)
+    finally:
+        plt.close(fig)
+    written.append(path)
+
+
+# ----------------------------------------------------------------------------------------
+# Figures
+
+def time_series_figure(runs, out, written, name, title, rows, free_only, outside):
+    """rows: (panel title, y label, function(run, sheet) -> values per row)."""
+    fig, axes = panels(len(rows), title, runs)
+    ls = lines(runs)
+    for p, (ax, (ptitle, ylabel, value)) in enumerate(zip(axes, rows)):
+        vals_per_run = {id(r): [] for r in runs}
+        for r, s, colour, style, label in ls:
+            v = value(r, s)
+            k = r.free if free_only else slice(None)
+            ax.plot(r.t_us[k], v[k], color=colour, ls=style, label=label)
+            vals_per_run[id(r)].append(v)
+        if not free_only:
+            release_line(ax, p == 0)
+            robust_ylim(ax, [r for r, *_ in ls], [value(r, s) for r, s, *_ in ls], not_startup)
+        else:
+            ax.axhline(0.0, color="0.6", lw=0.6, zorder=0)
+        ax.set_title(ptitle, loc="left")
+        ax.set_ylabel(ylabel)
+    if free_only:
+        axes[0].set_xlim(left=0.0)
+    axes[-1].set_xlabel(time_label(runs))
+    legend(fig, axes[0], collect_legend([(c, st, lb) for _, _, c, st, lb in ls]), outside)
+    save(fig, out, name, written)
+
+
+def displacement_figure(runs, out, written, outside):
+    rows = [("(a) stream-wise", r"$\Delta x$ (µm)", lambda r, s: r.disp[:, s, 0]),
+            ("(b) normal to the plate", r"$\Delta y$ (µm)", lambda r, s: r.disp[:, s, 1]),
+            ("(c) span-wise", r"$\Delta z$ (µm)", lambda r, s: r.disp[:, s, 2])]
+    time_series_figure(runs, out, written, "displacement.png",
+                       "Displacement of the marked CGP (middle of the top edge) after release",
+                       rows, True, outside)
+
+
+def coefficient_figure(runs, out, written, outside):
+    rows = [("(a) drag, stream-wise", r"$C_D = C_x$", lambda r, s: r.coef[:, s, 0]),
+            ("(b) lift, span-wise (the sheet is turned about y)", r"$C_L = C_z$",
+             lambda r, s: r.coef[:, s, 2]),
+            ("(c) normal to the plate", r"$C_y$", lambda r, s: r.coef[:, s, 1])]
+    time_series_figure(runs, out, written, "coefficients.png",
+                       r"Force coefficients $C = F / (\rho_f U_b^2 A / 2)$ (Eq. 33, $U_b$ of Eq. 34)",
+                       rows, False, outside)
+
+
+def force_figure(runs, out, written, outside):
+    rows = [("(a) stream-wise", r"$F_x$ (nN)", lambda r, s: r.force_nN[:, s, 0]),
+            ("(b) normal to the plate", r"$F_y$ (nN)", lambda r, s: r.force_nN[:, s, 1]),
+            ("(c) span-wise", r"$F_z$ (nN)", lambda r, s: r.force_nN[:, s, 2])]
+    time_series_figure(runs, out, written, "forces.png", "Fluid force on each sheet",
+                       rows, False, outside)
+
+
+def strain_figure(runs, out, written, outside):
+    rows = [("(a) top of the leading edge", r"$\varepsilon_l$", lambda r, s: r.strain[:, s, 2]),
+            ("(b) middle", r"$\varepsilon_l$", lambda r, s: r.strain[:, s, 1]),
+            ("(c) bottom (at the plate)", r"$\varepsilon_l$", lambda r, s: r.strain[:, s, 0])]
+    time_series_figure(runs, out, written, "strain.png",
+                       r"Area strain $\varepsilon_l = (|\delta A_l| - |\delta A_{l0}|) / |\delta A_{l0}|$"
+                       " on the leading edge", rows, True, outside)
+
+
+def energy_figure(runs, out, written):
+    fig, axes = panels(3, "Energy of the sheets (all sheets of a run) after release", runs)
+    for p, (ax, key) in enumerate(zip(axes, ("kinetic", "elastic", "total"))):
+        for i, r in enumerate(runs):
+            colour = RUN_COLOURS[i % len(RUN_COLOURS)] if len(runs) > 1 else "k"
+            ax.plot(r.t_us[r.free], r.energy[key][r.free], color=colour,
+                    label=r.label if len(runs) > 1 else None)
+        ax.set_title(f"({'abc'[p]}) {key}", loc="left")
+        ax.set_ylabel(f"$E_{{\\rm {key[:3] if key != 'total' else 'tot'}}}$ (J)")
+    axes[0].set_xlim(left=0.0)
+    axes[-1].set_xlabel(time_label(runs))
+    legend(fig, axes[0], axes[0].get_legend_handles_labels(), len(runs) > 4)
+    save(fig, out, "energy.png", written)
+
+
+def monitor_figure(runs, out, written):
+    have = [r for r in runs if r.monitor is not None]
+    if not have:
+        return
+    fig, axes = panels(2, "Fluid health (monitor.h5)", have, height=2.0)
+    for i, r in enumerate(runs):
+        if r.monitor is None:
+            continue
+        m = r.monitor
+        colour = RUN_COLOURS[i % len(RUN_COLOURS)] if len(runs) > 1 else "k"
+        label = r.label if len(runs) > 1 else None
+        mass0 = m["mass"][0] if m["mass"][0] != 0 else 1.0
+        axes[0].plot(m["t_us"], 100.0 * (m["mass"] / mass0 - 1.0), "o-", ms=2.5, color=colour,
+                     label=label)
+        axes[1].plot(m["t_us"], m["max_mach"], "o-", ms=2.5, color=colour, label=label)
+    axes[0].set_title("(a) total mass", loc="left")
+    axes[0].set_ylabel(r"$M / M(0) - 1$ (%)")
+    axes[1].set_title("(b) largest Mach number on the grid", loc="left")
+    axes[1].set_ylabel(r"max $|u| / c_s$")
+    for p, ax in enumerate(axes):
+        release_line(ax, p == 0)
+    axes[-1].set_xlabel(time_label(have))
+    legend(fig, axes[0], axes[0].get_legend_handles_labels(), len(have) > 4)
+    save(fig, out, "monitor.png", written)
+
+
+def sheets_figure(runs, out, written):
+    """Fig. 10: a row per run, the marked CGPs of G1 (red) and G2 (blue)."""
+    n = len(runs)
+    fig, axes = plt.subplots(n, 2, figsize=(8.0, 0.9 + 1.7 * n), sharex=True,
+                             constrained_layout=True, squeeze=False)
+    fig.suptitle("Displacement of the marked CGPs of each sheet after release (G1 red, G2 blue)\n"
+                 + describe(runs))
+    for i, r in enumerate(runs):
+        for c, (comp, name) in enumerate(((0, "stream-wise"), (2, "span-wise"))):
+            ax = axes[i, c]
+            for s in range(r.sheets):
+                ax.plot(r.t_us[r.free], r.disp[r.free, s, comp],
+                        color=SHEET_COLOURS[s % len(SHEET_COLOURS)], label=f"G{s + 1}")
+            ax.axhline(0.0, color="0.6", lw=0.6, zorder=0)
+            ax.set_title(f"{r.label}: {name}", loc="left")
+            ax.set_ylabel(rf"$\Delta {'xyz'[comp]}$ (µm)")
+    axes[0, 0].set_xlim(left=0.0)
+    for ax in axes[-1]:
+        ax.set_xlabel(r"$t - t_0$ (µs)")
+    h, lb = axes[0, 0].get_legend_handles_labels()
+    if len(lb) > 1:
+        axes[0, 0].legend(h, lb, loc="best")
+    save(fig, out, "displacement_sheets.png", written)
+
+
+def vorticity_figure(run, out, written, fraction, name):
+    v = run.vorticity_plane(fraction)
+    w, dx = v["plane"], v["dx"]
+    fig, ax = plt.subplots(figsize=(7.0, 0.9 + 7.0 * v["nz"] / max(v["nx"], 1) * 0.85),
+                           constrained_layout=True)
+    finite = np.abs(w[np.isfinite(w)])
+    vmax = float(np.percentile(finite, 99.5)) if finite.size else 1.0
+    vmax = vmax if vmax > 0 else 1.0
+    extent = (-0.5 * dx, (v["nx"] - 0.5) * dx, -0.5 * dx, (v["nz"] - 0.5) * dx)
+    im = ax.imshow(w, origin="lower", extent=extent, cmap="RdBu_r", vmin=-vmax, vmax=vmax,
+                   interpolation="nearest", aspect="equal")
+    cb = fig.colorbar(im, ax=ax, shrink=0.9, pad=0.02, extend="both")
+    cb.set_label(r"$\omega_y$ (1/µs)")
+    ax.set_xlabel(r"stream-wise $x$ (µm)")
+    ax.set_ylabel(r"span-wise $z$ (µm)")
+    ax.grid(False)
+    ax.tick_params(which="both", color="0.2")
+    ly = v["ny"] * dx
+    frac = {0.5: "L/2", 1 / 3: "L/3"}.get(round(fraction, 12), f"{fraction:g} L")
+    t_rel = v["time_us"] - run.t0_us
+    ax.set_title(f"y vorticity on the plane y = {frac} (grid plane j = {v['j']} of {v['ny']}, "
+                 f"y = {v['j'] * dx:.2f} µm, L = {ly:.2f} µm)\n"
+                 f"{run.scene}, step {v['step']}, t = {v['time_us']:.3f} µs, "
+                 f"t - t0 = {t_rel:.3f} µs", fontsize=9.5)
+    ax.annotate("flow", xy=(0.13, 0.06), xytext=(0.02, 0.06), xycoords="axes fraction",
+                textcoords="axes fraction", va="center", fontsize=8,
+                arrowprops=dict(arrowstyle="->", color="k", lw=1.0))
+    ax.annotate("CGP positions are not recorded per step: the plane alone",
+                xy=(0.99, 0.015), xycoords="axes fraction", ha="right", va="bottom",
+                fontsize=7, color="0.25")
+    save(fig, out, name, written)
+
+
+# ----------------------------------------------------------------------------------------
+# Statistics for the sweep's table
+
+def crossing_frequency(t_us, x):
+    """Oscillation frequency (MHz) from the zero crossings of x - mean(last half), with a
+    hysteresis of 5% of the largest excursion; nan with fewer than two crossings."""
+    n = x.size
+    if n < 4:
+        return float("nan")
+    d = x - np.mean(x[n // 2:])
+    amp = np.nanmax(np.abs(d)) if np.isfinite(d).any() else 0.0
+    if not amp > 1e-9:       # um: no motion to speak of
+        return float("nan")
+    h = 0.05 * amp
+    state, last_zero, crossings = 0, None, []
+    for i in range(1, n):
+        if d[i - 1] * d[i] < 0 or (d[i] == 0 and d[i - 1] != 0):
+            a, b = d[i - 1], d[i]
+            last_zero = t_us[i - 1] + (t_us[i] - t_us[i - 1]) * (a / (a - b))
+        s = 1 if d[i] > h else (-1 if d[i] < -h else 0)
+        if s == 0:
+            continue
+        if state != 0 and s != state and last_zero is not None:
+            crossings.append(last_zero)
+        state = s
+    if len(crossings) < 2 or crossings[-1] <= crossings[0]:
+        return float("nan")
+    return (len(crossings) - 1) / (2.0 * (crossings[-1] - crossings[0]))   # 1/us = MHz
+
+
+def stats(runs):
+    for r in runs:
+        k = r.free
+        t = r.t_us[k]
+        late = k & (r.t_us >= t[0] + 0.5 * (t[-1] - t[0]))
+        for s in range(r.sheets):
+            x = r.disp[k, s, 0]
+            imax = int(np.nanargmax(np.abs(x))) if np.isfinite(x).any() else 0
+            print("\t".join([
+                r.scene, f"G{s + 1}", f"{x[-1]:.4g}", f"{x[imax]:.4g}",
+                f"{np.mean(r.coef[late, s, 0]):.4g}", f"{np.mean(r.coef[late, s, 2]):.4g}",
+                f"{crossing_frequency(t, x):.4g}"]))
+
+
+# ----------------------------------------------------------------------------------------
+
+class Parser(argparse.ArgumentParser):
+    def error(self, message):   # one line, exit 2
+        fail(f"{message} (usage: plot.py RUN_DIR [RUN_DIR ...] [--out DIR] "
+             "[--label re|angle|ds|name] [--plane FRACTION] | --stats RUN_DIR ...)")
+
+
+def main():
+    p = Parser(prog=PROG, description="Plots of coupled runs like the paper's Figs. 5-14.")
+    p.add_argument("runs", nargs="+", metavar="RUN_DIR")
+    p.add_argument("--out", help="folder for the PNGs (default RUN_DIR/plots, or plots/ in the "
+                                 "runs' common parent folder)")
+    p.add_argument("--label", choices=("re", "angle", "ds", "name"),
+                   help="what names each run in the legends (default: the parameter that differs)")
+    p.add_argument("--plane", type=float, default=0.5,
+                   help="vorticity plane y = FRACTION L (default 0.5; the paper's Fig. 12: 1/3)")
+    p.add_argument("--stats", action="store_true", help="print the summary statistics, no plots")
+    a = p.parse_args()
+    if not 0.0 <= a.plane <= 1.0:
+        fail(f"--plane {a.plane}: expected a fraction of the channel height in [0, 1]")
+    try:
+        runs = [Run(d) for d in a.runs]
+    except RunError as e:
+        fail(str(e))
+    choose_labels(runs, a.label)
+    if a.stats:
+        stats(runs)
+        return
+    if a.out:
+        out = a.out
+    elif len(runs) == 1:
+        out = os.path.join(runs[0].dir, "plots")
+    else:
+        out = os.path.join(os.path.commonpath([os.path.abspath(r.dir) for r in runs]), "plots")
+    try:
+        os.makedirs(out, exist_ok=True)
+    except OSError as e:
+        fail(f"{out}: cannot create the output folder ({e.strerror or e})", 1)
+
+    style()
+    written = []
+    many = sum(r.sheets for r in runs) > 4          # long legends go beside the panels
+    try:
+        displacement_figure(runs, out, written, many)
+        coefficient_figure(runs, out, written, many)
+        force_figure(runs, out, written, many)
+        strain_figure(runs, out, written, many)
+        energy_figure(runs, out, written)
+        monitor_figure(runs, out, written)
+        if len(runs) > 1 and any(r.sheets > 1 for r in runs):
+            sheets_figure(runs, out, written)
+        with_fields = [r for r in runs if r.last_fields]
+        used = set()
+        for r in with_fields:
+            if len(runs) == 1:
+                name = "vorticity_y.png"
+            else:
+                base = re.sub(r"[^A-Za-z0-9_.-]+", "_", r.scene)
+                name, k = f"vorticity_y_{base}.png", 2
+                while name in used:
+                    name, k = f"vorticity_y_{base}_{k}.png", k + 1
+            used.add(name)
+            vorticity_figure(r, out, written, a.plane, name)
+    except RunError as e:
+        fail(str(e))
+    for path in written:
+        print(path)
+
+
+if __name__ == "__main__":
+    try:
+        main()
+    except KeyboardInterrupt:
+        fail("interrupted", 1)
+    except Exception as e:   # never a traceback: one line naming what went wrong
+        fail(f"internal error: {type(e).__name__}: {e}", 1)
