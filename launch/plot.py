@@ -284,8 +284,8 @@ def lines(runs):
     out = []
     for i, r in enumerate(runs):
         for s in range(r.sheets):
-            if len(runs) == 1:
-                colour, style = SHEET_COLOURS[s % len(SHEET_COLOURS)], "-"
+            if len(runs) == 1:   # G1 red, G2 blue (dashed: symmetric pairs overlap)
+                colour, style = SHEET_COLOURS[s % len(SHEET_COLOURS)], SHEET_STYLES[s % len(SHEET_STYLES)]
                 label = f"G{s + 1}" if r.sheets > 1 else None
             else:
                 colour, style = RUN_COLOURS[i % len(RUN_COLOURS)], SHEET_STYLES[s % len(SHEET_STYLES)]
@@ -337,28 +337,36 @@ def release_line(ax, first):
 
 def robust_ylim(ax, runs, values, keep):
     """y limits over the samples kept (not the first 10% of the spin-up, where the impulsive
-    start is orders of magnitude off), with a note when something is off scale."""
-    lo, hi, clipped = np.inf, -np.inf, False
+    start is orders of magnitude off); True when something is off scale."""
+    lo, hi, rest_lo, rest_hi = np.inf, -np.inf, np.inf, -np.inf
     for r, v in zip(runs, values):
         v = np.asarray(v)
         k = keep(r)
-        vv = v[k]
-        vv = vv[np.isfinite(vv)]
-        if vv.size == 0:
-            continue
-        lo, hi = min(lo, vv.min()), max(hi, vv.max())
-        rest = v[~k]
-        rest = rest[np.isfinite(rest)]
+        vv, rest = v[k], v[~k]
+        vv, rest = vv[np.isfinite(vv)], rest[np.isfinite(rest)]
+        if vv.size:
+            lo, hi = min(lo, vv.min()), max(hi, vv.max())
         if rest.size:
-            clipped = clipped or rest.min() < vv.min() or rest.max() > vv.max()
+            rest_lo, rest_hi = min(rest_lo, rest.min()), max(rest_hi, rest.max())
     if not np.isfinite(lo):
-        return
+        return False
     pad = 0.06 * (hi - lo) if hi > lo else max(abs(hi), 1e-30) * 0.1
-    lo2, hi2 = lo - pad, hi + pad
-    ax.set_ylim(lo2, hi2)
-    if clipped:
-        ax.annotate("start-up transient off scale", xy=(0.005, 0.97), xycoords="axes fraction",
-                    ha="left", va="top", fontsize=7, color="0.4")
+    lo, hi = lo - pad, hi + pad
+    ax.set_ylim(lo, hi)
+    return bool(rest_lo < lo or rest_hi > hi)
+
+
+def round_off(ax, values, reference, unit):
+    """A component that is zero to round-off (below 1e-8 of the figure's largest) is drawn
+    flat on the figure's scale rather than as magnified noise; True when it was."""
+    finite = [np.abs(v[np.isfinite(v)]) for v in values]
+    largest = max((f.max() for f in finite if f.size), default=0.0)
+    if not (reference > 0 and largest < 1e-8 * reference):
+        return False
+    ax.set_ylim(-0.05 * reference, 0.05 * reference)
+    ax.annotate(f"zero to round-off (largest |value| {largest:.1e}{unit})", xy=(0.99, 0.94),
+                xycoords="axes fraction", ha="right", va="top", fontsize=7.5, color="0.3")
+    return True
 
 
 def not_startup(r):
@@ -398,22 +406,27 @@ def save(fig, out, name, written):
 # ----------------------------------------------------------------------------------------
 # Figures
 
-def time_series_figure(runs, out, written, name, title, rows, free_only, outside):
-    """rows: (panel title, y label, function(run, sheet) -> values per row)."""
+def time_series_figure(runs, out, written, name, title, rows, free_only, outside, unit=""):
+    """rows: (panel title, y label, function(run, sheet) -> values per row). Series of the free
+    sheet (free_only) start at the release; the others show the spin-up at negative times."""
     fig, axes = panels(len(rows), title, runs)
     ls = lines(runs)
+    shown = lambda r: r.free if free_only else not_startup(r)
+    per_panel = [[value(r, s)[shown(r)] for r, s, *_ in ls] for _, _, value in rows]
+    reference = max((np.nanmax(np.abs(v)) for panel in per_panel for v in panel
+                     if v.size and np.isfinite(v).any()), default=0.0)
     for p, (ax, (ptitle, ylabel, value)) in enumerate(zip(axes, rows)):
-        vals_per_run = {id(r): [] for r in runs}
         for r, s, colour, style, label in ls:
             v = value(r, s)
             k = r.free if free_only else slice(None)
             ax.plot(r.t_us[k], v[k], color=colour, ls=style, label=label)
-            vals_per_run[id(r)].append(v)
-        if not free_only:
-            release_line(ax, p == 0)
-            robust_ylim(ax, [r for r, *_ in ls], [value(r, s) for r, s, *_ in ls], not_startup)
-        else:
+        if free_only:
             ax.axhline(0.0, color="0.6", lw=0.6, zorder=0)
+        else:
+            release_line(ax, p == 0)
+        if not round_off(ax, per_panel[p], reference, unit) and not free_only:
+            if robust_ylim(ax, [r for r, *_ in ls], [value(r, s) for r, s, *_ in ls], not_startup):
+                ptitle += " (start-up transient off scale)"
         ax.set_title(ptitle, loc="left")
         ax.set_ylabel(ylabel)
     if free_only:
@@ -429,7 +442,7 @@ def displacement_figure(runs, out, written, outside):
             ("(c) span-wise", r"$\Delta z$ (µm)", lambda r, s: r.disp[:, s, 2])]
     time_series_figure(runs, out, written, "displacement.png",
                        "Displacement of the marked CGP (middle of the top edge) after release",
-                       rows, True, outside)
+                       rows, True, outside, " µm")
 
 
 def coefficient_figure(runs, out, written, outside):
@@ -447,7 +460,7 @@ def force_figure(runs, out, written, outside):
             ("(b) normal to the plate", r"$F_y$ (nN)", lambda r, s: r.force_nN[:, s, 1]),
             ("(c) span-wise", r"$F_z$ (nN)", lambda r, s: r.force_nN[:, s, 2])]
     time_series_figure(runs, out, written, "forces.png", "Fluid force on each sheet",
-                       rows, False, outside)
+                       rows, False, outside, " nN")
 
 
 def strain_figure(runs, out, written, outside):
@@ -467,7 +480,7 @@ def energy_figure(runs, out, written):
             ax.plot(r.t_us[r.free], r.energy[key][r.free], color=colour,
                     label=r.label if len(runs) > 1 else None)
         ax.set_title(f"({'abc'[p]}) {key}", loc="left")
-        ax.set_ylabel(f"$E_{{\\rm {key[:3] if key != 'total' else 'tot'}}}$ (J)")
+        ax.set_ylabel(f"$E_{{\\rm {dict(kinetic='kin', elastic='el', total='tot')[key]}}}$ (J)")
     axes[0].set_xlim(left=0.0)
     axes[-1].set_xlabel(time_label(runs))
     legend(fig, axes[0], axes[0].get_legend_handles_labels(), len(runs) > 4)
@@ -505,14 +518,15 @@ def sheets_figure(runs, out, written):
     n = len(runs)
     fig, axes = plt.subplots(n, 2, figsize=(8.0, 0.9 + 1.7 * n), sharex=True,
                              constrained_layout=True, squeeze=False)
-    fig.suptitle("Displacement of the marked CGPs of each sheet after release (G1 red, G2 blue)\n"
+    fig.suptitle("Displacement of the marked CGPs of each sheet after release (G1 red, G2 blue dashed)\n"
                  + describe(runs))
     for i, r in enumerate(runs):
         for c, (comp, name) in enumerate(((0, "stream-wise"), (2, "span-wise"))):
             ax = axes[i, c]
             for s in range(r.sheets):
                 ax.plot(r.t_us[r.free], r.disp[r.free, s, comp],
-                        color=SHEET_COLOURS[s % len(SHEET_COLOURS)], label=f"G{s + 1}")
+                        color=SHEET_COLOURS[s % len(SHEET_COLOURS)],
+                        ls=SHEET_STYLES[s % len(SHEET_STYLES)], label=f"G{s + 1}")
             ax.axhline(0.0, color="0.6", lw=0.6, zorder=0)
             ax.set_title(f"{r.label}: {name}", loc="left")
             ax.set_ylabel(rf"$\Delta {'xyz'[comp]}$ (µm)")
