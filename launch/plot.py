@@ -144,13 +144,15 @@ def open_h5(path):
 class Run:
     """One coupled run's output folder."""
 
-    def __init__(self, directory):
+    def __init__(self, directory, plane=0.5):
         self.dir = directory
         if not os.path.isdir(directory):
             raise RunError(f"{directory}: no such run folder")
         self._read_solid()
         self._read_monitor()
         self._find_fields()
+        # Read now, so that a malformed snapshot stops the script before it writes anything.
+        self.vorticity = self.vorticity_plane(plane) if self.last_fields else None
         self.params = scene_params(self.scene)
         self.label = self.scene
 
@@ -540,7 +542,7 @@ def sheets_figure(runs, out, written):
 
 
 def vorticity_figure(run, out, written, fraction, name):
-    v = run.vorticity_plane(fraction)
+    v = run.vorticity
     w, dx = v["plane"], v["dx"]
     fig, ax = plt.subplots(figsize=(7.0, 0.9 + 7.0 * v["nz"] / max(v["nx"], 1) * 0.85),
                            constrained_layout=True)
@@ -557,12 +559,15 @@ def vorticity_figure(run, out, written, fraction, name):
     ax.grid(False)
     ax.tick_params(which="both", color="0.2")
     ly = v["ny"] * dx
-    frac = {0.5: "L/2", 1 / 3: "L/3"}.get(round(fraction, 12), f"{fraction:g} L")
+    frac = f"{fraction:.3g} L"
+    for value, text in ((0.5, "L/2"), (1 / 3, "L/3"), (0.25, "L/4"), (2 / 3, "2L/3")):
+        if abs(fraction - value) < 2e-3:
+            frac = text
     t_rel = v["time_us"] - run.t0_us
     ax.set_title(f"y vorticity on the plane y = {frac} (grid plane j = {v['j']} of {v['ny']}, "
                  f"y = {v['j'] * dx:.2f} µm, L = {ly:.2f} µm)\n"
                  f"{run.scene}, step {v['step']}, t = {v['time_us']:.3f} µs, "
-                 f"t - t0 = {t_rel:.3f} µs", fontsize=9.5)
+                 f"$t - t_0$ = {t_rel:.3f} µs", fontsize=9.5)
     ax.annotate("flow", xy=(0.13, 0.06), xytext=(0.02, 0.06), xycoords="axes fraction",
                 textcoords="axes fraction", va="center", fontsize=8,
                 arrowprops=dict(arrowstyle="->", color="k", lw=1.0))
@@ -638,7 +643,7 @@ def main():
     if not 0.0 <= a.plane <= 1.0:
         fail(f"--plane {a.plane}: expected a fraction of the channel height in [0, 1]")
     try:
-        runs = [Run(d) for d in a.runs]
+        runs = [Run(d, a.plane) for d in a.runs]
     except RunError as e:
         fail(str(e))
     choose_labels(runs, a.label)

@@ -1,9 +1,21 @@
 #include "solid/sheet_forces.hpp"
 
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
 #include <Eigen/Dense>
-#include <Eigen/SVD>
 
 namespace cosim::solid {
+
+namespace {
+
+/// Scratch of a term's local vectors, on the stack: a term touches at most 9 CGPs.
+constexpr int kMaxTermNodes = 9;
+using TermVector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 3 * kMaxTermNodes, 1>;
+using TermPoints = Eigen::Matrix<double, 3, Eigen::Dynamic, 0, 3, kMaxTermNodes>;
+
+}  // namespace
 
 double LinearSheetForce::evaluate(const Eigen::Matrix3Xd& x, Eigen::Matrix3Xd& f) const {
   double energy = 0.0;
@@ -26,6 +38,9 @@ CorotationalSheetForce::CorotationalSheetForce(const std::vector<SheetBlock>& sh
     for (const StiffnessTerm& t : s.terms) {
       Term c;
       const auto m = static_cast<Eigen::Index>(t.nodes.size());
+      if (m > kMaxTermNodes)
+        throw std::logic_error("CorotationalSheetForce: a term of " + std::to_string(m) +
+                               " CGPs; the scratch holds " + std::to_string(kMaxTermNodes));
       // K in scene axes: blockwise A K A^T.
       c.k = Eigen::MatrixXd(3 * m, 3 * m);
       for (Eigen::Index p = 0; p < m; ++p)
@@ -41,9 +56,14 @@ CorotationalSheetForce::CorotationalSheetForce(const std::vector<SheetBlock>& sh
         c.ref_nodes.col(p) = s.reference_bohr.col(l) - centre;
       }
       c.ref_frame.resize(3, static_cast<Eigen::Index>(t.frame.size()));
+      c.ref_frame_ab.resize(2, static_cast<Eigen::Index>(t.frame.size()));
+      c.plane = s.axes.leftCols<2>();
+      c.normal = s.axes.col(2);
       for (std::size_t k = 0; k < t.frame.size(); ++k) {
+        const auto kk = static_cast<Eigen::Index>(k);
         c.frame.push_back(s.first + t.frame[k]);
-        c.ref_frame.col(static_cast<Eigen::Index>(k)) = s.reference_bohr.col(t.frame[k]) - centre;
+        c.ref_frame.col(kk) = s.reference_bohr.col(t.frame[k]) - centre;
+        c.ref_frame_ab.col(kk) = c.plane.transpose() * c.ref_frame.col(kk);
       }
       terms_.push_back(std::move(c));
     }
@@ -57,10 +77,10 @@ double CorotationalSheetForce::evaluate(const Eigen::Matrix3Xd& x, Eigen::Matrix
     const auto nf = static_cast<Eigen::Index>(t.frame.size());
     const auto m = static_cast<Eigen::Index>(t.nodes.size());
     if (nf == 0) {  // a term tied to the plate: evaluated in the fixed frame
-      Eigen::VectorXd u(3 * m);
+      TermVector u(3 * m);
       for (Eigen::Index p = 0; p < m; ++p)
         u.segment<3>(3 * p) = x.col(t.nodes[static_cast<std::size_t>(p)]) - t.ref_nodes.col(p);
-      const Eigen::VectorXd g = t.k * u;
+      const TermVector g = t.k * u;
       energy += 0.5 * u.dot(g);
       for (Eigen::Index p = 0; p < m; ++p) f.col(t.nodes[static_cast<std::size_t>(p)]) -= g.segment<3>(3 * p);
       continue;
@@ -68,24 +88,26 @@ double CorotationalSheetForce::evaluate(const Eigen::Matrix3Xd& x, Eigen::Matrix
     Eigen::Vector3d centre = Eigen::Vector3d::Zero();
     for (const Eigen::Index l : t.frame) centre += x.col(l);
     centre /= static_cast<double>(nf);
-    Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+    // Polar decomposition of the flat frame's F = A P^T (see the header).
+    Eigen::Matrix<double, 3, 2> a2 = Eigen::Matrix<double, 3, 2>::Zero();
     for (Eigen::Index k = 0; k < nf; ++k)
-      cov += (x.col(t.frame[static_cast<std::size_t>(k)]) - centre) * t.ref_frame.col(k).transpose();
-    // Polar decomposition by SVD; the frame is flat at rest (rank 2), so the sign of the
-    // third singular pair is chosen to make R a proper rotation.
-    const Eigen::JacobiSVD<Eigen::Matrix3d> svd(cov, Eigen::ComputeFullU | Eigen::ComputeFullV);
-    Eigen::Matrix3d d = Eigen::Matrix3d::Identity();
-    d(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0.0 ? -1.0 : 1.0;
-    const Eigen::Matrix3d r = svd.matrixU() * d * svd.matrixV().transpose();
-    const Eigen::Matrix3d s = r.transpose() * cov;
+      a2 += (x.col(t.frame[static_cast<std::size_t>(k)]) - centre) * t.ref_frame_ab.col(k).transpose();
+    const Eigen::Matrix2d m2 = a2.transpose() * a2;
+    const double det_root = std::sqrt(m2.determinant());
+    const Eigen::Matrix2d root =  // (A^T A)^(1/2) of a 2 x 2 SPD matrix, closed form
+        (m2 + det_root * Eigen::Matrix2d::Identity()) / std::sqrt(m2.trace() + 2.0 * det_root);
+    const Eigen::Matrix<double, 3, 2> q = a2 * root.inverse();
+    const Eigen::Vector3d qn = q.col(0).cross(q.col(1));
+    const Eigen::Matrix3d r = q * t.plane.transpose() + qn * t.normal.transpose();
+    const Eigen::Matrix3d s = t.plane * root * t.plane.transpose();
 
-    Eigen::VectorXd u(3 * m);
-    Eigen::Matrix3Xd y(3, m);
+    TermVector u(3 * m);
+    TermPoints y(3, m);
     for (Eigen::Index p = 0; p < m; ++p) {
       y.col(p) = r.transpose() * (x.col(t.nodes[static_cast<std::size_t>(p)]) - centre);
       u.segment<3>(3 * p) = y.col(p) - t.ref_nodes.col(p);
     }
-    const Eigen::VectorXd g = t.k * u;
+    const TermVector g = t.k * u;
     energy += 0.5 * u.dot(g);
 
     // dE = sum_k g_k . R^T (dx_k - dc) - omega . tau,  tau = sum_k y_k x g_k.

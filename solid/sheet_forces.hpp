@@ -45,7 +45,11 @@ class LinearSheetForce final : public SheetForce {
 /// Corotational: each term is evaluated in its own rotated frame,
 ///   E_t = 1/2 u_t^T K_t u_t,  u_k = R_t^T (x_k - c_t) - (X_k - C_t),
 /// with R_t the rotation of the polar decomposition F = R S of the frame's cross-covariance
-/// F = sum_f (x_f - c_t)(X_f - C_t)^T (c, C: centroids of the frame's CGPs). E is
+/// F = sum_f (x_f - c_t)(X_f - C_t)^T (c, C: centroids of the frame's CGPs). The reference
+/// frame is flat, so F = A P^T with A = sum_f (x_f - c) xi_f^T (3 x 2, xi the in-plane
+/// coordinates) and P = (e_a, e_b); then R P = Q = A (A^T A)^(-1/2) (closed form for 2 x 2),
+/// R n = q_1 x q_2, and S = R^T F = P (A^T A)^(1/2) P^T: the polar factor with det R = +1,
+/// without a 3 x 3 SVD. E is
 /// invariant under any rigid motion, equals the linear energy to second order, and the
 /// force is its exact gradient, dR included (a term with an empty frame, tied to the
 /// plate, is evaluated in the fixed frame): with R^T dR = Omega (axial omega),
@@ -60,6 +64,9 @@ class CorotationalSheetForce final : public SheetForce {
     std::vector<Eigen::Index> nodes, frame;  ///< model-wide CGP indices
     Eigen::MatrixXd k;                       ///< scene axes
     Eigen::Matrix3Xd ref_nodes, ref_frame;   ///< X - C of nodes and frame
+    Eigen::Matrix2Xd ref_frame_ab;           ///< X - C of the frame in the sheet's (a, b)
+    Eigen::Matrix<double, 3, 2> plane;       ///< the sheet's e_a, e_b (scene axes)
+    Eigen::Vector3d normal;                  ///< the sheet's n = e_a x e_b
   };
   std::vector<Term> terms_;
 };
