@@ -53,6 +53,9 @@ if [ "$first_pid" = "$fluid" ]; then first=fluid; other=solid; b=$solid; else fi
 echo $s_first >"$output/$first.exit"
 
 # The survivor should stop by itself (end of run, or its peer timeout); then it is killed.
+# A process that refused its input (exit 2) may never have spoken to its peer, which
+# would then wait for its whole handshake timeout: stop it at once.
+if [ "$s_first" -eq 2 ]; then grace=2; fi
 sleep "$grace" &
 sleeper=$!
 wait -n -p second_pid $b $sleeper
