@@ -18,11 +18,11 @@
 #include "cosimlcm/solid_state_t.hpp"
 #include "cosimlcm/stop_t.hpp"
 #include "cosimlcm/welcome_t.hpp"
-#include "fluid/field_writer.hpp"
 #include "fluid/flow_monitor.hpp"
 #include "fluid/fluid_solver.hpp"
 #include "fluid/immersed_boundary.hpp"
 #include "fluid/monitor_log.hpp"
+#include "fluid/snapshots.hpp"
 #include "protocol/channels.hpp"
 #include "protocol/handshake.hpp"
 #include "protocol/step_sequencer.hpp"
@@ -82,11 +82,8 @@ class CoupledFluid {
     const double mass0 = first.mass;
     bulk_u_ = first.momentum[0] / first.mass;
     log.append(first);
-    std::optional<FieldWriter> fields;
-    if (s_.fields_every > 0) {
-      fields.emplace(s_.output_dir, s_.dx_um, dt_us);
-      fields->write(solver);
-    }
+    Snapshots snapshots(s_, dt_us);
+    if (snapshots.due(0, false)) snapshots.write(solver, false);
 
     const auto n = static_cast<std::size_t>(num_cgps_);
     std::vector<Vec3> x(n), j(n);
@@ -120,14 +117,14 @@ class CoupledFluid {
         out_ << format_summary(sum, dt_us, mass0) << "\n";
         out_.flush();
       }
-      if (fields && ((step + 1) % s_.fields_every == 0 || last)) {
+      if (snapshots.due(step + 1, last)) {
         // Only a healthy state is written: check it if the monitor did not just now.
         if ((step + 1) % s_.monitor_every != 0 && !last) {
           const std::string problem = health_problem(summarize(solver), limits);
           if (!problem.empty())
             return end({kUnhealthy, "unhealthy flow after step " + std::to_string(step + 1) + ": " + problem});
         }
-        fields->write(solver);
+        snapshots.write(solver, last);
       }
       if (!last) {
         ib.sample(solver, x, samples);  // Eq. 17 at X_l

@@ -59,8 +59,10 @@ void rename_or_throw(const fs::path& from, const fs::path& to) {
 
 }  // namespace
 
-FieldWriter::FieldWriter(std::string dir, double dx_um, double dt_us)
-    : dir_(std::move(dir)), dx_um_(dx_um), dt_us_(dt_us) {
+FieldWriter::FieldWriter(std::string dir, double dx_um, double dt_us, std::string prefix,
+                         int y_plane)
+    : dir_(std::move(dir)), dx_um_(dx_um), dt_us_(dt_us), prefix_(std::move(prefix)),
+      y_plane_(y_plane) {
   if (!(dx_um > 0.0) || !(dt_us > 0.0))
     throw std::invalid_argument("FieldWriter: dx_um and dt_us must be positive (got " + std::to_string(dx_um) +
                                 " and " + std::to_string(dt_us) + ")");
@@ -71,16 +73,25 @@ FieldWriter::FieldWriter(std::string dir, double dx_um, double dt_us)
                              (ec ? ": " + ec.message() : std::string(": a file of that name exists")));
 }
 
-std::string FieldWriter::snapshot_name(std::int64_t step) {
+std::string FieldWriter::snapshot_name(std::int64_t step) const {
   char buf[48];
-  std::snprintf(buf, sizeof buf, "fields_%06lld.h5", static_cast<long long>(step));
-  return buf;
+  std::snprintf(buf, sizeof buf, "_%06lld.h5", static_cast<long long>(step));
+  return prefix_ + buf;
+}
+
+GridShape FieldWriter::written_shape() const {
+  GridShape s = m_.shape;
+  if (y_plane_ >= 0) s.ny = 1;
+  return s;
 }
 
 void FieldWriter::write(const FluidSolver& solver) {
   const std::int64_t step = solver.step_count();
   solver.macroscopic(m_);
   vorticity(solver, m_, wx_, wy_, wz_);
+  if (y_plane_ >= m_.shape.ny)
+    throw std::invalid_argument("FieldWriter: plane y = " + std::to_string(y_plane_) +
+                                " outside a grid of ny = " + std::to_string(m_.shape.ny));
 
   const fs::path final_path = snapshot_path(step);
   const fs::path part = fs::path(final_path).concat(".part");
@@ -90,9 +101,9 @@ void FieldWriter::write(const FluidSolver& solver) {
   const auto same = [step](const Snapshot& s) { return s.step == step; };
   const auto it = std::find_if(snapshots_.begin(), snapshots_.end(), same);
   if (it != snapshots_.end())
-    it->shape = m_.shape;
+    it->shape = written_shape();
   else
-    snapshots_.push_back({step, m_.shape});
+    snapshots_.push_back({step, written_shape()});
   write_xdmf();
 }
 
@@ -106,24 +117,34 @@ void FieldWriter::write_hdf5(const fs::path& file, std::int64_t step) {
   write_scalar_attribute(f.get(), "dx_um", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, dx_um_);
   write_scalar_attribute(f.get(), "dt_us", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, dt_us_);
 
-  const GridShape& s = m_.shape;
-  const std::size_t n = m_.rho.size();
-  write_field(f.get(), name, "rho", s, 1, m_.rho.data(), "1 (rho / rho_0)");
+  if (y_plane_ >= 0)
+    write_scalar_attribute(f.get(), "y_um", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, y_plane_ * dx_um_);
+  const GridShape s = written_shape();
+  // The cells written, in file order (x fastest): all of them, or the plane's.
+  std::vector<std::size_t> cells;
+  cells.reserve(std::size_t(s.nx) * std::size_t(s.ny) * std::size_t(s.nz));
+  for (int z = 0; z < s.nz; ++z)
+    for (int y = 0; y < s.ny; ++y)
+      for (int x = 0; x < s.nx; ++x) cells.push_back(m_.index(x, y_plane_ >= 0 ? y_plane_ : y, z));
+  const std::size_t n = cells.size();
+  std::vector<double> rho(n);
+  for (std::size_t i = 0; i < n; ++i) rho[i] = m_.rho[cells[i]];
+  write_field(f.get(), name, "rho", s, 1, rho.data(), "1 (rho / rho_0)");
 
   // Vectors interleaved per cell, [nz][ny][nx][3], in physical units.
   vec_.resize(3 * n);
   const double u_scale = dx_um_ / dt_us_;  // um/us = m/s
   for (std::size_t i = 0; i < n; ++i) {
-    vec_[3 * i] = u_scale * m_.ux[i];
-    vec_[3 * i + 1] = u_scale * m_.uy[i];
-    vec_[3 * i + 2] = u_scale * m_.uz[i];
+    vec_[3 * i] = u_scale * m_.ux[cells[i]];
+    vec_[3 * i + 1] = u_scale * m_.uy[cells[i]];
+    vec_[3 * i + 2] = u_scale * m_.uz[cells[i]];
   }
   write_field(f.get(), name, "u", s, 3, vec_.data(), "m/s");
   const double w_scale = 1.0 / dt_us_;  // 1/us
   for (std::size_t i = 0; i < n; ++i) {
-    vec_[3 * i] = w_scale * wx_[i];
-    vec_[3 * i + 1] = w_scale * wy_[i];
-    vec_[3 * i + 2] = w_scale * wz_[i];
+    vec_[3 * i] = w_scale * wx_[cells[i]];
+    vec_[3 * i + 1] = w_scale * wy_[cells[i]];
+    vec_[3 * i + 2] = w_scale * wz_[cells[i]];
   }
   write_field(f.get(), name, "vorticity", s, 3, vec_.data(), "1/us");
   f.close("cannot close the HDF5 file " + name);
@@ -136,7 +157,7 @@ void FieldWriter::write_xdmf() const {
     << "<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n"
     << "<Xdmf Version=\"3.0\" xmlns:xi=\"http://www.w3.org/2001/XInclude\">\n"
     << "  <Domain>\n"
-    << "    <Grid Name=\"fluid\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
+    << "    <Grid Name=\"" << prefix_ << "\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
   for (const Snapshot& snap : snapshots_) {
     const GridShape& s = snap.shape;
     const std::string file = snapshot_name(snap.step);
@@ -154,7 +175,8 @@ void FieldWriter::write_xdmf() const {
       << "        <Topology TopologyType=\"3DCoRectMesh\" Dimensions=\"" << dims.str() << "\"/>\n"
       // ORIGIN_DXDYDZ lists z, y, x (slowest first), like the topology's Dimensions.
       << "        <Geometry GeometryType=\"ORIGIN_DXDYDZ\">\n"
-      << "          <DataItem Format=\"XML\" NumberType=\"Float\" Precision=\"8\" Dimensions=\"3\">0 0 0</DataItem>\n"
+      << "          <DataItem Format=\"XML\" NumberType=\"Float\" Precision=\"8\" Dimensions=\"3\">0 "
+      << (y_plane_ >= 0 ? y_plane_ * dx_um_ : 0.0) << " 0</DataItem>\n"
       << "          <DataItem Format=\"XML\" NumberType=\"Float\" Precision=\"8\" Dimensions=\"3\">" << dx_um_ << ' '
       << dx_um_ << ' ' << dx_um_ << "</DataItem>\n"
       << "        </Geometry>\n";

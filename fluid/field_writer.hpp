@@ -24,17 +24,22 @@ namespace cosim::fluid {
 ///    ParaView opens a valid file at any time; each .h5 likewise appears complete or not at
 ///    all. The collection lists the snapshots of this writer only (a new writer starts a new
 ///    collection; older .h5 files in `dir` are left alone).
+///
+/// With a y_plane >= 0 the writer keeps only that plane of cells (y = y_plane; vorticity
+/// still from the whole field): files PREFIX_NNNNNN.h5 with [nz][1][nx] datasets and
+/// PREFIX.xmf, the plane placed at y = y_plane dx (the paper's Figs. 9 and 12).
 class FieldWriter {
  public:
   /// @pre dx_um > 0, dt_us > 0 (throws std::invalid_argument otherwise)
-  FieldWriter(std::string dir, double dx_um, double dt_us);
+  FieldWriter(std::string dir, double dx_um, double dt_us, std::string prefix = "fields",
+              int y_plane = -1);
 
   /// Snapshot at solver.step_count(); a second snapshot of the same step replaces the first.
   /// Throws std::runtime_error with a one-line message on I/O failure.
   void write(const FluidSolver& solver);
 
   const std::filesystem::path& directory() const { return dir_; }
-  std::filesystem::path xdmf_path() const { return dir_ / "fields.xmf"; }
+  std::filesystem::path xdmf_path() const { return dir_ / (prefix_ + ".xmf"); }
   std::filesystem::path snapshot_path(std::int64_t step) const { return dir_ / snapshot_name(step); }
   std::size_t snapshots() const { return snapshots_.size(); }
 
@@ -43,12 +48,16 @@ class FieldWriter {
     std::int64_t step;
     GridShape shape;
   };
-  static std::string snapshot_name(std::int64_t step);
+  std::string snapshot_name(std::int64_t step) const;
+  /// The shape written: the grid, or one y plane of it.
+  GridShape written_shape() const;
   void write_hdf5(const std::filesystem::path& file, std::int64_t step);
   void write_xdmf() const;
 
   std::filesystem::path dir_;
   double dx_um_, dt_us_;
+  std::string prefix_;
+  int y_plane_;
   std::vector<Snapshot> snapshots_;
   // Work arrays kept between snapshots.
   MacroscopicFields m_;

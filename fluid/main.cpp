@@ -32,6 +32,7 @@
 #include "fluid/fluid_solver.hpp"
 #include "fluid/monitor_log.hpp"
 #include "fluid/scene_config.hpp"
+#include "fluid/snapshots.hpp"
 #include "protocol/channels.hpp"
 #include "protocol/units.hpp"
 
@@ -118,6 +119,11 @@ void print_header(const FluidScene& s, const protocol::UnitConverter& units) {
     std::printf("fields every %lld", static_cast<long long>(s.fields_every));
   else
     std::printf("no field output");
+  if (s.planes_every > 0) {
+    std::printf("; y planes at");
+    for (const double f : s.planes_y) std::printf(" %.4g", f);
+    std::printf(" of the height every %lld", static_cast<long long>(s.planes_every));
+  }
   std::printf("; output %s; %d OpenMP threads\n", s.output_dir.c_str(), omp_get_max_threads());
   std::fflush(stdout);
 }
@@ -193,19 +199,18 @@ int run(const FluidScene& s, bool quiet) {
 
   std::filesystem::create_directories(s.output_dir);
   MonitorLog log((std::filesystem::path(s.output_dir) / "monitor.h5").string(), dt_us);
-  std::optional<FieldWriter> fields;
-  if (s.fields_every > 0) fields.emplace(s.output_dir, s.dx_um, dt_us);
+  Snapshots snapshots(s, dt_us);
 
   log.append(*first);
   std::printf("%s\n", format_summary(*first, dt_us, mass0).c_str());
   std::fflush(stdout);
-  if (fields) fields->write(solver);
+  if (snapshots.due(0, false)) snapshots.write(solver, false);
 
   for (std::int64_t step = 1; step <= s.steps; ++step) {
     solver.step();
     const bool last = step == s.steps;
     const bool monitor = step % s.monitor_every == 0 || last;
-    const bool snapshot = fields && (step % s.fields_every == 0 || last);
+    const bool snapshot = snapshots.due(step, last);
     if (monitor || snapshot) {
       const std::optional<FlowSummary> sum = healthy_summary();
       if (!sum) return kExitUnhealthy;
@@ -215,7 +220,7 @@ int run(const FluidScene& s, bool quiet) {
         std::printf("%s\n", format_summary(*sum, dt_us, mass0).c_str());
         std::fflush(stdout);
       }
-      if (snapshot) fields->write(solver);
+      if (snapshot) snapshots.write(solver, last);
     }
     progress.update(step);
   }

@@ -64,7 +64,8 @@ const std::vector<Section>& schema() {
       {"wall_velocity", {"x_min", "x_max", "y_min", "y_max", "z_min", "z_max"}},
       {"body_force", {"x", "y", "z"}},
       {"run", {"steps", "monitor_every", "mach_limit", "threads", "initial"}},
-      {"output", {"directory", "fields_every"}},
+      // sheets_every belongs to the solid (snapshots of its CGPs) in coupled scenes.
+      {"output", {"directory", "fields_every", "planes_every", "planes_y", "sheets_every"}},
       {"coupling",
        {"time_ratio", "rigid_steps", "handshake_timeout_s", "peer_timeout_s", "resend_after_s",
         "lcm_url", "channel_prefix"}},
@@ -658,6 +659,31 @@ void load_output_and_initial(const Reader& r, FluidScene& s) {
             "must be >= 0 (0: no field output)");
     s.fields_every = *f;
   }
+  if (const auto f = r.integer("output", "planes_every")) {
+    if (*f < 0)
+      r.bad(*r.node("output", "planes_every"), "output.planes_every",
+            "must be >= 0 (0: no plane snapshots)");
+    s.planes_every = *f;
+  }
+  if (const toml::node* n = r.node("output", "planes_y")) {
+    const char* what = "must be an array of numbers in (0, 1): heights of the y planes as "
+                       "fractions of the channel height (the paper's y = L/2: 0.5)";
+    const toml::array* a = n->as_array();
+    if (!a || a->empty() || a->size() > 16) r.bad(*n, "output.planes_y", what);
+    for (const toml::node& e : *a) {
+      double v = 0.0;
+      if (const auto* i = e.as_integer())
+        v = double(i->get());
+      else if (const auto* d = e.as_floating_point())
+        v = d->get();
+      else
+        r.bad(*n, "output.planes_y", what);
+      if (!(v > 0.0 && v < 1.0)) r.bad(*n, "output.planes_y", what);
+      s.planes_y.push_back(v);
+    }
+  }
+  if (s.planes_every > 0 && s.planes_y.empty())
+    r.missing("output.planes_y", "planes_every > 0 needs the planes, e.g. planes_y = [0.5, 0.3333]");
   const bool has_inlet = std::any_of(s.params.faces.begin(), s.params.faces.end(),
                                      [](const FaceSpec& f) { return f.kind == FaceKind::Inlet; });
   s.initial = has_inlet ? InitialFlow::Inlet : InitialFlow::Rest;

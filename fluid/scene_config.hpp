@@ -7,6 +7,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "fluid/fluid_solver.hpp"
 
@@ -67,6 +68,10 @@ struct FluidScene {
   std::int64_t steps = 0;
   std::int64_t monitor_every = 100;
   std::int64_t fields_every = 0;  ///< 0: no field output
+  /// Snapshots of rho, u and vorticity on y planes (the paper's Figs. 9, 12): every
+  /// planes_every steps (0: none), at heights planes_y (fractions of ny; the nearest cell).
+  std::int64_t planes_every = 0;
+  std::vector<double> planes_y;
   std::string output_dir;         ///< relative paths are relative to the working directory
   double mach_limit = SceneLimits::default_mach_limit;
   int threads = 0;  ///< 0: OpenMP's default (OMP_NUM_THREADS or all cores)

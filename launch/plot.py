@@ -35,8 +35,9 @@ parent folder), one PNG per figure, and prints the path of each file written:
 
 --stats prints, per run and sheet, tab-separated: scene, sheet, final and maximum (largest
 |x|, signed) stream-wise displacement of the marked CGP in um, mean C_D and C_L over the last
-half of the free phase, and the oscillation frequency of the marked CGP after release in MHz
-(zero crossings of x minus its last-half mean, with 5% hysteresis; nan without oscillation).
+half of the free phase, the oscillation frequency of the marked CGP after release in MHz and
+the number of crossings it comes from (zero crossings of x minus its last-half mean, from the
+end of the initial approach on, with a 5% hysteresis; nan with fewer than two crossings).
 launch/sweep.sh uses it for its summary table.
 
 Exit status: 0 done; 1 system error (cannot write the plots); 2 bad arguments, or a missing
@@ -581,19 +582,24 @@ def vorticity_figure(run, out, written, fraction, name):
 # Statistics for the sweep's table
 
 def crossing_frequency(t_us, x):
-    """Oscillation frequency (MHz) from the zero crossings of x - mean(last half), with a
-    hysteresis of 5% of the largest excursion; nan with fewer than two crossings."""
+    """(frequency in MHz, number of crossings) of x about its last-half mean: the zero
+    crossings of x - mean after the first one (the end of the initial approach), with a
+    hysteresis of 5% of the largest excursion from there on, so that round-off and the
+    creeping tail of a settled sheet are not counted; (nan, crossings) with fewer than two."""
     n = x.size
-    if n < 4:
-        return float("nan")
+    if n < 4 or not np.isfinite(x).all():
+        return float("nan"), 0
     d = x - np.mean(x[n // 2:])
-    amp = np.nanmax(np.abs(d)) if np.isfinite(d).any() else 0.0
+    changes = np.nonzero(d[:-1] * d[1:] < 0)[0]
+    if changes.size == 0:
+        return float("nan"), 0
+    amp = np.max(np.abs(d[changes[0]:]))
     if not amp > 1e-9:       # um: no motion to speak of
-        return float("nan")
+        return float("nan"), 0
     h = 0.05 * amp
     state, last_zero, crossings = 0, None, []
     for i in range(1, n):
-        if d[i - 1] * d[i] < 0 or (d[i] == 0 and d[i - 1] != 0):
+        if d[i - 1] * d[i] < 0:
             a, b = d[i - 1], d[i]
             last_zero = t_us[i - 1] + (t_us[i] - t_us[i - 1]) * (a / (a - b))
         s = 1 if d[i] > h else (-1 if d[i] < -h else 0)
@@ -602,9 +608,13 @@ def crossing_frequency(t_us, x):
         if state != 0 and s != state and last_zero is not None:
             crossings.append(last_zero)
         state = s
+    if d[changes[0] + 1] != 0 and (not crossings or crossings[0] > t_us[changes[0] + 1]):
+        # the first crossing ends the approach from the rest position: it counts too
+        a, b = d[changes[0]], d[changes[0] + 1]
+        crossings.insert(0, t_us[changes[0]] + (t_us[changes[0] + 1] - t_us[changes[0]]) * (a / (a - b)))
     if len(crossings) < 2 or crossings[-1] <= crossings[0]:
-        return float("nan")
-    return (len(crossings) - 1) / (2.0 * (crossings[-1] - crossings[0]))   # 1/us = MHz
+        return float("nan"), len(crossings)
+    return (len(crossings) - 1) / (2.0 * (crossings[-1] - crossings[0])), len(crossings)   # 1/us = MHz
 
 
 def stats(runs):
@@ -618,7 +628,7 @@ def stats(runs):
             print("\t".join([
                 r.scene, f"G{s + 1}", f"{x[-1]:.4g}", f"{x[imax]:.4g}",
                 f"{np.mean(r.coef[late, s, 0]):.4g}", f"{np.mean(r.coef[late, s, 2]):.4g}",
-                f"{crossing_frequency(t, x):.4g}"]))
+                "{:.4g}\t{}".format(*crossing_frequency(t, x))]))
 
 
 # ----------------------------------------------------------------------------------------

@@ -18,8 +18,8 @@
 # written to OUT/<family>/summary.txt: per scene and sheet, the marked CGP's final and
 # largest (signed, at max |x|) stream-wise displacement in um, the mean C_D and C_L (= C_z)
 # over the last half of the free phase, the oscillation frequency of the marked CGP after
-# the release (zero crossings of x minus its mean, launch/plot.py --stats) and the run's exit
-# status (launch/run-coupled.sh: 0 done, 1 system, 2 bad input, 3 unhealthy, 4 peer lost).
+# the release with the number of zero crossings of x minus its mean that it comes from
+# (launch/plot.py --stats) and the run's exit status (launch/run-coupled.sh: 0 done, 1 system, 2 bad input, 3 unhealthy, 4 peer lost).
 # A failed run is still listed, and plotted if it left a readable solid.h5.
 #
 # Environment:
@@ -134,8 +134,8 @@ fi
 
 # Summary table, one row per scene and sheet.
 {
-  printf '%-34s %-5s %4s %11s %11s %9s %9s %8s\n' scene sheet exit "x_end(um)" "x_max(um)" \
-    "<C_D>" "<C_L>" "f(MHz)"
+  printf '%-34s %-5s %4s %11s %11s %9s %10s %8s %5s\n' scene sheet exit "x_end(um)" "x_max(um)" \
+    "<C_D>" "<C_L>" "f(MHz)" cross
   for i in "${!dirs[@]}"; do
     d=${dirs[$i]}; status=${statuses[$i]}; rows=""
     if [ -f "$base/$d/solid.h5" ]; then
@@ -146,13 +146,14 @@ fi
     if [ "${rows:0:1}" = "!" ]; then
       printf '%-34s %-5s %4s %s\n' "$d" - "$status" "(${rows:1})"
     else
-      while IFS=$'\t' read -r _scene sheet xend xmax cd cl f; do
-        printf '%-34s %-5s %4s %11s %11s %9s %9s %8s\n' "$d" "$sheet" "$status" "$xend" "$xmax" \
-          "$cd" "$cl" "$f"
+      while IFS=$'\t' read -r _scene sheet xend xmax cd cl f cross; do
+        printf '%-34s %-5s %4s %11s %11s %9s %10s %8s %5s\n' "$d" "$sheet" "$status" "$xend" "$xmax" \
+          "$cd" "$cl" "$f" "$cross"
       done <<<"$rows"
     fi
   done
-  echo "<C_D>, <C_L>: means over the last half of the free phase; f: zero crossings of x - mean after release (nan: no oscillation)"
+  echo "x: stream-wise displacement of the marked CGP (x_max: at the largest |x|); <C_D>, <C_L> = <C_z>: means over the"
+  echo "last half of the free phase; f: from the 'cross' zero crossings of x - mean after release (nan: no oscillation)"
 } | tee "$base/summary.txt"
 
 [ $first_failure -eq 0 ] || exit $first_failure

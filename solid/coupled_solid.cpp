@@ -37,6 +37,7 @@
 #include "protocol/step_sequencer.hpp"
 #include "protocol/units.hpp"
 #include "solid/model_registry.hpp"
+#include "solid/sheet_snapshots.hpp"
 #include "solid/sheet_spec.hpp"
 #include "solid/solid_coupler.hpp"
 #include "solid/solid_h5.hpp"
@@ -172,6 +173,7 @@ class CoupledSolid {
     // Step 0: the initial positions, zero impulses (section 5).
     publish_state(0, 0, coupler_->positions_lb(), Eigen::Matrix3Xd::Zero(3, n_));
     record(0, nullptr);
+    if (const auto e = snapshot(0)) return finish(*e);
     watch_.heard(Clock::now());
     for (;;) {
       const Clock::time_point t0 = Clock::now();
@@ -263,6 +265,9 @@ class CoupledSolid {
          << ", rigid_steps " << c_.rigid_steps << " (the welcome_t's count), timeouts: handshake "
          << fmt("%g", c_.handshake_timeout_s) << " s, peer " << fmt("%g", c_.peer_timeout_s)
          << " s, resend after " << fmt("%g", c_.resend_after_s) << " s; output " << s_.output_dir
+         << (s_.sheets_every > 0 ? ", sheet snapshots every " + std::to_string(s_.sheets_every) +
+                                       " LB steps (sheets.xmf)"
+                                 : std::string())
          << "\n";
     out_.flush();
   }
@@ -273,6 +278,13 @@ class CoupledSolid {
     if (ec)
       return Ending{exit_code::system,
                     "cannot create the output directory " + s_.output_dir + ": " + ec.message()};
+    if (s_.sheets_every > 0) {
+      try {
+        snapshots_ = std::make_unique<SheetSnapshotWriter>(s_.output_dir, s_.config);
+      } catch (const std::exception& e) {
+        return Ending{exit_code::system, one_line(e.what())};
+      }
+    }
     return std::nullopt;
   }
 
@@ -469,7 +481,7 @@ class CoupledSolid {
     total_substeps_ += r.substeps;
     publish_state(m.step, r.substeps, r.position_lb, r.impulse_lb);
     record(m.step, &r, m.bulk_velocity_lb);
-    return std::nullopt;
+    return snapshot(m.step);
   }
 
   /// The first CGP with a non-finite position or velocity, as a diagnosis; "" if none.
@@ -665,6 +677,21 @@ class CoupledSolid {
     series_.total_J.push_back(ek + ee);
   }
 
+  /// OUTPUT/sheets_NNNNNN.h5 and sheets.xmf (solid/sheet_snapshots.hpp) at step 0, every
+  /// [output] sheets_every LB steps and the last step; an output error ends the run (1).
+  std::optional<Ending> snapshot(std::int64_t step) {
+    if (!snapshots_ || !sheet_snapshot_due(step, total_steps_ - 1, s_.sheets_every))
+      return std::nullopt;
+    try {
+      snapshots_->write(step, static_cast<double>(step) * units_.dt_lb_s(), *model_);
+    } catch (const std::exception& e) {
+      return Ending{exit_code::system,
+                    "sheet snapshot of step " + std::to_string(step) + ": " + one_line(e.what()),
+                    true};
+    }
+    return std::nullopt;
+  }
+
   std::string output_path() const {
     return (std::filesystem::path(s_.output_dir) / "solid.h5").string();
   }
@@ -756,7 +783,11 @@ class CoupledSolid {
            << " at step " << last_step_ << " of " << total_steps_ << ", " << total_substeps_
            << " substeps (" << fmt("%.5g", static_cast<double>(total_substeps_) * units_.dt_cg_s() * 1e6)
            << " us) in " << fmt("%.1f", wall) << " s; " << counters() << "; " << series_.rows()
-           << " rows in " << output_path() << "\n";
+           << " rows in " << output_path()
+           << (snapshots_ ? ", " + std::to_string(snapshots_->count()) + " sheet snapshots in " +
+                                snapshots_->xdmf_path().string()
+                          : std::string())
+           << "\n";
       if (timed_steps_ > 0)
         out_ << "solid: per LB step: compute " << fmt("%.4g", 1e3 * compute_s_ / double(timed_steps_))
              << " ms (substeps, publishing, recording), waiting " << fmt("%.4g", 1e3 * wait_s_ / double(timed_steps_))
@@ -807,6 +838,7 @@ class CoupledSolid {
   std::map<std::string, std::int64_t> undecodable_;
 
   CoupledSeries series_;
+  std::unique_ptr<SheetSnapshotWriter> snapshots_;  ///< [output] sheets_every > 0
   Clock::time_point start_ = Clock::now(), last_progress_ = start_;
   double compute_s_ = 0.0, wait_s_ = 0.0;  ///< per-step timing (DESIGN 7)
   std::int64_t timed_steps_ = 0;

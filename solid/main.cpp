@@ -18,6 +18,8 @@
 // Output: OUTPUT/solid.h5 with one row every record_every substeps (and at substep 0 and the
 // last): substep, time_s, the marked CGP's displacement of each sheet (um, rows x sheets x 3)
 // and along the sheet's normal (um, rows x sheets), kinetic, elastic and total energy (J).
+// With [output] sheets_every = N > 0 also OUTPUT/sheets_NNNNNN.h5 every N substeps (and at
+// substep 0 and the last) and OUTPUT/sheets.xmf (solid/sheet_snapshots.hpp).
 //
 // The static run is a dynamic relaxation: the model integrates
 //   M dV/dt = F^int + F^p - 2 zeta omega_1 M V
@@ -50,6 +52,7 @@
 #include "protocol/units.hpp"
 #include "solid/coupled_solid.hpp"
 #include "solid/model_registry.hpp"
+#include "solid/sheet_snapshots.hpp"
 #include "solid/sheet_spec.hpp"
 #include "solid/solid_h5.hpp"
 #include "solid/solid_model.hpp"
@@ -258,7 +261,7 @@ void print_header(const SolidScene& s, const SolidModel& model) {
       std::printf("%s %.5g MHz", k ? "," : "", f[k] * 1e-6);
     std::printf("; first period %.5g us = %.4g substeps\n", 1e6 / f[0], 1.0 / (f[0] * s.dt_s));
   }
-  std::printf("  run      %s; %lld substeps = %.5g us; record every %lld; output %s\n",
+  std::printf("  run      %s; %lld substeps = %.5g us; record every %lld; output %s%s\n",
               s.mode == SolidRunMode::Free
                   ? ("free vibration from a tip displacement of " +
                      fmt("%.4g", um_from_bohr(s.tip_displacement_bohr)) + " um")
@@ -267,7 +270,11 @@ void print_header(const SolidScene& s, const SolidModel& model) {
                      " Pa by dynamic relaxation, damping ratio " + fmt("%.3g", s.damping_ratio))
                         .c_str(),
               static_cast<long long>(s.substeps), double(s.substeps) * s.dt_s * 1e6,
-              static_cast<long long>(s.record_every), s.output_dir.c_str());
+              static_cast<long long>(s.record_every), s.output_dir.c_str(),
+              s.sheets_every > 0
+                  ? (", sheet snapshots every " + std::to_string(s.sheets_every) + " substeps")
+                        .c_str()
+                  : "");
   std::fflush(stdout);
 }
 
@@ -471,11 +478,19 @@ int run(const SolidScene& s, SolidModel& model, bool quiet) {
     return kExitNonFinite;
   };
 
+  std::optional<SheetSnapshotWriter> snapshots;
+  if (s.sheets_every > 0) snapshots.emplace(s.output_dir, s.config);
+  const auto snapshot = [&](std::int64_t k) {
+    if (snapshots && sheet_snapshot_due(k, s.substeps, s.sheets_every))
+      snapshots->write(k, double(k) * s.dt_s, model);
+  };
+
   if (const std::string bad = non_finite_state(model, s.config); !bad.empty()) return stop(0, bad);
   if (!record(0)) {
     write_series(s, series);
     return kExitNonFinite;
   }
+  snapshot(0);
   Eigen::Matrix3Xd external = load;
   for (std::int64_t k = 1; k <= s.substeps; ++k) {
     if (damping > 0.0)
@@ -496,6 +511,7 @@ int run(const SolidScene& s, SolidModel& model, bool quiet) {
         return kExitNonFinite;
       }
     }
+    snapshot(k);
     progress.update(k);
   }
   progress.clear();
@@ -506,6 +522,9 @@ int run(const SolidScene& s, SolidModel& model, bool quiet) {
               static_cast<long long>(s.substeps), double(s.substeps) * s.dt_s * 1e6, wall,
               n > 0 ? wall / double(s.substeps) / double(n) * 1e6 : 0.0, series.rows(),
               (std::filesystem::path(s.output_dir) / "solid.h5").string().c_str());
+  if (snapshots)
+    std::printf("solid: %zu sheet snapshots in %s\n", snapshots->count(),
+                snapshots->xdmf_path().string().c_str());
   if (s.mode == SolidRunMode::Free)
     print_free_summary(model, series);
   else

@@ -64,7 +64,7 @@ struct Section {
   std::vector<const char*> keys;
   Use use = Use::Both;
   /// Keys of the same section that the fluid reads in a coupled scene: allowed there and
-  /// left unread ([grid] nx, ny, nz; [output] fields_every).
+  /// left unread ([grid] nx, ny, nz; [output] fields_every, planes_every, planes_y).
   std::vector<const char*> fluid_keys = {};
 };
 
@@ -83,7 +83,11 @@ const std::vector<Section>& schema() {
       {"run", false, {"mode", "substeps", "dt_s", "record_every"}, Use::Standalone},
       {"perturbation", false, {"tip_displacement_um"}, Use::Standalone},
       {"load", false, {"pressure_Pa", "damping_ratio"}, Use::Standalone},
-      {"output", false, {"directory"}, Use::Both, {"fields_every"}},
+      {"output",
+       false,
+       {"directory", "sheets_every"},
+       Use::Both,
+       {"fields_every", "planes_every", "planes_y"}},
       {"grid", false, {"dx_um"}, Use::Coupled, {"nx", "ny", "nz"}},
       {"coupling",
        false,
@@ -765,6 +769,14 @@ SolidScene load_solid_scene(const std::string& path) {
   if (const auto d = r.string(out, "directory")) {
     if (d->empty()) r.bad(*out.node("directory"), out.key("directory"), "must not be empty");
     s.output_dir = *d;
+  }
+  if (const auto e = r.integer(out, "sheets_every")) {
+    if (*e < 0)
+      r.bad(*out.node("sheets_every"), out.key("sheets_every"),
+            std::string("must be an integer >= 0 (0: no sheet snapshots; N: sheets_NNNNNN.h5 "
+                        "and sheets.xmf every N ") +
+                (coupled ? "LB steps" : "substeps") + ", at the first and the last)");
+    s.sheets_every = *e;
   }
   return s;
 }

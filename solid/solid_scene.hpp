@@ -84,6 +84,10 @@ struct SolidScene {
   double damping_ratio = 1.0;
 
   std::string output_dir;  ///< relative paths are relative to the working directory
+  /// [output] sheets_every: snapshots of the CGPs with their area strain (the paper's
+  /// section 3.2 and Fig. 11; solid/sheet_snapshots.hpp) every N LB steps of a coupled run,
+  /// substeps of a standalone one, and at the first and the last; 0: none.
+  std::int64_t sheets_every = 0;
 
   /// [coupling]: set iff the file has that section (a coupled scene). Then mode, substeps,
   /// record_every, tip_displacement_bohr, pressure_Pa and damping_ratio are unused (the
@@ -103,10 +107,10 @@ struct SolidScene {
 /// missing file all throw SolidSceneError; nothing else escapes.
 ///
 /// A scene with a [coupling] section is coupled: the solid reads [scene], [solid],
-/// [[sheet]], [contact], [output] directory, [grid] dx_um and [coupling]; the fluid's
-/// sections ([grid] nx/ny/nz, [fluid], [inlet], [boundaries], [wall_velocity], [body_force],
-/// [run], [output] fields_every) are left to the fluid, unread; [perturbation] and [load]
-/// belong to standalone runs and are refused.
+/// [[sheet]], [contact], [output] directory and sheets_every, [grid] dx_um and [coupling];
+/// the fluid's sections ([grid] nx/ny/nz, [fluid], [inlet], [boundaries], [wall_velocity],
+/// [body_force], [run], [output] fields_every, planes_every, planes_y) are left to the
+/// fluid, unread; [perturbation] and [load] belong to standalone runs and are refused.
 SolidScene load_solid_scene(const std::string& path);
 
 /// Command-line overrides of [run] substeps (standalone), [output] directory, and

@@ -330,6 +330,51 @@ TEST(Output, FieldFileRoundTrip) {
 
 // u = Omega x (r - r0) is a rigid rotation: curl u = 2 Omega everywhere. The field is linear,
 // so the central differences inside and the one-sided ones at walls are exact.
+// A y plane of the grid (the paper's Figs. 9 and 12): the plane's cells of the whole-grid
+// fields, vorticity included (computed from the whole field), placed at y dx in the XDMF.
+TEST(Output, PlaneSnapshotIsTheGridsPlane) {
+  const TempDir tmp("planes");
+  FluidParams p = periodic_box(7, 5, 4);
+  p.faces[YMin].kind = FaceKind::Wall;
+  p.faces[YMax].kind = FaceKind::FreeSlip;
+  FluidSolver s(p);
+  random_flow(s, 29);
+  s.step();
+  const double dx_um = 0.2561, dt_us = 4.4603e-4;
+  FieldWriter w((tmp.path / "out").string(), dx_um, dt_us, "plane_y3", 3);
+  w.write(s);
+  MacroscopicFields m;
+  s.macroscopic(m);
+  std::vector<double> wx, wy, wz;
+  vorticity(s, m, wx, wy, wz);
+  const fs::path h5 = tmp.path / "out" / "plane_y3_000001.h5";
+  ASSERT_TRUE(fs::exists(h5));
+  const hid_t file = H5Fopen(h5.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  ASSERT_GE(file, 0);
+  std::vector<hsize_t> dims;
+  const std::vector<double> rho = read_dataset(file, "rho", dims);
+  EXPECT_EQ(dims, (std::vector<hsize_t>{4, 1, 7}));
+  const std::vector<double> vort = read_dataset(file, "vorticity", dims);
+  EXPECT_EQ(dims, (std::vector<hsize_t>{4, 1, 7, 3}));
+  H5Fclose(file);
+  for (int z = 0; z < 4; ++z)
+    for (int x = 0; x < 7; ++x) {
+      const std::size_t i = m.index(x, 3, z), h = std::size_t(z) * 7 + x;
+      EXPECT_EQ(rho[h], m.rho[i]);
+      EXPECT_DOUBLE_EQ(vort[3 * h + 1], wy[i] / dt_us);  // the writer multiplies by 1 / dt
+    }
+  std::ifstream in(tmp.path / "out" / "plane_y3.xmf");
+  std::stringstream text;
+  text << in.rdbuf();
+  const std::string xmf = text.str();
+  EXPECT_EQ(unbalanced_tags(xmf), "") << xmf;
+  EXPECT_NE(xmf.find("Dimensions=\"4 1 7\""), std::string::npos);
+  EXPECT_NE(xmf.find(">0 0.7683 0</DataItem>"), std::string::npos) << xmf;  // y = 3 dx
+  // A plane outside the grid is refused.
+  FieldWriter bad((tmp.path / "bad").string(), dx_um, dt_us, "plane_y9", 9);
+  EXPECT_THROW(bad.write(s), std::invalid_argument);
+}
+
 TEST(Output, VorticityOfSolidBodyRotation) {
   FluidParams p = periodic_box(9, 8, 7);
   for (auto& face : p.faces) face.kind = FaceKind::Wall;

@@ -79,6 +79,13 @@ const std::vector<BadCase> kBadCases = {
     {"duplicate_key.toml", {":10:6: TOML syntax error", "'nz'"}},
     {"wall_velocity_not_wall.toml",
      {"wall_velocity.y_max = [0.05, 0, 0]: only a wall can move", "is \"free_slip\""}},
+    {"planes_y_range.toml", {"output.planes_y = [0.5, 1.5]: must be an array of numbers in (0, 1)"}},
+    {"planes_without_heights.toml",
+     {"output.planes_y: missing; planes_every > 0 needs the planes"}},
+    {"coupling_ttl.toml",
+     {"coupling.lcm_url = \"udpm://239.255.76.67:7667?ttl=1\": must be a udpm:// URL with ttl=0"}},
+    {"solid_without_coupling.toml",
+     {"[sheet]: a solid section needs a [coupling] section"}},
 };
 
 TEST(Scene, BadSceneFilesAreRejected) {

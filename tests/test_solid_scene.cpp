@@ -122,7 +122,12 @@ const std::vector<BadCase>& bad_cases() {
         "[output], [grid], [coupling]; the fluid's [fluid],",
         "did you mean \"fluid\""}},
       {"coupling_output_unknown_key.toml",
-       {":8: output.fields_evry = 10: unknown key in [output]; allowed: directory, fields_every"}},
+       {":8: output.fields_evry = 10: unknown key in [output]; allowed: directory, "
+        "sheets_every, fields_every, planes_every, planes_y",
+        "did you mean \"fields_every\""}},
+      {"sheets_every_negative.toml",
+       {":8: output.sheets_every = -10: must be an integer >= 0 (0: no sheet snapshots; N: "
+        "sheets_NNNNNN.h5 and sheets.xmf every N LB steps, at the first and the last)"}},
   };
   return cases;
 }
@@ -215,8 +220,9 @@ TEST(SolidScene, PaperSolidScenesValidate) {
 
 // A coupled scene (one file for both servers): the solid reads its sections, [grid] dx_um
 // and [coupling], and leaves the fluid's sections ([grid] nx/ny/nz, [fluid], [inlet],
-// [boundaries], [wall_velocity], [body_force], [run], [output] fields_every) unread, even
-// where they hold what the solid would refuse.
+// [boundaries], [wall_velocity], [body_force], [run], [output] fields_every, planes_every,
+// planes_y) unread, even where they hold what the solid would refuse; [output] sheets_every
+// is the solid's.
 TEST(SolidScene, CoupledSceneParses) {
   const fs::path dir = fs::temp_directory_path() /
                        ("cosim_test_solid_scene_" + std::to_string(getpid()) + "_coupled");
@@ -235,7 +241,8 @@ TEST(SolidScene, CoupledSceneParses) {
                          "[coupling]\ntime_ratio = 300\nrigid_steps = 15000\nhandshake_timeout_s = 60\n"
                          "peer_timeout_s = 10\nresend_after_s = 0.25\n"
                          "lcm_url = \"udpm://239.255.76.67:7667?ttl=0\"\nchannel_prefix = \"RUN_ab12_\"\n\n"
-                         "[output]\ndirectory = \"out/sheet_in_flow\"\nfields_every = 1000\n";
+                         "[output]\ndirectory = \"out/sheet_in_flow\"\nfields_every = 1000\n"
+                         "planes_every = 100\nplanes_y = [0.5]\nsheets_every = 500\n";
   const SolidScene s = load_solid_scene(path.string());
   EXPECT_TRUE(s.coupled());
   ASSERT_TRUE(s.coupling.has_value());
@@ -250,6 +257,7 @@ TEST(SolidScene, CoupledSceneParses) {
   EXPECT_EQ(s.name, "sheet_in_flow");
   EXPECT_EQ(s.model, "rigid");
   EXPECT_EQ(s.output_dir, "out/sheet_in_flow");
+  EXPECT_EQ(s.sheets_every, 500);
   ASSERT_EQ(s.config.sheets.size(), 1u);
   EXPECT_NEAR(s.config.sheets[0].base_bohr[2] * PhysicalConstants::bohr_m, 11.5e-6, 1e-18);
   // Units for the handshake: dx from [grid], A_T from [coupling], the air of Table 1.

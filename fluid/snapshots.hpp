@@ -1,0 +1,28 @@
+// The field snapshots a scene asks for (scenes/README.md [output]): the whole grid every
+// fields_every steps, and y planes every planes_every steps; nothing when neither is set.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include "fluid/field_writer.hpp"
+#include "fluid/scene_config.hpp"
+
+namespace cosim::fluid {
+
+class Snapshots {
+ public:
+  Snapshots(const FluidScene& scene, double dt_us);
+  /// Whether a snapshot falls on `step` (step 0 and the last step included).
+  bool due(std::int64_t step, bool last) const;
+  /// Writes the snapshots due at the solver's step. @pre the state is healthy
+  void write(const FluidSolver& solver, bool last);
+
+ private:
+  std::int64_t fields_every_, planes_every_;
+  std::optional<FieldWriter> fields_;
+  std::vector<FieldWriter> planes_;
+};
+
+}  // namespace cosim::fluid
