@@ -117,8 +117,11 @@ void FieldWriter::write_hdf5(const fs::path& file, std::int64_t step) {
   write_scalar_attribute(f.get(), "dx_um", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, dx_um_);
   write_scalar_attribute(f.get(), "dt_us", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, dt_us_);
 
-  if (y_plane_ >= 0)
+  if (y_plane_ >= 0) {
     write_scalar_attribute(f.get(), "y_um", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, y_plane_ * dx_um_);
+    write_scalar_attribute(f.get(), "y_cell", H5T_STD_I64LE, H5T_NATIVE_INT64, std::int64_t(y_plane_));
+    write_scalar_attribute(f.get(), "grid_ny", H5T_STD_I64LE, H5T_NATIVE_INT64, std::int64_t(m_.shape.ny));
+  }
   const GridShape s = written_shape();
   // The cells written, in file order (x fastest): all of them, or the plane's.
   std::vector<std::size_t> cells;

@@ -212,15 +212,42 @@ class Run:
             self.monitor = m
 
     def _find_fields(self):
-        snaps = []
+        snaps, planes, sheets = [], [], []
         for name in os.listdir(self.dir):
             m = re.fullmatch(r"fields_(\d+)\.h5", name)
             if m:
                 snaps.append((int(m.group(1)), name))
+            m = re.fullmatch(r"plane_y(\d+)_(\d+)\.h5", name)
+            if m:
+                planes.append((int(m.group(2)), int(m.group(1)), name))
+            m = re.fullmatch(r"sheets_(\d+)\.h5", name)
+            if m:
+                sheets.append((int(m.group(1)), name))
         self.last_fields = os.path.join(self.dir, max(snaps)[1]) if snaps else None
+        # y-plane snapshots ([output] planes_every): the latest step's planes, by cell row.
+        last = max((p[0] for p in planes), default=None)
+        self.last_planes = {j: os.path.join(self.dir, n) for step, j, n in planes if step == last}
+        self.sheet_snapshots = {step: os.path.join(self.dir, n) for step, n in sheets}
+        if self.last_fields is None and self.last_planes:
+            self.last_fields = next(iter(self.last_planes.values()))
+
+    def cgp_positions(self, step):
+        """x and z (um) of the CGPs in the sheet snapshot nearest to `step`, or None."""
+        if not self.sheet_snapshots:
+            return None
+        best = min(self.sheet_snapshots, key=lambda s: abs(s - step))
+        path = self.sheet_snapshots[best]
+        with open_h5(path) as f:
+            if "position_um" not in f:
+                return None
+            p = np.asarray(f["position_um"][...], dtype=float)
+        return dict(x=p[:, 0], z=p[:, 2], step=best) if p.ndim == 2 and p.shape[1] == 3 else None
 
     def vorticity_plane(self, fraction):
         """omega_y on the x-z grid plane nearest y = fraction L, L = ny dx (the channel height)."""
+        if self.last_planes and not any(re.fullmatch(r"fields_\d+\.h5", os.path.basename(p))
+                                        for p in [self.last_fields or ""]):
+            return self._plane_file(fraction)
         path = self.last_fields
         with open_h5(path) as f:
             dx = number_attr(f.attrs, "dx_um", path)
@@ -238,6 +265,26 @@ class Run:
                 plane = np.asarray(w[:, j, :, 1], dtype=float)   # [z][x], omega_y
             except (TypeError, ValueError, OSError) as e:
                 raise RunError(f"{path}: dataset vorticity cannot be read ({e})")
+        return dict(plane=plane, dx=dx, j=j, ny=ny, nx=nx, nz=nz, time_us=time_us,
+                    step=int(step), path=path)
+
+    def _plane_file(self, fraction):
+        """The y-plane snapshot (plane_yJ_NNNNNN.h5) whose row is nearest to fraction L."""
+        rows = {}
+        for j, path in self.last_planes.items():
+            with open_h5(path) as f:
+                rows[j] = (path, int(number_attr(f.attrs, "grid_ny", path)))
+        j = min(rows, key=lambda r: abs(r + 0.5 - fraction * rows[r][1]))
+        path, ny = rows[j]
+        with open_h5(path) as f:
+            dx = number_attr(f.attrs, "dx_um", path)
+            time_us = number_attr(f.attrs, "time_us", path)
+            step = number_attr(f.attrs, "step", path)
+            w = f["vorticity"] if "vorticity" in f else None
+            if w is None or w.ndim != 4 or w.shape[1] != 1 or w.shape[3] != 3:
+                raise RunError(f"{path}: dataset vorticity missing or not (nz, 1, nx, 3)")
+            plane = np.asarray(w[:, 0, :, 1], dtype=float)
+            nz, nx = plane.shape
         return dict(plane=plane, dx=dx, j=j, ny=ny, nx=nx, nz=nz, time_us=time_us,
                     step=int(step), path=path)
 
@@ -572,9 +619,15 @@ def vorticity_figure(run, out, written, fraction, name):
     ax.annotate("flow", xy=(0.13, 0.06), xytext=(0.02, 0.06), xycoords="axes fraction",
                 textcoords="axes fraction", va="center", fontsize=8,
                 arrowprops=dict(arrowstyle="->", color="k", lw=1.0))
-    ax.annotate("CGP positions are not recorded per step: the plane alone",
-                xy=(0.99, 0.015), xycoords="axes fraction", ha="right", va="bottom",
-                fontsize=7, color="0.25")
+    cgps = run.cgp_positions(v["step"])
+    if cgps is not None:  # the sheets seen from above (Figs. 9, 12)
+        ax.plot(cgps["x"], cgps["z"], "o", ms=2.2, color="k", mec="none",
+                label=f"CGPs (step {cgps['step']})")
+        ax.legend(loc="upper right", fontsize=7, frameon=True)
+    else:
+        ax.annotate("no sheet snapshots ([output] sheets_every): the plane alone",
+                    xy=(0.99, 0.015), xycoords="axes fraction", ha="right", va="bottom",
+                    fontsize=7, color="0.25")
     save(fig, out, name, written)
 
 
