@@ -71,6 +71,15 @@ class CoupledFluid {
     lcm_.subscribe(ch_.stop, &CoupledFluid::on_stop, this);
 
     if (auto e = handshake()) return end(*e);
+    try {
+      return step_all();
+    } catch (const std::exception& x) {  // output or system errors after the handshake
+      return stop_and_end({kSystem, x.what()}, -1);
+    }
+  }
+
+  /// The LB steps of the run, after an accepted handshake.
+  int step_all() {
     FluidSolver solver(s_.params);
     initialize_flow(solver, s_);
     const ImmersedBoundary ib(solver);
@@ -111,7 +120,7 @@ class CoupledFluid {
         const FlowSummary sum = summarize(solver);
         const std::string problem = health_problem(sum, limits);
         if (!problem.empty())
-          return end({kUnhealthy, "unhealthy flow after step " + std::to_string(step + 1) + ": " + problem});
+          return stop_and_end({kUnhealthy, "unhealthy flow after step " + std::to_string(step + 1) + ": " + problem}, step + 1);
         log.append(sum);
         bulk_u_ = sum.momentum[0] / sum.mass;
         out_ << format_summary(sum, dt_us, mass0) << "\n";
@@ -122,7 +131,7 @@ class CoupledFluid {
         if ((step + 1) % s_.monitor_every != 0 && !last) {
           const std::string problem = health_problem(summarize(solver), limits);
           if (!problem.empty())
-            return end({kUnhealthy, "unhealthy flow after step " + std::to_string(step + 1) + ": " + problem});
+            return stop_and_end({kUnhealthy, "unhealthy flow after step " + std::to_string(step + 1) + ": " + problem}, step + 1);
         }
         snapshots.write(solver, last);
       }
@@ -394,6 +403,12 @@ class CoupledFluid {
            std::to_string(solid_seq_.duplicates()) + ", stale " + std::to_string(solid_seq_.stale()) +
            ", early " + std::to_string(solid_seq_.early()) + ", resends asked " +
            std::to_string(resends_asked_) + " answered " + std::to_string(resends_answered_);
+  }
+
+  /// Ends the run on the fluid's own error: the solid is told (stop_t) before we go.
+  int stop_and_end(const Ending& e, std::int64_t step) {
+    publish_stop(step, e.code, e.reason);
+    return end(e);
   }
 
   int end(const Ending& e) {
