@@ -25,6 +25,7 @@
 #include "fluid/snapshots.hpp"
 #include "protocol/channels.hpp"
 #include "protocol/handshake.hpp"
+#include "protocol/hello_lcm.hpp"
 #include "protocol/step_sequencer.hpp"
 #include "protocol/units.hpp"
 
@@ -186,40 +187,9 @@ class CoupledFluid {
     return h;
   }
 
-  static protocol::Hello from_lcm(const cosimlcm::hello_t& m) {
-    protocol::Hello h;
-    h.token = m.token;
-    h.role = m.role;
-    h.model = m.model;
-    h.version = m.version;
-    h.scene_hash = m.scene_hash;
-    h.dx_m = m.dx_m;
-    h.dt_lb_s = m.dt_lb_s;
-    h.sound_speed_m_s = m.sound_speed_m_s;
-    h.air_density_kg_m3 = m.air_density_kg_m3;
-    h.time_ratio = m.time_ratio;
-    h.dt_cg_s = m.dt_cg_s;
-    h.stable_dt_cg_s = m.stable_dt_cg_s;
-    h.num_cgps = m.num_cgps;
-    return h;
-  }
-
   std::optional<Ending> handshake() {
     const protocol::Hello mine = fluid_hello();
-    cosimlcm::hello_t own{};
-    own.token = mine.token;
-    own.role = mine.role;
-    own.model = mine.model;
-    own.version = mine.version;
-    own.scene_hash = mine.scene_hash;
-    own.dx_m = mine.dx_m;
-    own.dt_lb_s = mine.dt_lb_s;
-    own.sound_speed_m_s = mine.sound_speed_m_s;
-    own.air_density_kg_m3 = mine.air_density_kg_m3;
-    own.time_ratio = mine.time_ratio;
-    own.dt_cg_s = mine.dt_cg_s;
-    own.stable_dt_cg_s = 0.0;
-    own.num_cgps = 0;
+    const cosimlcm::hello_t own = protocol::to_lcm(mine);
     lcm_.publish(ch_.hello, &own);
     const Clock::time_point deadline = Clock::now() + ms(c_.handshake_timeout_s);
     while (!solid_hello_) {
@@ -232,7 +202,7 @@ class CoupledFluid {
       lcm_.handleTimeout(50);
     }
     const protocol::HandshakeResult r =
-        protocol::check_handshake(mine, from_lcm(*solid_hello_), o_.token);
+        protocol::check_handshake(mine, protocol::from_lcm(*solid_hello_), o_.token);
     welcome_ = cosimlcm::welcome_t{};
     welcome_->token = o_.token;
     welcome_->accepted = r.accepted ? 1 : 0;

@@ -34,6 +34,7 @@
 #include "fluid/scene_config.hpp"
 #include "fluid/snapshots.hpp"
 #include "protocol/channels.hpp"
+#include "protocol/text.hpp"
 #include "protocol/units.hpp"
 
 namespace cosim::fluid {
@@ -42,19 +43,8 @@ namespace {
 constexpr int kExitOk = 0, kExitRuntime = 1, kExitBadInput = 2, kExitUnhealthy = 3;
 
 using Clock = std::chrono::steady_clock;
-
-std::string one_line(std::string s) {
-  for (char& c : s)
-    if (static_cast<unsigned char>(c) < 0x20) c = ' ';
-  while (!s.empty() && s.back() == ' ') s.pop_back();
-  return s;
-}
-
-std::string fmt(const char* f, double v) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, f, v);
-  return buf;
-}
+using protocol::fmt;
+using protocol::one_line;
 
 double max_boundary_speed(const FluidParams& p) {
   double u = 0.0;

@@ -35,6 +35,7 @@
 #include "protocol/hdf5_handle.hpp"
 #include "protocol/hdf5_quiet.hpp"
 #include "protocol/step_sequencer.hpp"
+#include "protocol/text.hpp"
 #include "protocol/units.hpp"
 #include "solid/model_registry.hpp"
 #include "solid/sheet_snapshots.hpp"
@@ -48,6 +49,9 @@ namespace cosim::solid {
 namespace {
 
 using Clock = std::chrono::steady_clock;
+using protocol::fmt;
+using protocol::indent;
+using protocol::one_line;
 using protocol::PhysicalConstants;
 using protocol::UnitConverter;
 using Rows3 = std::vector<std::vector<double>>;
@@ -70,45 +74,6 @@ const Eigen::Vector3d kOriginLb(0.0, -0.5, 0.0);
 double um_from_bohr(double bohr) { return bohr * PhysicalConstants::bohr_m / kMicrometre; }
 double joule_from_hartree(double e) {
   return e * UnitConverter::force_au_N() * PhysicalConstants::bohr_m;  // E_h = F_AU l_AU
-}
-
-std::string one_line(std::string s) {
-  for (char& c : s)
-    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) c = ' ';
-  while (!s.empty() && s.back() == ' ') s.pop_back();
-  return s;
-}
-
-std::string fmt(const char* f, double v) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, f, v);
-  return buf;
-}
-
-std::string indent(const std::string& text) {
-  std::string out;
-  std::size_t start = 0;
-  while (start < text.size()) {
-    std::size_t end = text.find('\n', start);
-    if (end == std::string::npos) end = text.size();
-    out += "  " + text.substr(start, end - start) + "\n";
-    start = end + 1;
-  }
-  return out;
-}
-
-/// Sheet, column and row of CGP `l` of the model's array.
-std::string describe_cgp(const SolidConfig& c, Eigen::Index l) {
-  for (std::size_t s = 0; s < c.sheets.size(); ++s) {
-    const Eigen::Index first = first_cgp(c, s), n = c.sheets[s].num_cgps();
-    if (l >= first && l < first + n) {
-      const Eigen::Index k = l - first;
-      return "CGP " + std::to_string(l) + " (sheet " + std::to_string(s) + ", i = " +
-             std::to_string(k % c.sheets[s].nx_cg) + ", j = " +
-             std::to_string(k / c.sheets[s].nx_cg) + ")";
-    }
-  }
-  return "CGP " + std::to_string(l);
 }
 
 Clock::duration seconds(double s) {

@@ -49,6 +49,7 @@
 
 #include "protocol/hdf5_handle.hpp"
 #include "protocol/hdf5_quiet.hpp"
+#include "protocol/text.hpp"
 #include "protocol/units.hpp"
 #include "solid/coupled_solid.hpp"
 #include "solid/model_registry.hpp"
@@ -64,6 +65,9 @@ namespace {
 constexpr int kExitOk = 0, kExitRuntime = 1, kExitBadInput = 2, kExitNonFinite = 3;
 
 using Clock = std::chrono::steady_clock;
+using protocol::fmt;
+using protocol::indent;
+using protocol::one_line;
 using protocol::PhysicalConstants;
 using protocol::UnitConverter;
 using protocol::H5Id;
@@ -75,46 +79,6 @@ constexpr double kBeamRoot1 = 1.8751040687119611;
 double um_from_bohr(double bohr) { return bohr * PhysicalConstants::bohr_m / kMicrometre; }
 double joule_from_hartree(double e) {
   return e * UnitConverter::force_au_N() * PhysicalConstants::bohr_m;  // E_h = F_AU l_AU
-}
-
-std::string one_line(std::string s) {
-  for (char& c : s)
-    if (static_cast<unsigned char>(c) < 0x20) c = ' ';
-  while (!s.empty() && s.back() == ' ') s.pop_back();
-  return s;
-}
-
-std::string fmt(const char* f, double v) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, f, v);
-  return buf;
-}
-
-/// "  " before every line of a multi-line text.
-std::string indent(const std::string& text) {
-  std::string out;
-  std::size_t start = 0;
-  while (start < text.size()) {
-    std::size_t end = text.find('\n', start);
-    if (end == std::string::npos) end = text.size();
-    out += "  " + text.substr(start, end - start) + "\n";
-    start = end + 1;
-  }
-  return out;
-}
-
-/// Sheet, column and row of CGP `l` of the model's array.
-std::string describe_cgp(const SolidConfig& c, Eigen::Index l) {
-  for (std::size_t s = 0; s < c.sheets.size(); ++s) {
-    const Eigen::Index first = first_cgp(c, s), n = c.sheets[s].num_cgps();
-    if (l >= first && l < first + n) {
-      const Eigen::Index k = l - first;
-      return "CGP " + std::to_string(l) + " (sheet " + std::to_string(s) + ", i = " +
-             std::to_string(k % c.sheets[s].nx_cg) + ", j = " +
-             std::to_string(k / c.sheets[s].nx_cg) + ")";
-    }
-  }
-  return "CGP " + std::to_string(l);
 }
 
 /// The first CGP with a non-finite position or velocity, as a diagnosis; "" if none.

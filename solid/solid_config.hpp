@@ -78,4 +78,18 @@ inline Eigen::Index first_cgp(const SolidConfig& config, std::size_t sheet) {
   return n;
 }
 
+/// "CGP l (sheet s, i = .., j = ..)": where CGP `l` of the model's array sits, for messages.
+inline std::string describe_cgp(const SolidConfig& c, Eigen::Index l) {
+  for (std::size_t s = 0; s < c.sheets.size(); ++s) {
+    const Eigen::Index first = first_cgp(c, s), n = c.sheets[s].num_cgps();
+    if (l >= first && l < first + n) {
+      const Eigen::Index k = l - first;
+      return "CGP " + std::to_string(l) + " (sheet " + std::to_string(s) + ", i = " +
+             std::to_string(k % c.sheets[s].nx_cg) + ", j = " +
+             std::to_string(k / c.sheets[s].nx_cg) + ")";
+    }
+  }
+  return "CGP " + std::to_string(l);
+}
+
 }  // namespace cosim::solid
