@@ -6,6 +6,7 @@
 #include <deque>
 #include <filesystem>
 #include <map>
+#include <memory>
 #include <optional>
 #include <thread>
 #include <vector>
@@ -54,7 +55,9 @@ class CoupledFluid {
   CoupledFluid(const FluidScene& s, const CoupledFluidOptions& o, std::ostream& out)
       : s_(s), c_(*s.coupling), o_(o), out_(out),
         ch_(o.channel_prefix.empty() ? c_.channel_prefix : o.channel_prefix),
-        lcm_(o.lcm_url.empty() ? c_.lcm_url : o.lcm_url),
+        own_lcm_(o.bus != nullptr ? nullptr
+                                   : std::make_unique<lcm::LCM>(o.lcm_url.empty() ? c_.lcm_url : o.lcm_url)),
+        lcm_(o.bus != nullptr ? *o.bus : *own_lcm_),
         foreign_(o.token, [this](const std::string& line) { out_ << "fluid: " << line << "\n"; }),
         solid_seq_(0),
         watch_(ms(c_.peer_timeout_s), ms(c_.resend_after_s)) {
@@ -64,12 +67,19 @@ class CoupledFluid {
     units_ = protocol::UnitConverter(in);
   }
 
+  CoupledFluid(const CoupledFluid&) = delete;
+  CoupledFluid& operator=(const CoupledFluid&) = delete;
+  ~CoupledFluid() {
+    for (lcm::Subscription* sub : subs_)
+      if (sub != nullptr) lcm_.unsubscribe(sub);
+  }
+
   int run() {
     if (!lcm_.good()) return end({kSystem, "cannot open LCM at " + url()});
-    lcm_.subscribe(ch_.hello, &CoupledFluid::on_hello, this);
-    lcm_.subscribe(ch_.solid_state, &CoupledFluid::on_solid_state, this);
-    lcm_.subscribe(ch_.resend, &CoupledFluid::on_resend, this);
-    lcm_.subscribe(ch_.stop, &CoupledFluid::on_stop, this);
+    subs_.push_back(lcm_.subscribe(ch_.hello, &CoupledFluid::on_hello, this));
+    subs_.push_back(lcm_.subscribe(ch_.solid_state, &CoupledFluid::on_solid_state, this));
+    subs_.push_back(lcm_.subscribe(ch_.resend, &CoupledFluid::on_resend, this));
+    subs_.push_back(lcm_.subscribe(ch_.stop, &CoupledFluid::on_stop, this));
 
     if (auto e = handshake()) return end(*e);
     try {
@@ -396,7 +406,9 @@ class CoupledFluid {
   const CoupledFluidOptions& o_;
   std::ostream& out_;
   protocol::Channels ch_;
-  lcm::LCM lcm_;
+  std::unique_ptr<lcm::LCM> own_lcm_;  ///< null when the options bring a bus
+  lcm::LCM& lcm_;
+  std::vector<lcm::Subscription*> subs_;
   protocol::ForeignCounter foreign_;
   protocol::StepSequencer solid_seq_;
   protocol::PeerWatch watch_;

@@ -8,6 +8,10 @@
 
 #include "fluid/scene_config.hpp"
 
+namespace lcm {
+class LCM;
+}
+
 namespace cosim::fluid {
 
 struct CoupledFluidOptions {
@@ -15,6 +19,10 @@ struct CoupledFluidOptions {
   std::string channel_prefix;  ///< overrides [coupling] channel_prefix when not empty
   std::string lcm_url;         ///< overrides [coupling] lcm_url when not empty
   bool quiet = false;
+  /// A bus to use instead of opening one (lcm_url is then ignored): an in-process peer on
+  /// one memq:// bus (the replay tool, tests). Not owned; the subscriptions made on it are
+  /// removed before run_coupled_fluid returns.
+  lcm::LCM* bus = nullptr;
 };
 
 /// Runs a coupled scene (scene.coupling present) to the end. Returns the exit code of

@@ -1,9 +1,11 @@
 #include "fluid/flow_monitor.hpp"
 
 #include <cmath>
+#include <array>
 #include <cstddef>
 #include <cstdio>
 #include <limits>
+#include <vector>
 
 #include "fluid/d3q19.hpp"
 #include "fluid/equilibrium.hpp"
@@ -59,16 +61,13 @@ inline Moments pulled_moments(const double* const* s, int x, const double* hF) {
   return m;
 }
 
-/// The reference: one row cell by cell into the thread's partial result.
+/// The reference: one row cell by cell into the thread's extrema and first non-finite cell
+/// (the row's sums come from the vectorised pass alone, see summarize()).
 void scan_row(Partial& p, const double* const* s, int nx, std::int64_t row0, const double* hF) {
   for (int x = 0; x < nx; ++x) {
     const Moments c = pulled_moments(s, x, hF);
     const double inv = 1.0 / c.rho;
     const double ux = c.jx * inv, uy = c.jy * inv, uz = c.jz * inv;
-    p.mass += c.rho;
-    p.mx += c.jx;
-    p.my += c.jy;
-    p.mz += c.jz;
     const std::int64_t i = row0 + x;
     if (!(std::isfinite(c.rho) && std::isfinite(ux) && std::isfinite(uy) && std::isfinite(uz))) {
       if (i < p.nan_index) {
@@ -113,6 +112,11 @@ FlowSummary summarize(const FluidSolver& solver) {
   const auto& F = solver.body_force();
   const double hF[3] = {0.5 * F[0], 0.5 * F[1], 0.5 * F[2]};
 
+  // The sums are added per row, and the rows in row order after the parallel loop, so
+  // that they do not depend on the number of threads or on the order in which the threads
+  // finish: bit-identical runs (DESIGN 2.3). The extrema are order-independent (ties go to
+  // the lower cell index).
+  std::vector<std::array<double, 4>> row_sums(static_cast<std::size_t>(rows));
   Partial total;
 #pragma omp parallel
   {
@@ -147,21 +151,12 @@ FlowSummary summarize(const FluidSolver& solver) {
       // A row that holds a non-finite value or beats this thread's extrema is redone cell
       // by cell (std::isfinite, and the cell of each extremum); that is rare after the
       // first rows. Strict comparisons: on ties the earlier cell stays.
-      if (bad != 0.0 || u2max > p.u2max.value || rmin < p.rmin.value || rmax > p.rmax.value) {
+      if (bad != 0.0 || u2max > p.u2max.value || rmin < p.rmin.value || rmax > p.rmax.value)
         scan_row(p, s, nx, row0, hF);
-      } else {
-        p.mass += mass;
-        p.mx += mx;
-        p.my += my;
-        p.mz += mz;
-      }
+      row_sums[static_cast<std::size_t>(r)] = {mass, mx, my, mz};
     }
 #pragma omp critical(cosim_fluid_summarize)
     {
-      total.mass += p.mass;
-      total.mx += p.mx;
-      total.my += p.my;
-      total.mz += p.mz;
       total.u2max.take_max(p.u2max.value, p.u2max.index);
       total.rmin.take_min(p.rmin.value, p.rmin.index);
       total.rmax.take_max(p.rmax.value, p.rmax.index);
@@ -170,6 +165,13 @@ FlowSummary summarize(const FluidSolver& solver) {
         total.nan_state = p.nan_state;
       }
     }
+  }
+
+  for (const auto& r : row_sums) {
+    total.mass += r[0];
+    total.mx += r[1];
+    total.my += r[2];
+    total.mz += r[3];
   }
 
   FlowSummary out;
