@@ -58,6 +58,7 @@ class CoupledFluid {
         own_lcm_(o.bus != nullptr ? nullptr
                                    : std::make_unique<lcm::LCM>(o.lcm_url.empty() ? c_.lcm_url : o.lcm_url)),
         lcm_(o.bus != nullptr ? *o.bus : *own_lcm_),
+        net_(lcm_, o.faults, "fluid"),
         foreign_(o.token, [this](const std::string& line) { out_ << "fluid: " << line << "\n"; }),
         solid_seq_(0),
         watch_(ms(c_.peer_timeout_s), ms(c_.resend_after_s)) {
@@ -200,7 +201,7 @@ class CoupledFluid {
   std::optional<Ending> handshake() {
     const protocol::Hello mine = fluid_hello();
     const cosimlcm::hello_t own = protocol::to_lcm(mine);
-    lcm_.publish(ch_.hello, &own);
+    net_.publish(ch_.hello, own);
     const Clock::time_point deadline = Clock::now() + ms(c_.handshake_timeout_s);
     while (!solid_hello_) {
       if (stop_) return stop_;
@@ -210,6 +211,7 @@ class CoupledFluid {
                                      std::to_string(c_.handshake_timeout_s) + " s"};
       }
       lcm_.handleTimeout(50);
+      net_.pump();
     }
     const protocol::HandshakeResult r =
         protocol::check_handshake(mine, protocol::from_lcm(*solid_hello_), o_.token);
@@ -221,7 +223,7 @@ class CoupledFluid {
     welcome_->rigid_steps = c_.rigid_steps;
     welcome_->time_ratio = r.accepted ? r.time_ratio : c_.time_ratio;
     for (int k = 0; k < 3; ++k) {
-      lcm_.publish(ch_.welcome, &*welcome_);
+      net_.publish(ch_.welcome, *welcome_);
       if (!r.accepted) std::this_thread::sleep_for(std::chrono::milliseconds(20));
     }
     if (!r.accepted) return Ending{kBadInput, r.reason};
@@ -237,6 +239,7 @@ class CoupledFluid {
     while (!inbox_.count(step)) {
       if (stop_) return stop_;
       lcm_.handleTimeout(10);
+      net_.pump();
       if (inbox_.count(step)) break;
       switch (watch_.poll(Clock::now())) {
         case protocol::PeerWatch::Action::Wait:
@@ -246,7 +249,7 @@ class CoupledFluid {
           r.token = o_.token;
           r.step = step;
           r.what = "solid_state";
-          lcm_.publish(ch_.resend, &r);
+          net_.publish(ch_.resend, r);
           ++resends_asked_;
           break;
         }
@@ -319,7 +322,7 @@ class CoupledFluid {
       m.rho_lb[l] = samples[l].rho;
       m.velocity_lb[l] = {samples[l].u[0], samples[l].u[1], samples[l].u[2]};
     }
-    lcm_.publish(ch_.fluid_state, &m);
+    net_.publish(ch_.fluid_state, m);
     sent_.push_back(std::move(m));
     while (sent_.size() > 2) sent_.pop_front();
   }
@@ -331,9 +334,11 @@ class CoupledFluid {
     m.exit_code = code;
     m.reason = reason;
     for (int k = 0; k < 3; ++k) {
-      lcm_.publish(ch_.stop, &m);
+      net_.publish(ch_.stop, m);
       std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      net_.pump();
     }
+    net_.flush();
   }
 
   void on_hello(const lcm::ReceiveBuffer*, const std::string& channel, const cosimlcm::hello_t* m) {
@@ -341,7 +346,7 @@ class CoupledFluid {
     if (m->role != "solid") return;  // our own announcement
     watch_.heard(Clock::now());
     if (!solid_hello_) solid_hello_ = *m;
-    else if (welcome_) lcm_.publish(ch_.welcome, &*welcome_);  // a lost welcome
+    else if (welcome_) net_.publish(ch_.welcome, *welcome_);  // a lost welcome
   }
 
   void on_solid_state(const lcm::ReceiveBuffer*, const std::string& channel,
@@ -365,7 +370,7 @@ class CoupledFluid {
     if (m->what != "fluid_state") return;
     for (const cosimlcm::fluid_state_t& f : sent_)
       if (f.step == m->step) {
-        lcm_.publish(ch_.fluid_state, &f);
+        net_.publish(ch_.fluid_state, f);
         ++resends_answered_;
       }
   }
@@ -382,7 +387,8 @@ class CoupledFluid {
     return "foreign " + std::to_string(foreign_.total()) + ", duplicates " +
            std::to_string(solid_seq_.duplicates()) + ", stale " + std::to_string(solid_seq_.stale()) +
            ", early " + std::to_string(solid_seq_.early()) + ", resends asked " +
-           std::to_string(resends_asked_) + " answered " + std::to_string(resends_answered_);
+           std::to_string(resends_asked_) + " answered " + std::to_string(resends_answered_) +
+           (net_.active() ? "; " + net_.summary() : std::string());
   }
 
   /// Ends the run on the fluid's own error: the solid is told (stop_t) before we go.
@@ -408,6 +414,7 @@ class CoupledFluid {
   protocol::Channels ch_;
   std::unique_ptr<lcm::LCM> own_lcm_;  ///< null when the options bring a bus
   lcm::LCM& lcm_;
+  protocol::FaultyTransport net_;  ///< every publish goes through it (faults: tests only)
   std::vector<lcm::Subscription*> subs_;
   protocol::ForeignCounter foreign_;
   protocol::StepSequencer solid_seq_;

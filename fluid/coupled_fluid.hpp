@@ -7,6 +7,7 @@
 #include <string>
 
 #include "fluid/scene_config.hpp"
+#include "protocol/fault_injection.hpp"
 
 namespace lcm {
 class LCM;
@@ -23,6 +24,8 @@ struct CoupledFluidOptions {
   /// one memq:// bus (the replay tool, tests). Not owned; the subscriptions made on it are
   /// removed before run_coupled_fluid returns.
   lcm::LCM* bus = nullptr;
+  /// Faults injected into what this side publishes (protocol/fault_injection.hpp; tests).
+  protocol::FaultSettings faults;
 };
 
 /// Runs a coupled scene (scene.coupling present) to the end. Returns the exit code of

@@ -253,6 +253,12 @@ int main_impl(int argc, char** argv) {
   app.add_option("--channel-prefix", channel_prefix,
                  "coupled scenes: LCM channel prefix (overrides coupling.channel_prefix)");
   app.add_option("--lcm-url", lcm_url, "coupled scenes: LCM URL (overrides coupling.lcm_url)");
+  std::string faults;
+  CLI::Option* o_faults = app.add_option(
+      "--faults", faults,
+      "coupled scenes, tests: inject transport faults into what the fluid publishes, e.g. "
+      "drop=0.01,duplicate=0.01,reorder=0.01,delay=0.01,delay_ms=20,seed=1 (default: the "
+      "environment's COSIM_FAULTS; protocol/fault_injection.hpp)");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -297,7 +303,21 @@ int main_impl(int argc, char** argv) {
     in.dx_m = scene.dx_um * 1e-6;
     if (scene.threads > 0) omp_set_num_threads(scene.threads);
     print_header(scene, protocol::UnitConverter(in));
-    return run_coupled_fluid(scene, {token, channel_prefix, lcm_url, quiet}, std::cout, std::cerr);
+    CoupledFluidOptions co;
+    co.token = token;
+    co.channel_prefix = channel_prefix;
+    co.lcm_url = lcm_url;
+    co.quiet = quiet;
+    try {
+      if (o_faults->count())
+        co.faults = protocol::parse_fault_settings(faults, "--faults");
+      else if (const char* env = std::getenv("COSIM_FAULTS"))
+        co.faults = protocol::parse_fault_settings(env, "COSIM_FAULTS");
+    } catch (const std::invalid_argument& e) {
+      std::fprintf(stderr, "fluid: %s\n", e.what());
+      return kExitBadInput;
+    }
+    return run_coupled_fluid(scene, co, std::cout, std::cerr);
   }
   return run(scene, quiet);
 }

@@ -264,6 +264,7 @@ class CoupledSolid {
                           " (for udpm: is the loopback interface up with a multicast route?)"};
       bus_ = own_bus_.get();
     }
+    net_.emplace(*bus_, o_.faults, "solid");
     subs_.push_back(bus_->subscribe(ch_.welcome, &CoupledSolid::on_welcome, this));
     subs_.push_back(bus_->subscribe(ch_.fluid_state, &CoupledSolid::on_fluid_state, this));
     subs_.push_back(bus_->subscribe(ch_.resend, &CoupledSolid::on_resend, this));
@@ -466,7 +467,7 @@ class CoupledSolid {
 
   template <class Message>
   void publish(const std::string& channel, const Message& m) {
-    if (bus_->publish(channel, &m) != 0 && !fatal_)
+    if (net_->publish(channel, m) != 0 && !fatal_)
       fatal_ = Ending{exit_code::system, "cannot publish on " + channel + " (LCM at " + c_.lcm_url + ")",
                       true};
   }
@@ -510,7 +511,8 @@ class CoupledSolid {
     m.reason = one_line(reason);
     for (int k = 0; k < kStopCopies; ++k) {
       if (k > 0) std::this_thread::sleep_for(kStopSpacing);
-      bus_->publish(ch_.stop, &m);  // best effort: the run ends either way
+      net_->pump();
+      net_->publish(ch_.stop, m);  // best effort: the run ends either way
     }
   }
 
@@ -520,6 +522,7 @@ class CoupledSolid {
   void pump(Clock::duration wait) {
     const auto ms = std::chrono::duration_cast<std::chrono::milliseconds>(wait).count();
     const int timeout = static_cast<int>(std::clamp<long long>(ms, 0, kPollMs));
+    net_->pump();
     if (bus_->handleTimeout(timeout) < 0 && !fatal_)
       fatal_ = Ending{exit_code::system, "LCM failed while receiving on " + c_.lcm_url, true};
   }
@@ -725,12 +728,14 @@ class CoupledSolid {
            ", early " + std::to_string(seq_.early()) + ", resends asked " +
            std::to_string(resends_asked_) + ", resend requests " + std::to_string(resend_requests_) +
            " answered " + std::to_string(resends_answered_) + ", undecodable " +
-           std::to_string(undecodable);
+           std::to_string(undecodable) +
+           (net_ && net_->active() ? "; " + net_->summary() : std::string());
   }
 
   /// Ends the run: stop_t for our own errors, solid.h5, the counters, the one-line reason.
   int finish(Ending e) {
     if (e.publish_stop && bus_ != nullptr) publish_stop(e.code, e.reason);
+    if (net_) net_->flush();
     if (series_.rows() > 0) {
       try {
         write_series();
@@ -783,6 +788,7 @@ class CoupledSolid {
   Eigen::Index n_ = 0;
 
   std::unique_ptr<lcm::LCM> own_bus_;
+  std::optional<protocol::FaultyTransport> net_;  ///< every publish goes through it
   lcm::LCM* bus_ = nullptr;
   std::vector<lcm::Subscription*> subs_;
 

@@ -9,6 +9,7 @@
 #include <ostream>
 #include <string>
 
+#include "protocol/fault_injection.hpp"
 #include "solid/solid_scene.hpp"
 
 namespace lcm {
@@ -38,6 +39,8 @@ struct CoupledSolidOptions {
   /// memq:// bus (one queue per lcm_t) with a fake fluid in the same process. Not owned;
   /// the subscriptions made on it are removed before run_coupled_solid returns.
   lcm::LCM* bus = nullptr;
+  /// Faults injected into what this side publishes (protocol/fault_injection.hpp; tests).
+  protocol::FaultSettings faults;
 };
 
 /// Runs a coupled scene (scene.coupled()) to its end and returns the exit code of

@@ -516,6 +516,12 @@ int main_impl(int argc, char** argv) {
   CLI::Option* o_prefix = app.add_option("--channel-prefix", channel_prefix,
                                          "coupled: LCM channel prefix (coupling.channel_prefix)");
   CLI::Option* o_url = app.add_option("--lcm-url", lcm_url, "coupled: LCM URL (coupling.lcm_url)");
+  std::string faults;
+  CLI::Option* o_faults = app.add_option(
+      "--faults", faults,
+      "coupled, tests: inject transport faults into what the solid publishes, e.g. "
+      "drop=0.01,duplicate=0.01,reorder=0.01,delay=0.01,delay_ms=20,seed=1 (default: "
+      "$COSIM_FAULTS; protocol/fault_injection.hpp)");
   app.add_flag("--quiet", quiet, "no progress line on stderr");
   app.add_flag("--check", check, "validate the scene, build the model, print the header, and exit");
   try {
@@ -555,6 +561,16 @@ int main_impl(int argc, char** argv) {
       if (const char* env = std::getenv("COSIM_RUN_TOKEN")) co.token = env;
     co.quiet = quiet;
     co.check_only = check;
+    try {
+      if (o_faults->count())
+        co.faults = protocol::parse_fault_settings(faults, "--faults");
+      else if (const char* env = std::getenv("COSIM_FAULTS"))
+        co.faults = protocol::parse_fault_settings(env, "COSIM_FAULTS");
+    } catch (const std::invalid_argument& e) {
+      std::fflush(stdout);
+      std::fprintf(stderr, "solid: %s\n", e.what());
+      return kExitBadInput;
+    }
     std::fflush(stdout);
     return run_coupled_solid(scene, co, std::cout, std::cerr);
   }
