@@ -1,5 +1,6 @@
 #include "fluid/coupled_fluid.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -19,12 +20,14 @@
 #include "cosimlcm/solid_state_t.hpp"
 #include "cosimlcm/stop_t.hpp"
 #include "cosimlcm/welcome_t.hpp"
+#include "fluid/d3q19.hpp"
 #include "fluid/flow_monitor.hpp"
 #include "fluid/fluid_solver.hpp"
 #include "fluid/immersed_boundary.hpp"
 #include "fluid/monitor_log.hpp"
 #include "fluid/snapshots.hpp"
 #include "protocol/channels.hpp"
+#include "protocol/checkpoint_file.hpp"
 #include "protocol/handshake.hpp"
 #include "protocol/hello_lcm.hpp"
 #include "protocol/step_sequencer.hpp"
@@ -99,21 +102,38 @@ class CoupledFluid {
     std::filesystem::create_directories(s_.output_dir);
     const double dt_us = units_.dt_lb_s() * 1e6;
     MonitorLog log((std::filesystem::path(s_.output_dir) / "monitor.h5").string(), dt_us);
-    const FlowSummary first = summarize(solver);
-    const double mass0 = first.mass;
-    bulk_u_ = first.momentum[0] / first.mass;
-    log.append(first);
     Snapshots snapshots(s_, dt_us);
-    if (snapshots.due(0, false)) snapshots.write(solver, false);
+    std::int64_t first_step = 0;
+    if (!o_.restart.empty()) {
+      try {
+        first_step = restore(solver, log, snapshots);
+      } catch (const std::exception& x) {
+        return stop_and_end({kBadInput, "--restart " + o_.restart + ": " + x.what()}, 0);
+      }
+      out_ << "fluid: restarted from " << o_.restart << " at step " << first_step << "\n";
+    } else {
+      const FlowSummary first = summarize(solver);
+      mass0_ = first.mass;
+      bulk_u_ = first.momentum[0] / first.mass;
+      log.append(first);
+      rows_.push_back(first);
+      if (snapshots.due(0, false)) snapshots.write(solver, false);
+    }
+    const double mass0 = mass0_;
 
     const auto n = static_cast<std::size_t>(num_cgps_);
     std::vector<Vec3> x(n), j(n);
     std::vector<MarkerSample> samples(n);
     const Clock::time_point start = Clock::now();
     Clock::time_point last_progress = start;
-    for (std::int64_t step = 0; step < s_.steps; ++step) {
+    for (std::int64_t step = first_step; step < s_.steps; ++step) {
       const Clock::time_point t0 = Clock::now();
-      if (auto e = wait_for_solid_state(step)) return end(*e);
+      if (auto e = wait_for_solid_state(step)) {
+        // A clean abort (the solid lost or stopped with an error): the state at `step` is
+        // whole, so it is kept for a restart (DESIGN 2.4).
+        if (e->code == kPeerLost && step > first_step) e->reason += checkpoint(solver, step, e->reason);
+        return end(*e);
+      }
       const Clock::time_point t1 = Clock::now();
       wait_s_ += std::chrono::duration<double>(t1 - t0).count();
       const cosimlcm::solid_state_t& m = inbox_.at(step);
@@ -134,6 +154,7 @@ class CoupledFluid {
         if (!problem.empty())
           return stop_and_end({kUnhealthy, "unhealthy flow after step " + std::to_string(step + 1) + ": " + problem}, step + 1);
         log.append(sum);
+        rows_.push_back(sum);
         bulk_u_ = sum.momentum[0] / sum.mass;
         out_ << format_summary(sum, dt_us, mass0) << "\n";
         out_.flush();
@@ -153,6 +174,8 @@ class CoupledFluid {
         compute_s_ += std::chrono::duration<double>(t2 - t1).count();
         publish_fluid_state(step + 1, samples);
         publish_s_ += std::chrono::duration<double>(Clock::now() - t2).count();
+        if (c_.checkpoint_every > 0 && (step + 1) % c_.checkpoint_every == 0)
+          checkpoint(solver, step + 1, "");
       } else {
         compute_s_ += std::chrono::duration<double>(Clock::now() - t1).count();
       }
@@ -196,6 +219,125 @@ class CoupledFluid {
     h.stable_dt_cg_s = 0.0;
     h.num_cgps = 0;
     return h;
+  }
+
+  // ---- coupled checkpoints (DESIGN 2.4; protocol/README.md section 10) ----
+
+  /// Writes OUTPUT/checkpoints/fluid_NNNNNNNN.h5 for the state at `step` (fluid_state_t(step)
+  /// published, solid_state_t(step) not yet applied) and keeps the newest three. Returns
+  /// what to add to an abort's reason: where the checkpoint went, or why it could not be
+  /// written (for periodic checkpoints a failure throws: an output error ends the run).
+  std::string checkpoint(const FluidSolver& solver, std::int64_t step, const std::string& reason) {
+    namespace fs = std::filesystem;
+    const fs::path dir = fs::path(s_.output_dir) / "checkpoints";
+    const fs::path file = dir / protocol::checkpoint_name("fluid", step);
+    try {
+      fs::create_directories(dir);
+      protocol::CheckpointWriter w(file);
+      w.attr("step", step);
+      w.attr("fluid_seq", fluid_seq_);
+      w.attr("num_cgps", static_cast<std::int64_t>(num_cgps_));
+      w.attr("bulk_velocity_lb", bulk_u_);
+      w.attr("mass0", mass0_);
+      w.text("scene_hash", protocol::scene_hash_of_file(s_.path));
+      w.text("reason", reason.empty() ? "every coupling.checkpoint_every steps" : reason);
+      const PopulationField& f = solver.state();
+      w.put("populations", f.q(0), std::size_t(D3Q19::Q) * f.layout().stride());
+      put_rows(w, rows_);
+      w.commit();
+      prune_checkpoints(dir, "fluid_", 3);
+    } catch (const std::exception& x) {
+      if (reason.empty()) throw;
+      return "; no checkpoint: " + std::string(x.what());
+    }
+    return "; checkpoint " + file.string();
+  }
+
+  /// Loads --restart: the populations, the step, the counters and the monitor rows; lists
+  /// the earlier snapshots. Returns the step the run continues from. Throws (one line) for
+  /// a file that is not a checkpoint of this scene.
+  std::int64_t restore(FluidSolver& solver, MonitorLog& log, Snapshots& snapshots) {
+    const protocol::CheckpointReader r(o_.restart);
+    if (r.text("scene_hash") != protocol::scene_hash_of_file(s_.path))
+      throw std::runtime_error("a checkpoint of another scene file (scene_hash differs from " + s_.path + ")");
+    const std::int64_t step = r.int64_attr("step");
+    if (step < 1 || step >= s_.steps)
+      throw std::runtime_error("step = " + std::to_string(step) + ", allowed: 1 to " +
+                               std::to_string(s_.steps - 1) + " (run.steps = " + std::to_string(s_.steps) + ")");
+    if (r.int64_attr("num_cgps") != num_cgps_)
+      throw std::runtime_error("num_cgps = " + std::to_string(r.int64_attr("num_cgps")) +
+                               ", but the solid announced " + std::to_string(num_cgps_));
+    PopulationField& f = solver.mutable_state();
+    const std::size_t size = std::size_t(D3Q19::Q) * f.layout().stride();
+    const std::vector<double> pop = r.doubles("populations", size);
+    std::copy(pop.begin(), pop.end(), f.q(0));
+    solver.refresh_ghosts();
+    solver.set_step_count(step);
+    fluid_seq_ = r.int64_attr("fluid_seq");
+    bulk_u_ = r.double_attr("bulk_velocity_lb");
+    mass0_ = r.double_attr("mass0");
+    rows_ = get_rows(r);
+    for (const FlowSummary& row : rows_) log.append(row);
+    snapshots.adopt_up_to(step);
+    // The solid republishes its solid_state_t(step) once the handshake is done; it may have
+    // arrived while this checkpoint was read (classified by the sequencer of step 0): offer
+    // what the inbox holds to the sequencer of the restart.
+    solid_seq_ = protocol::StepSequencer(step);
+    inbox_.erase(inbox_.begin(), inbox_.lower_bound(step));
+    for (const auto& [k, m] : inbox_) solid_seq_.offer(k, m.seq);
+    return step;
+  }
+
+  /// The monitor rows as flat arrays (what monitor.h5 holds), and back.
+  static void put_rows(protocol::CheckpointWriter& w, const std::vector<FlowSummary>& rows) {
+    std::vector<std::int64_t> steps, cells;
+    std::vector<double> values;
+    for (const FlowSummary& r : rows) {
+      steps.push_back(r.step);
+      for (const double v : {r.mass, r.momentum[0], r.momentum[1], r.momentum[2], r.max_mach,
+                             r.rho_min, r.rho_max})
+        values.push_back(v);
+      for (const CellIndex& c : {r.max_mach_cell, r.rho_min_cell, r.rho_max_cell, r.nan_cell})
+        for (const int v : {c.x, c.y, c.z}) cells.push_back(v);
+      cells.push_back(r.has_nan ? 1 : 0);
+    }
+    w.put("monitor_step", steps);
+    w.put("monitor_values", values);
+    w.put("monitor_cells", cells);
+  }
+  static std::vector<FlowSummary> get_rows(const protocol::CheckpointReader& r) {
+    const std::vector<std::int64_t> steps = r.int64s("monitor_step"), cells = r.int64s("monitor_cells");
+    const std::vector<double> values = r.doubles("monitor_values");
+    if (values.size() != 7 * steps.size() || cells.size() != 13 * steps.size())
+      throw std::runtime_error("the monitor rows have inconsistent sizes");
+    std::vector<FlowSummary> rows(steps.size());
+    for (std::size_t k = 0; k < rows.size(); ++k) {
+      FlowSummary& s = rows[k];
+      const double* v = &values[7 * k];
+      const std::int64_t* c = &cells[13 * k];
+      s.step = steps[k];
+      s.mass = v[0];
+      s.momentum = {v[1], v[2], v[3]};
+      s.max_mach = v[4];
+      s.rho_min = v[5];
+      s.rho_max = v[6];
+      CellIndex* idx[4] = {&s.max_mach_cell, &s.rho_min_cell, &s.rho_max_cell, &s.nan_cell};
+      for (int i = 0; i < 4; ++i) *idx[i] = {int(c[3 * i]), int(c[3 * i + 1]), int(c[3 * i + 2])};
+      s.has_nan = c[12] != 0;
+    }
+    return rows;
+  }
+
+  /// Keeps the newest `keep` files PREFIX*.h5 of `dir` (by name: the step is zero-padded).
+  static void prune_checkpoints(const std::filesystem::path& dir, const std::string& prefix,
+                                std::size_t keep) {
+    std::vector<std::filesystem::path> files;
+    for (const auto& e : std::filesystem::directory_iterator(dir)) {
+      const std::string name = e.path().filename().string();
+      if (name.rfind(prefix, 0) == 0 && e.path().extension() == ".h5") files.push_back(e.path());
+    }
+    std::sort(files.begin(), files.end());
+    for (std::size_t k = 0; k + keep < files.size(); ++k) std::filesystem::remove(files[k]);
   }
 
   std::optional<Ending> handshake() {
@@ -430,6 +572,8 @@ class CoupledFluid {
   std::int64_t resends_asked_ = 0, resends_answered_ = 0;
   double compute_s_ = 0.0, wait_s_ = 0.0, publish_s_ = 0.0;  ///< per-step timing (DESIGN 7)
   double bulk_u_ = 0.0;  ///< U_b of the latest health check (Eq. 34), lattice units
+  double mass0_ = 0.0;   ///< the fluid's mass at step 0 (for the drift)
+  std::vector<FlowSummary> rows_;  ///< monitor.h5's rows so far (for checkpoints)
 };
 
 }  // namespace

@@ -26,6 +26,9 @@ struct CoupledFluidOptions {
   lcm::LCM* bus = nullptr;
   /// Faults injected into what this side publishes (protocol/fault_injection.hpp; tests).
   protocol::FaultSettings faults;
+  /// A checkpoint file (OUTPUT/checkpoints/fluid_NNNNNNNN.h5) to continue from; the solid
+  /// restarts from its own checkpoint of the same step (DESIGN 2.4).
+  std::string restart;
 };
 
 /// Runs a coupled scene (scene.coupling present) to the end. Returns the exit code of

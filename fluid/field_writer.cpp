@@ -85,6 +85,14 @@ GridShape FieldWriter::written_shape() const {
   return s;
 }
 
+bool FieldWriter::adopt(std::int64_t step) {
+  if (!std::filesystem::is_regular_file(snapshot_path(step))) return false;
+  const auto same = [step](const Snapshot& s) { return s.step == step; };
+  if (std::find_if(snapshots_.begin(), snapshots_.end(), same) == snapshots_.end())
+    snapshots_.push_back({step, written_shape()});
+  return true;
+}
+
 void FieldWriter::write(const FluidSolver& solver) {
   const std::int64_t step = solver.step_count();
   solver.macroscopic(m_);

@@ -38,6 +38,11 @@ class FieldWriter {
   /// Throws std::runtime_error with a one-line message on I/O failure.
   void write(const FluidSolver& solver);
 
+  /// Lists the snapshot of `step` that an earlier run wrote into this folder (a restart,
+  /// DESIGN 2.4) in the XDMF file from the next write() on, if its file exists; returns
+  /// whether it does.
+  bool adopt(std::int64_t step);
+
   const std::filesystem::path& directory() const { return dir_; }
   std::filesystem::path xdmf_path() const { return dir_ / (prefix_ + ".xmf"); }
   std::filesystem::path snapshot_path(std::int64_t step) const { return dir_ / snapshot_name(step); }

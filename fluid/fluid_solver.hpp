@@ -73,6 +73,8 @@ class FluidSolver {
   PopulationField& mutable_state() { return f_; }
   /// Call after changing mutable_state() by hand.
   void refresh_ghosts() { bc_.fill_ghosts(f_); }
+  /// A restart from a checkpoint (DESIGN 2.4): the step count the restored state is at.
+  void set_step_count(std::int64_t steps) { steps_ = steps; }
 
  private:
   void apply_local_forces();

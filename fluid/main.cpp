@@ -253,6 +253,11 @@ int main_impl(int argc, char** argv) {
   app.add_option("--channel-prefix", channel_prefix,
                  "coupled scenes: LCM channel prefix (overrides coupling.channel_prefix)");
   app.add_option("--lcm-url", lcm_url, "coupled scenes: LCM URL (overrides coupling.lcm_url)");
+  std::string restart;
+  app.add_option("--restart", restart,
+                 "coupled scenes: continue from this checkpoint (OUTPUT/checkpoints/fluid_N.h5); "
+                 "the solid restarts from its checkpoint of the same step (launch/run-coupled.sh "
+                 "--restart DIR picks both)");
   std::string faults;
   CLI::Option* o_faults = app.add_option(
       "--faults", faults,
@@ -308,6 +313,7 @@ int main_impl(int argc, char** argv) {
     co.channel_prefix = channel_prefix;
     co.lcm_url = lcm_url;
     co.quiet = quiet;
+    co.restart = restart;
     try {
       if (o_faults->count())
         co.faults = protocol::parse_fault_settings(faults, "--faults");

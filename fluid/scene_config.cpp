@@ -68,6 +68,7 @@ const std::vector<Section>& schema() {
       {"output", {"directory", "fields_every", "planes_every", "planes_y", "sheets_every"}},
       {"coupling",
        {"time_ratio", "rigid_steps", "handshake_timeout_s", "peer_timeout_s", "resend_after_s",
+        "checkpoint_every",
         "lcm_url", "channel_prefix"}},
   };
   return s;
@@ -401,6 +402,12 @@ void load_coupling(const Reader& r, FluidScene& s) {
     if (*v < 0)
       r.bad(*r.node("coupling", "rigid_steps"), "coupling.rigid_steps", "must be an integer >= 0");
     c.rigid_steps = *v;
+  }
+  if (const auto v = r.integer("coupling", "checkpoint_every")) {
+    if (*v < 0)
+      r.bad(*r.node("coupling", "checkpoint_every"), "coupling.checkpoint_every",
+            "must be an integer >= 0 (LB steps between coupled checkpoints; 0: none)");
+    c.checkpoint_every = *v;
   }
   for (auto [key, target] : {std::pair{"handshake_timeout_s", &c.handshake_timeout_s},
                              std::pair{"peer_timeout_s", &c.peer_timeout_s},

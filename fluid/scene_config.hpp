@@ -47,6 +47,9 @@ struct CouplingSettings {
   double resend_after_s = 0.5;
   std::string lcm_url = "udpm://239.255.76.67:7667?ttl=0";
   std::string channel_prefix = "COSIM_";
+  /// Coupled checkpoints (DESIGN 2.4) every this many LB steps into OUTPUT/checkpoints/;
+  /// 0: none (a clean abort still writes one).
+  std::int64_t checkpoint_every = 0;
 };
 
 /// A validated fluid-only scene: the solver's parameters plus what the run needs.

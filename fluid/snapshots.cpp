@@ -26,6 +26,14 @@ bool Snapshots::due(std::int64_t step, bool last) const {
   return on(fields_every_) || on(planes_every_);
 }
 
+void Snapshots::adopt_up_to(std::int64_t step) {
+  if (fields_)
+    for (std::int64_t s = 0; s <= step; s += fields_every_) fields_->adopt(s);
+  if (planes_every_ > 0)
+    for (FieldWriter& w : planes_)
+      for (std::int64_t s = 0; s <= step; s += planes_every_) w.adopt(s);
+}
+
 void Snapshots::write(const FluidSolver& solver, bool last) {
   const std::int64_t step = solver.step_count();
   if (fields_ && (step % fields_every_ == 0 || last)) fields_->write(solver);

@@ -18,6 +18,9 @@ class Snapshots {
   bool due(std::int64_t step, bool last) const;
   /// Writes the snapshots due at the solver's step. @pre the state is healthy
   void write(const FluidSolver& solver, bool last);
+  /// A restart at `step`: lists the snapshots an earlier run wrote up to `step` (included)
+  /// in the XDMF files (FieldWriter::adopt).
+  void adopt_up_to(std::int64_t step);
 
  private:
   std::int64_t fields_every_, planes_every_;

@@ -3,7 +3,14 @@
 # as two processes talking over LCM (DESIGN 2.3, protocol/README.md).
 #
 #   bash launch/run-coupled.sh SCENE.toml [--output DIR] [--log] [--no-build] [--quiet]
-#                              [--solid-cmd CMD] [--extra CMD]
+#                              [--solid-cmd CMD] [--extra CMD] [--restart DIR]
+#
+# --restart DIR continues a run from its coupled checkpoints (DESIGN 2.4): DIR holds
+# fluid_NNNNNNNN.h5 and solid_NNNNNNNN.h5 (OUTPUT/checkpoints/ of the earlier run, written
+# every [coupling] checkpoint_every steps and on a clean abort); the newest step N with
+# both is taken, and each server gets --restart with its file. Give the earlier run's
+# output folder as --output to continue its files (solid.h5 and monitor.h5 are rewritten
+# from the checkpoints; the snapshots up to N are kept and listed in the XDMF files).
 #
 # --solid-cmd replaces build/solid/solid with another solid process that speaks the
 # protocol (it gets the same arguments: SCENE --output DIR --channel-prefix P [--quiet],
@@ -22,10 +29,10 @@
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 
-usage() { echo "usage: bash launch/run-coupled.sh SCENE.toml [--output DIR] [--log] [--no-build] [--quiet] [--solid-cmd CMD] [--extra CMD]" >&2; exit 2; }
+usage() { echo "usage: bash launch/run-coupled.sh SCENE.toml [--output DIR] [--log] [--no-build] [--quiet] [--solid-cmd CMD] [--extra CMD] [--restart DIR]" >&2; exit 2; }
 [ $# -ge 1 ] || usage
 scene=$1; shift
-output=""; log=0; build=1; quiet=""; solid_cmd=""; extra=""
+output=""; log=0; build=1; quiet=""; solid_cmd=""; extra=""; restart=""
 while [ $# -gt 0 ]; do
   case "$1" in
     --output) [ $# -ge 2 ] || usage; output=$2; shift 2 ;;
@@ -34,11 +41,26 @@ while [ $# -gt 0 ]; do
     --quiet) quiet="--quiet"; shift ;;
     --solid-cmd) [ $# -ge 2 ] || usage; solid_cmd=$2; shift 2 ;;
     --extra) [ $# -ge 2 ] || usage; extra=$2; shift 2 ;;
+    --restart) [ $# -ge 2 ] || usage; restart=$2; shift 2 ;;
     *) echo "run-coupled: unknown option $1" >&2; usage ;;
   esac
 done
 [ -f "$scene" ] || { echo "run-coupled: $scene: no such scene file" >&2; exit 2; }
 scene=$(cd "$(dirname "$scene")" && pwd)/$(basename "$scene")
+export COSIM_FLUID_RESTART="" COSIM_SOLID_RESTART=""
+if [ -n "$restart" ]; then
+  [ -d "$restart" ] || { echo "run-coupled: --restart $restart: no such folder" >&2; exit 2; }
+  restart=$(cd "$restart" && pwd)
+  step=""
+  for f in $(ls "$restart" | grep -E '^fluid_[0-9]{8}\.h5$' | sort -r); do
+    n=${f#fluid_}; n=${n%.h5}
+    if [ -f "$restart/solid_$n.h5" ]; then step=$n; break; fi
+  done
+  [ -n "$step" ] || { echo "run-coupled: --restart $restart: no step with both fluid_N.h5 and solid_N.h5 (allowed: a checkpoints folder of a coupled run)" >&2; exit 2; }
+  COSIM_FLUID_RESTART=$restart/fluid_$step.h5
+  COSIM_SOLID_RESTART=$restart/solid_$step.h5
+  echo "run-coupled: restarting from step $((10#$step)) ($COSIM_FLUID_RESTART, $COSIM_SOLID_RESTART)"
+fi
 
 if [ $build -eq 1 ]; then
   bash "$root/launch/bootstrap.sh"

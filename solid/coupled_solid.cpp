@@ -31,6 +31,7 @@
 #include "cosimlcm/stop_t.hpp"
 #include "cosimlcm/welcome_t.hpp"
 #include "protocol/channels.hpp"
+#include "protocol/checkpoint_file.hpp"
 #include "protocol/handshake.hpp"
 #include "protocol/hdf5_handle.hpp"
 #include "protocol/hdf5_quiet.hpp"
@@ -135,10 +136,22 @@ class CoupledSolid {
     out_.flush();
     start_ = last_progress_ = Clock::now();
 
-    // Step 0: the initial positions, zero impulses (section 5).
-    publish_state(0, 0, coupler_->positions_lb(), Eigen::Matrix3Xd::Zero(3, n_));
-    record(0, nullptr);
-    if (const auto e = snapshot(0)) return finish(*e);
+    if (!o_.restart.empty()) {
+      // Continue from a checkpoint at step N: the state after the interval of step N and
+      // the solid_state_t(N) it sent, which is published again (the in-flight impulses).
+      try {
+        restore();
+      } catch (const std::exception& e) {
+        return finish(Ending{exit_code::bad_input, "--restart " + o_.restart + ": " + one_line(e.what()), true});
+      }
+      out_ << "solid: restarted from " << o_.restart << " at step " << last_step_ << "\n";
+    } else {
+      // Step 0: the initial positions, zero impulses (section 5).
+      publish_state(0, 0, coupler_->positions_lb(), Eigen::Matrix3Xd::Zero(3, n_));
+      record(0, nullptr);
+      if (const auto e = snapshot(0)) return finish(*e);
+    }
+    first_step_ = last_step_;
     watch_.heard(Clock::now());
     for (;;) {
       const Clock::time_point t0 = Clock::now();
@@ -447,7 +460,112 @@ class CoupledSolid {
     total_substeps_ += r.substeps;
     publish_state(m.step, r.substeps, r.position_lb, r.impulse_lb);
     record(m.step, &r, m.bulk_velocity_lb);
-    return snapshot(m.step);
+    if (const auto e = snapshot(m.step)) return e;
+    if (c_.checkpoint_every > 0 && m.step % c_.checkpoint_every == 0) {
+      try {
+        checkpoint("");
+      } catch (const std::exception& e) {
+        return Ending{exit_code::system, "checkpoint of step " + std::to_string(m.step) + ": " +
+                                             one_line(e.what()), true};
+      }
+    }
+    return std::nullopt;
+  }
+
+  // ---- coupled checkpoints (DESIGN 2.4; protocol/README.md section 10) ----
+
+  /// The double columns of solid.h5's series, by name: one table for writing a checkpoint
+  /// and for reading it back.
+  std::vector<std::pair<const char*, std::vector<double>*>> series_columns() {
+    CoupledSeries& s = series_;
+    return {{"time_s", &s.time_s},
+            {"solid_time_s", &s.solid_time_s},
+            {"displacement_um", &s.displacement_um},
+            {"normal_um", &s.normal_um},
+            {"fluid_force_N", &s.fluid_force_N},
+            {"kinetic_J", &s.kinetic_J},
+            {"elastic_J", &s.elastic_J},
+            {"total_J", &s.total_J},
+            {"bulk_velocity_m_s", &s.bulk_velocity_m_s},
+            {"force_coefficients", &s.force_coefficients},
+            {"edge_strain", &s.edge_strain}};
+  }
+
+  /// Writes OUTPUT/checkpoints/solid_NNNNNNNN.h5 for the state after the interval of
+  /// last_step_ (solid_state_t(last_step_) sent) and keeps the newest three. Throws (one
+  /// line) on an output error.
+  std::string checkpoint(const std::string& reason) {
+    namespace fs = std::filesystem;
+    const fs::path dir = fs::path(s_.output_dir) / "checkpoints";
+    fs::create_directories(dir);
+    const fs::path file = dir / protocol::checkpoint_name("solid", last_step_);
+    protocol::CheckpointWriter w(file);
+    w.attr("step", last_step_);
+    w.attr("solid_seq", solid_seq_);
+    w.attr("total_substeps", total_substeps_);
+    w.attr("num_cgps", static_cast<std::int64_t>(n_));
+    w.text("scene_hash", protocol::scene_hash_of_file(s_.path));
+    w.text("reason", reason.empty() ? "every coupling.checkpoint_every steps" : reason);
+    const SolidState st = model_->state();
+    w.text("model", st.model);
+    w.put("positions_bohr", st.positions_bohr.data(), std::size_t(st.positions_bohr.size()));
+    w.put("velocities_au", st.velocities_au.data(), std::size_t(st.velocities_au.size()));
+    w.put("external_forces_au", st.external_forces_au.data(), std::size_t(st.external_forces_au.size()));
+    // The solid_state_t(last_step_) in flight: the fluid has not applied it yet.
+    const cosimlcm::solid_state_t& sent = sent_.back();
+    std::vector<std::uint8_t> bytes(static_cast<std::size_t>(sent.getEncodedSize()));
+    sent.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+    w.put("in_flight_solid_state", bytes);
+    w.put("series_step", series_.step);
+    for (const auto& [name, column] : series_columns()) w.put(std::string("series_") + name, *column);
+    w.commit();
+    std::vector<fs::path> files;
+    for (const auto& e : fs::directory_iterator(dir))
+      if (e.path().filename().string().rfind("solid_", 0) == 0 && e.path().extension() == ".h5")
+        files.push_back(e.path());
+    std::sort(files.begin(), files.end());
+    for (std::size_t k = 0; k + 3 < files.size(); ++k) fs::remove(files[k]);
+    return file.string();
+  }
+
+  /// Loads --restart (see run()). Throws (one line) for a file that is not a checkpoint of
+  /// this scene and model.
+  void restore() {
+    const protocol::CheckpointReader r(o_.restart);
+    if (r.text("scene_hash") != protocol::scene_hash_of_file(s_.path))
+      throw std::runtime_error("a checkpoint of another scene file (scene_hash differs from " + s_.path + ")");
+    const std::int64_t step = r.int64_attr("step");
+    if (step < 1 || step >= total_steps_)
+      throw std::runtime_error("step = " + std::to_string(step) + ", allowed: 1 to " +
+                               std::to_string(total_steps_ - 1));
+    const auto size = static_cast<std::size_t>(3 * n_);
+    SolidState st;
+    st.model = r.text("model");
+    st.positions_bohr = Eigen::Map<const Eigen::Matrix3Xd>(r.doubles("positions_bohr", size).data(), 3, n_);
+    st.velocities_au = Eigen::Map<const Eigen::Matrix3Xd>(r.doubles("velocities_au", size).data(), 3, n_);
+    st.external_forces_au =
+        Eigen::Map<const Eigen::Matrix3Xd>(r.doubles("external_forces_au", size).data(), 3, n_);
+    model_->restore(st);  // std::invalid_argument: another model or CGP count
+    cosimlcm::solid_state_t sent{};
+    const std::vector<std::uint8_t> bytes = r.bytes("in_flight_solid_state");
+    if (sent.decode(bytes.data(), 0, static_cast<int>(bytes.size())) < 0 || sent.step != step ||
+        sent.num_cgps != n_)
+      throw std::runtime_error("in_flight_solid_state is not the solid_state_t of step " + std::to_string(step));
+    series_.sheets = static_cast<int>(s_.config.sheets.size());
+    series_.step = r.int64s("series_step");
+    for (const auto& [name, column] : series_columns()) *column = r.doubles(std::string("series_") + name);
+    solid_seq_ = r.int64_attr("solid_seq");
+    total_substeps_ = r.int64_attr("total_substeps");
+    seq_ = protocol::StepSequencer(step + 1);
+    if (snapshots_)
+      for (std::int64_t k = 0; k <= step; ++k)
+        if (sheet_snapshot_due(k, total_steps_ - 1, s_.sheets_every))
+          snapshots_->adopt(k, static_cast<double>(k) * units_.dt_lb_s());
+    // The token is this run's; the rest of the message is the one sent before, bit for bit.
+    sent.token = o_.token;
+    publish(ch_.solid_state, sent);
+    last_step_ = step;
+    sent_.push_back(std::move(sent));
   }
 
   /// The first CGP with a non-finite position or velocity, as a diagnosis; "" if none.
@@ -734,6 +852,15 @@ class CoupledSolid {
 
   /// Ends the run: stop_t for our own errors, solid.h5, the counters, the one-line reason.
   int finish(Ending e) {
+    // A clean abort (the fluid lost, or stopped with an error) keeps the state after the
+    // last interval for a restart (DESIGN 2.4).
+    if (e.code == exit_code::peer_lost && model_ && !sent_.empty() && last_step_ > first_step_) {
+      try {
+        e.reason += "; checkpoint " + checkpoint(e.reason);
+      } catch (const std::exception& x) {
+        e.reason += "; no checkpoint: " + one_line(x.what());
+      }
+    }
     if (e.publish_stop && bus_ != nullptr) publish_stop(e.code, e.reason);
     if (net_) net_->flush();
     if (series_.rows() > 0) {
@@ -805,6 +932,7 @@ class CoupledSolid {
 
   std::int64_t total_steps_ = 0, rigid_steps_ = 0;
   std::int64_t solid_seq_ = 0, last_step_ = 0, total_substeps_ = 0;
+  std::int64_t first_step_ = 0;  ///< 0, or the step of --restart
   std::int64_t hellos_ = 0, resends_asked_ = 0, resend_requests_ = 0, resends_answered_ = 0;
   std::map<std::string, std::int64_t> undecodable_;
 

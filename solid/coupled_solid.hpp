@@ -41,6 +41,9 @@ struct CoupledSolidOptions {
   lcm::LCM* bus = nullptr;
   /// Faults injected into what this side publishes (protocol/fault_injection.hpp; tests).
   protocol::FaultSettings faults;
+  /// A checkpoint file (OUTPUT/checkpoints/solid_NNNNNNNN.h5) to continue from; the fluid
+  /// restarts from its own checkpoint of the same step (DESIGN 2.4).
+  std::string restart;
 };
 
 /// Runs a coupled scene (scene.coupled()) to its end and returns the exit code of

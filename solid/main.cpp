@@ -516,6 +516,11 @@ int main_impl(int argc, char** argv) {
   CLI::Option* o_prefix = app.add_option("--channel-prefix", channel_prefix,
                                          "coupled: LCM channel prefix (coupling.channel_prefix)");
   CLI::Option* o_url = app.add_option("--lcm-url", lcm_url, "coupled: LCM URL (coupling.lcm_url)");
+  std::string restart;
+  app.add_option("--restart", restart,
+                 "coupled: continue from this checkpoint (OUTPUT/checkpoints/solid_N.h5); the "
+                 "fluid restarts from its checkpoint of the same step (launch/run-coupled.sh "
+                 "--restart DIR picks both)");
   std::string faults;
   CLI::Option* o_faults = app.add_option(
       "--faults", faults,
@@ -561,6 +566,7 @@ int main_impl(int argc, char** argv) {
       if (const char* env = std::getenv("COSIM_RUN_TOKEN")) co.token = env;
     co.quiet = quiet;
     co.check_only = check;
+    co.restart = restart;
     try {
       if (o_faults->count())
         co.faults = protocol::parse_fault_settings(faults, "--faults");

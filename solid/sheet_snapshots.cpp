@@ -93,6 +93,14 @@ std::string SheetSnapshotWriter::snapshot_name(std::int64_t step) {
   return buf;
 }
 
+bool SheetSnapshotWriter::adopt(std::int64_t step, double time_s) {
+  if (!fs::is_regular_file(snapshot_path(step))) return false;
+  const auto same = [step](const Snapshot& s) { return s.step == step; };
+  if (std::find_if(snapshots_.begin(), snapshots_.end(), same) == snapshots_.end())
+    snapshots_.push_back({step, time_s / kMicrometre});
+  return true;
+}
+
 void SheetSnapshotWriter::write(std::int64_t step, double time_s, const SolidModel& model) {
   if (model.num_cgps() != n_)
     throw std::invalid_argument("SheetSnapshotWriter: a model of " +

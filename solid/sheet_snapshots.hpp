@@ -53,6 +53,11 @@ class SheetSnapshotWriter {
   /// is not the config's.
   void write(std::int64_t step, double time_s, const SolidModel& model);
 
+  /// Lists the snapshot of `step` (time `time_s`) that an earlier run wrote into this
+  /// folder (a restart, DESIGN 2.4) in sheets.xmf from the next write() on, if its file
+  /// exists; returns whether it does.
+  bool adopt(std::int64_t step, double time_s);
+
   /// "sheets_000050.h5" for step 50.
   static std::string snapshot_name(std::int64_t step);
   std::filesystem::path snapshot_path(std::int64_t step) const { return dir_ / snapshot_name(step); }

@@ -92,6 +92,7 @@ const std::vector<Section>& schema() {
       {"coupling",
        false,
        {"time_ratio", "rigid_steps", "handshake_timeout_s", "peer_timeout_s", "resend_after_s",
+        "checkpoint_every",
         "lcm_url", "channel_prefix"},
        Use::Coupled},
   };
@@ -595,6 +596,12 @@ void load_coupling(const Reader& r, SolidScene& s) {
       r.bad(*sec.node("rigid_steps"), sec.key("rigid_steps"),
             "must be an integer >= 0 (LB steps of spin-up with the sheets held rigid)");
     c.rigid_steps = *v;
+  }
+  if (const auto v = r.integer(sec, "checkpoint_every")) {
+    if (*v < 0)
+      r.bad(*sec.node("checkpoint_every"), sec.key("checkpoint_every"),
+            "must be an integer >= 0 (LB steps between coupled checkpoints; 0: none)");
+    c.checkpoint_every = *v;
   }
   for (const auto& [key, target] : {std::pair{"handshake_timeout_s", &c.handshake_timeout_s},
                                     std::pair{"peer_timeout_s", &c.peer_timeout_s},

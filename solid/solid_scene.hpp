@@ -54,6 +54,9 @@ struct CouplingSettings {
   double resend_after_s = 0.5;        ///< silence before a resend_t; < peer_timeout_s
   std::string lcm_url = std::string(default_lcm_url);  ///< udpm with ttl=0, or memq://
   std::string channel_prefix = "COSIM_";  ///< protocol/channels.hpp
+  /// Coupled checkpoints (DESIGN 2.4) every this many LB steps into OUTPUT/checkpoints/;
+  /// 0: none (a clean abort still writes one).
+  std::int64_t checkpoint_every = 0;
 };
 
 /// Why an LCM URL may not be used ("" if it may): a coupled run talks over udpm:// with

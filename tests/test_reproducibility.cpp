@@ -6,12 +6,14 @@
 #include <gtest/gtest.h>
 
 #include <array>
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <regex>
 #include <stdexcept>
 #include <string>
+#include <thread>
 
 #include "support/run_compare.hpp"
 
@@ -28,7 +30,9 @@ const fs::path kSource = COSIM_SOURCE_DIR;
 
 /// scenes/coupled_small.toml, shortened to 120 LB steps (40 rigid), with plane and sheet
 /// snapshots added and a short resend interval (a lost message costs 50 ms, not 0.5 s).
-fs::path write_scene(const fs::path& dir) {
+/// `checkpoints`: 1000 LB steps instead, checkpoints every 100, snapshots every 200 and a
+/// peer timeout of 3 s (the survivor of a killed peer gives up quickly).
+fs::path write_scene(const fs::path& dir, bool checkpoints = false) {
   std::string s = slurp(kSource / "scenes" / "coupled_small.toml");
   const auto set = [&s](const std::string& from, const std::string& to) {
     const std::size_t at = s.find(from);
@@ -39,6 +43,13 @@ fs::path write_scene(const fs::path& dir) {
   set("rigid_steps = 50", "rigid_steps = 40");
   set("fields_every = 50", "fields_every = 60\nplanes_every = 40\nplanes_y = [0.5]\nsheets_every = 40");
   set("resend_after_s = 0.5", "resend_after_s = 0.05");
+  if (checkpoints) {
+    set("steps = 120", "steps = 1000");
+    set("fields_every = 60", "fields_every = 500");
+    set("planes_every = 40", "planes_every = 200");
+    set("sheets_every = 40", "sheets_every = 200");
+    set("peer_timeout_s = 10", "peer_timeout_s = 3\ncheckpoint_every = 100");
+  }
   const fs::path scene = dir / "small.toml";
   std::ofstream(scene) << s;
   return scene;
@@ -93,6 +104,75 @@ TEST(Reproducibility, LossyTransportGivesIdenticalResults) {
   // Each kind of fault happened (on at least one side), so the run proves something.
   for (std::size_t k = 0; k < 4; ++k) EXPECT_GT(f[k] + s[k], 0) << "fault kind " << k << "\n" << logs(lossy);
   EXPECT_EQ(compare_outputs(clean, lossy), "") << logs(lossy);
+  if (!HasFailure()) fs::remove_all(dir);
+}
+
+/// Restarting from a checkpoint at step 700 of a complete run, into a fresh folder, gives
+/// the same solid.h5 and monitor.h5 (every row from step 0: they are carried in the
+/// checkpoints) and the same snapshots after step 700, bit for bit.
+TEST(Reproducibility, CheckpointRestartIsBitIdentical) {
+  const fs::path dir = scratch("checkpoint_restart");
+  const fs::path scene = write_scene(dir, true);
+  const fs::path full = dir / "full", restarted = dir / "restarted", from = dir / "from700";
+  expect_done(full, run_launcher(kSource, scene, full));
+  // The newest three checkpoints of each side are kept: 700, 800, 900.
+  fs::create_directories(from);
+  for (const char* side : {"fluid", "solid"}) {
+    ASSERT_TRUE(fs::exists(full / "checkpoints" / (std::string(side) + "_00000900.h5"))) << logs(full);
+    ASSERT_FALSE(fs::exists(full / "checkpoints" / (std::string(side) + "_00000500.h5")));
+  }
+  // Restart from 700 (the newest common step of a folder holding only 700).
+  for (const char* side : {"fluid", "solid"})
+    fs::copy_file(full / "checkpoints" / (std::string(side) + "_00000700.h5"),
+                  from / (std::string(side) + "_00000700.h5"));
+  expect_done(restarted, run_launcher(kSource, scene, restarted, "--restart " + cosim::test::quoted(from.string())));
+  EXPECT_NE(slurp(restarted / "fluid.log").find("restarted from"), std::string::npos) << logs(restarted);
+  EXPECT_NE(slurp(restarted / "solid.log").find("restarted from"), std::string::npos) << logs(restarted);
+  // Every HDF5 file of the restarted run equals the full run's.
+  std::size_t files = 0;
+  for (const std::string& f : cosim::test::h5_files(restarted)) {
+    EXPECT_EQ(cosim::test::compare_h5(full, restarted, f), "") << f;
+    ++files;
+  }
+  // solid.h5, monitor.h5, fields_001000, plane 800 and 1000, sheets 800 and 999
+  EXPECT_GE(files, 7u);
+  if (!HasFailure()) fs::remove_all(dir);
+}
+
+/// The solid is killed (SIGKILL) after its checkpoint of step 100: the fluid notices within
+/// its peer timeout, writes its own checkpoint and exits 4 naming the reason and the file;
+/// a restart from the checkpoints folder completes the run, identical to an uninterrupted one.
+TEST(Reproducibility, KilledPeerLeavesCheckpointAndReason) {
+  const fs::path dir = scratch("killed_peer");
+  const fs::path scene = write_scene(dir, true);
+  const fs::path clean = dir / "clean", killed = dir / "killed";
+  expect_done(clean, run_launcher(kSource, scene, clean));
+
+  int status = -1;
+  std::thread launcher([&] { status = run_launcher(kSource, scene, killed); });
+  const fs::path marker = killed / "checkpoints" / "solid_00000100.h5";
+  for (int k = 0; k < 1200 && !fs::exists(marker); ++k)
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  const bool reached = fs::exists(marker);
+  const std::string pid = slurp(killed / "solid.pid");
+  if (reached && !pid.empty()) std::system(("kill -9 " + pid).c_str());
+  launcher.join();
+  ASSERT_TRUE(reached) << "the solid never wrote its checkpoint of step 100\n" << logs(killed);
+  EXPECT_NE(status, 0) << logs(killed);
+  EXPECT_EQ(slurp(killed / "fluid.exit"), "4\n") << logs(killed);
+  const std::string fluid_log = slurp(killed / "fluid.log");
+  EXPECT_NE(fluid_log.find("the solid was silent"), std::string::npos) << logs(killed);
+  const std::size_t at = fluid_log.find("; checkpoint ");
+  ASSERT_NE(at, std::string::npos) << "no checkpoint named in the reason\n" << logs(killed);
+  std::printf("fluid's reason: %s\n", fluid_log.substr(fluid_log.rfind("coupled run stopped")).c_str());
+  // The checkpoint the reason names exists.
+  std::string file = fluid_log.substr(at + 13);
+  file = file.substr(0, file.find('\n'));
+  EXPECT_TRUE(fs::exists(file)) << file;
+
+  // Continue in the same folder.
+  expect_done(killed, run_launcher(kSource, scene, killed, "--restart " + cosim::test::quoted((killed / "checkpoints").string())));
+  EXPECT_EQ(compare_outputs(clean, killed), "") << logs(killed);
   if (!HasFailure()) fs::remove_all(dir);
 }
 
