@@ -28,6 +28,10 @@ parent folder), one PNG per figure, and prints the path of each file written:
   energy.png              kinetic, elastic and total energy of the sheets
   monitor.png             fluid health: mass change and maximum Mach number (monitor.h5)
   displacement_sheets.png several runs with two sheets: one row per run, G1 red, G2 blue (Fig. 10)
+  strain_sheets.png       the CGPs of the sheet snapshots (sheets_NNNNNN.h5) coloured by their
+                          area strain, red compressed, blue stretched, seen from downstream
+                          and from above, at three times after release (Fig. 11);
+                          strain_sheets_<scene>.png per run with several runs
   vorticity_y.png         y vorticity on the plane y = FRACTION L (default 1/2, Fig. 9; 1/3 for
                           Fig. 12), nearest grid plane, L the channel height ny dx, of the last
                           snapshot; vorticity_y_<scene>.png per run with several runs. CGP
@@ -589,6 +593,47 @@ def sheets_figure(runs, out, written):
     save(fig, out, "displacement_sheets.png", written)
 
 
+def strain_sheets_figure(run, out, written, name):
+    """Fig. 11: the CGPs coloured by area strain at three snapshot times after the release,
+    seen from downstream (z, y) and from above (x, z). Red compressed, blue stretched."""
+    free = sorted(s for s in run.sheet_snapshots if s >= run.rigid_steps)
+    if not free:
+        return
+    picks = sorted({free[0], free[len(free) // 2], free[-1]})
+    data = []
+    for step in picks:
+        with open_h5(run.sheet_snapshots[step]) as f:
+            p = read_dataset(f, "position_um", run.sheet_snapshots[step], 2)
+            e = read_dataset(f, "area_strain", run.sheet_snapshots[step], 1)
+            t = float(f.attrs["time_us"]) if "time_us" in f.attrs else float("nan")
+        data.append((step, t, np.asarray(p, float), np.asarray(e, float)))
+    vmax = max(float(np.max(np.abs(d[3]))) for d in data)
+    vmax = vmax if vmax > 0 else 1e-12
+    n = len(data)
+    fig, axes = plt.subplots(2, n, figsize=(2.6 * n + 1.2, 6.0), constrained_layout=True,
+                             squeeze=False)
+    fig.suptitle(f"Area strain of the sheets (red compressed, blue stretched): {run.scene}")
+    sc = None
+    for c, (step, t, p, e) in enumerate(data):
+        ax = axes[0, c]
+        sc = ax.scatter(p[:, 2], p[:, 1], c=e, cmap="RdBu", vmin=-vmax, vmax=vmax, s=11,
+                        edgecolors="0.45", linewidths=0.3)
+        ax.set_title(f"from downstream, $t - t_0$ = {t - run.t0_us:.3g} µs", fontsize=8.5)
+        ax.set_xlabel(r"span-wise $z$ (µm)")
+        ax.set_ylabel(r"height $y$ (µm)")
+        ax.set_aspect("equal", adjustable="datalim")
+        ax = axes[1, c]
+        ax.scatter(p[:, 0], p[:, 2], c=e, cmap="RdBu", vmin=-vmax, vmax=vmax, s=11,
+                   edgecolors="0.45", linewidths=0.3)
+        ax.set_title(f"from above, step {step}", fontsize=8.5)
+        ax.set_xlabel(r"stream-wise $x$ (µm)")
+        ax.set_ylabel(r"span-wise $z$ (µm)")
+        ax.set_aspect("equal", adjustable="datalim")
+    cb = fig.colorbar(sc, ax=axes, shrink=0.8, pad=0.02)
+    cb.set_label(r"area strain $\varepsilon_l$")
+    save(fig, out, name, written)
+
+
 def vorticity_figure(run, out, written, fraction, name):
     v = run.vorticity
     w, dx = v["plane"], v["dx"]
@@ -736,6 +781,12 @@ def main():
         monitor_figure(runs, out, written)
         if len(runs) > 1 and any(r.sheets > 1 for r in runs):
             sheets_figure(runs, out, written)
+        for r in runs:
+            if len(runs) == 1:
+                strain_sheets_figure(r, out, written, "strain_sheets.png")
+            else:
+                base = re.sub(r"[^A-Za-z0-9_.-]+", "_", r.scene)
+                strain_sheets_figure(r, out, written, f"strain_sheets_{base}.png")
         with_fields = [r for r in runs if r.last_fields]
         used = set()
         for r in with_fields:

@@ -79,10 +79,11 @@ TEST(Plots, PlotsAreProduced) {
   ASSERT_EQ(plotted, 0) << slurp(dir / "plot.out") << slurp(dir / "plot.err");
   EXPECT_EQ(slurp(dir / "plot.err"), "");
   const std::string listed = slurp(dir / "plot.out");
-  // coupled_small writes field snapshots (fields_every = 50), hence the vorticity plane.
+  // coupled_small writes field snapshots (fields_every = 50), hence the vorticity plane, and
+  // sheet snapshots (sheets_every = 50), hence the strain on the sheets (Fig. 11).
   const std::vector<std::string> expected = {"displacement.png", "coefficients.png", "forces.png",
                                              "strain.png",       "energy.png",       "monitor.png",
-                                             "vorticity_y.png"};
+                                             "strain_sheets.png", "vorticity_y.png"};
   for (const auto& name : expected) {
     const fs::path p = plots / name;
     ASSERT_TRUE(fs::exists(p)) << name << " missing; plot.py printed:\n" << listed;

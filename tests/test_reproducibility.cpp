@@ -41,7 +41,8 @@ fs::path write_scene(const fs::path& dir, bool checkpoints = false) {
   };
   set("steps = 200", "steps = 120");
   set("rigid_steps = 50", "rigid_steps = 40");
-  set("fields_every = 50", "fields_every = 60\nplanes_every = 40\nplanes_y = [0.5]\nsheets_every = 40");
+  set("fields_every = 50", "fields_every = 60\nplanes_every = 40\nplanes_y = [0.5]");
+  set("sheets_every = 50", "sheets_every = 40");
   set("resend_after_s = 0.5", "resend_after_s = 0.05");
   if (checkpoints) {
     set("steps = 120", "steps = 1000");
