@@ -584,12 +584,13 @@ TEST(LogInspector, LcmLoggerRecordsLogplayerReplay) {
          "lcm-logger -q -f -c 'COSIM_TEST_.*' --lcm-url='"
       << url << "' " << again.string()
       << " & logger=$!\n"
+         // The logger stops however the script ends (it would keep the namespace alive).
+         "trap 'kill -INT $logger 2>/dev/null; wait $logger 2>/dev/null' EXIT\n"
          "sleep 1\n"
-         "lcm-logplayer --lcm-url='"
+         "timeout 60 lcm-logplayer --lcm-url='"
       << url << "' " << log.string()
       << "\n"
-         "sleep 0.5\n"
-         "kill -INT $logger; wait $logger || true\n";
+         "sleep 0.5\n";
   const Cmd r = run_cmd("unshare -n sh " + script.string(), dir);
   ASSERT_EQ(r.status, 0) << r.out << r.err;
   const lt::LogSummary a = lt::summarize_log(log.string());
