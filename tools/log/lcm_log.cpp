@@ -1,0 +1,361 @@
+#include "tools/log/lcm_log.hpp"
+
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
+#include <system_error>
+
+#include "cosimlcm/fluid_state_t.hpp"
+#include "cosimlcm/hello_t.hpp"
+#include "cosimlcm/resend_t.hpp"
+#include "cosimlcm/solid_state_t.hpp"
+#include "cosimlcm/stop_t.hpp"
+#include "cosimlcm/welcome_t.hpp"
+
+namespace cosim::logtool {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr std::uint32_t kMagic = 0xEDA1DA01u;
+constexpr std::size_t kHeaderBytes = 4 + 8 + 8 + 4 + 4;
+// LCM's own reader refuses channel lengths outside (0, 1000); LCM limits a channel to 63.
+constexpr std::int32_t kMaxChannel = 1000;
+
+std::uint64_t be(const std::uint8_t* p, int n) {
+  std::uint64_t v = 0;
+  for (int i = 0; i < n; ++i) v = (v << 8) | p[i];
+  return v;
+}
+
+}  // namespace
+
+LogReader::LogReader(const std::string& path) : path_(path) {
+  std::error_code ec;
+  const fs::file_status st = fs::status(path, ec);
+  if (ec || !fs::exists(st)) throw LogInputError(path + ": no such file");
+  if (!fs::is_regular_file(st))
+    throw LogInputError(path + ": not a regular file; give an LCM log (lcm-logger's output)");
+  file_ = std::fopen(path.c_str(), "rb");
+  if (file_ == nullptr) throw LogInputError(path + ": cannot open: " + std::strerror(errno));
+  file_bytes_ = fs::file_size(path, ec);
+  if (file_bytes_ == 0) throw LogInputError(path + ": empty file, not an LCM log (no events)");
+  std::uint8_t head[4] = {};
+  if (file_bytes_ < kHeaderBytes || std::fread(head, 1, 4, file_) != 4 || be(head, 4) != kMagic) {
+    std::fclose(file_);
+    file_ = nullptr;
+    throw LogInputError(path +
+                        ": not an LCM log (it does not start with an LCM event: magic "
+                        "0xEDA1DA01, as lcm-logger writes)");
+  }
+  std::rewind(file_);
+}
+
+LogReader::~LogReader() {
+  if (file_ != nullptr) std::fclose(file_);
+}
+
+bool LogReader::read_exact(void* buf, std::size_t n) {
+  if (n == 0) return true;
+  const std::size_t got = std::fread(buf, 1, n, file_);
+  pos_ += got;
+  return got == n;
+}
+
+// Scans from byte `from` for the next magic; leaves the file at it. False at the end.
+bool LogReader::resync(std::uint64_t from) {
+  if (std::fseek(file_, static_cast<long>(from), SEEK_SET) != 0) return false;
+  pos_ = from;
+  std::uint32_t window = 0;
+  int have = 0;
+  for (int c; (c = std::fgetc(file_)) != EOF;) {
+    ++pos_;
+    window = (window << 8) | static_cast<std::uint32_t>(c);
+    if (++have >= 4 && window == kMagic) {
+      pos_ -= 4;
+      std::fseek(file_, static_cast<long>(pos_), SEEK_SET);
+      skipped_ += pos_ - from;
+      return true;
+    }
+  }
+  skipped_ += pos_ - from;
+  return false;
+}
+
+bool LogReader::next(LogEvent& event) {
+  for (;;) {
+    if (file_ == nullptr || pos_ >= file_bytes_) return false;
+    const std::uint64_t start = pos_;
+    std::uint8_t h[kHeaderBytes];
+    if (!read_exact(h, sizeof h)) {
+      truncated_ = "the log ends inside the header of an event at byte " + std::to_string(start) +
+                   " (lcm-logger stopped mid-write?); the partial event is ignored";
+      return false;
+    }
+    const auto clen = static_cast<std::int32_t>(be(h + 20, 4));
+    const auto dlen = static_cast<std::int32_t>(be(h + 24, 4));
+    if (be(h, 4) != kMagic || clen <= 0 || clen >= kMaxChannel || dlen < 0) {
+      if (!resync(start + 1)) return false;
+      continue;
+    }
+    if (start + kHeaderBytes + std::uint64_t(clen) + std::uint64_t(dlen) > file_bytes_) {
+      truncated_ = "the log ends inside event " +
+                   std::to_string(static_cast<std::int64_t>(be(h + 4, 8))) + " at byte " +
+                   std::to_string(start) +
+                   " (lcm-logger stopped mid-write?); the partial event is ignored";
+      pos_ = file_bytes_;
+      return false;
+    }
+    event.offset = start;
+    event.number = static_cast<std::int64_t>(be(h + 4, 8));
+    event.utime = static_cast<std::int64_t>(be(h + 12, 8));
+    event.channel.resize(static_cast<std::size_t>(clen));
+    event.data.resize(static_cast<std::size_t>(dlen));
+    if (!read_exact(event.channel.data(), event.channel.size()) ||
+        !read_exact(event.data.data(), event.data.size())) {
+      truncated_ = "the log ends inside event at byte " + std::to_string(start);
+      return false;
+    }
+    return true;
+  }
+}
+
+// ---------------------------------------------------------------------------------------
+// Types, channels, fingerprints
+
+namespace {
+
+struct TypeInfo {
+  MsgType type;
+  const char* name;
+  const char* suffix;
+  std::int64_t fingerprint;
+};
+
+const TypeInfo* types() {
+  static const TypeInfo t[] = {
+      {MsgType::hello, "hello_t", "HELLO", cosimlcm::hello_t::getHash()},
+      {MsgType::welcome, "welcome_t", "WELCOME", cosimlcm::welcome_t::getHash()},
+      {MsgType::solid_state, "solid_state_t", "SOLID_STATE", cosimlcm::solid_state_t::getHash()},
+      {MsgType::fluid_state, "fluid_state_t", "FLUID_STATE", cosimlcm::fluid_state_t::getHash()},
+      {MsgType::resend, "resend_t", "RESEND", cosimlcm::resend_t::getHash()},
+      {MsgType::stop, "stop_t", "STOP", cosimlcm::stop_t::getHash()},
+  };
+  return t;
+}
+constexpr int kTypes = 6;
+
+// Field layouts of the encodings (after the 8-byte fingerprint), for the checks before
+// the generated decoder runs: S string, B boolean, I int32, L int64, D double,
+// N the int32 num_cgps that sizes the arrays, 1 double[num_cgps], 3 double[num_cgps][3].
+struct Field {
+  char kind;
+  const char* name;
+};
+
+std::vector<Field> layout(MsgType t) {
+  switch (t) {
+    case MsgType::hello:
+      return {{'S', "token"},
+              {'S', "role"},
+              {'S', "model"},
+              {'S', "version"},
+              {'S', "scene_hash"},
+              {'D', "dx_m"},
+              {'D', "dt_lb_s"},
+              {'D', "sound_speed_m_s"},
+              {'D', "air_density_kg_m3"},
+              {'I', "time_ratio"},
+              {'D', "dt_cg_s"},
+              {'D', "stable_dt_cg_s"},
+              {'I', "num_cgps"}};
+    case MsgType::welcome:
+      return {{'S', "token"},       {'B', "accepted"},    {'S', "reason"},
+              {'L', "total_steps"}, {'L', "rigid_steps"}, {'I', "time_ratio"}};
+    case MsgType::solid_state:
+      return {{'S', "token"},        {'L', "seq"},      {'L', "step"},        {'I', "substeps"},
+              {'D', "solid_time_s"}, {'N', "num_cgps"}, {'3', "position_lb"}, {'3', "impulse_lb"}};
+    case MsgType::fluid_state:
+      return {{'S', "token"},    {'L', "seq"},    {'L', "step"},       {'D', "bulk_velocity_lb"},
+              {'N', "num_cgps"}, {'1', "rho_lb"}, {'3', "velocity_lb"}};
+    case MsgType::resend:
+      return {{'S', "token"}, {'L', "step"}, {'S', "what"}};
+    case MsgType::stop:
+      return {{'S', "token"}, {'L', "step"}, {'I', "exit_code"}, {'S', "reason"}};
+    case MsgType::unknown:
+      break;
+  }
+  return {};
+}
+
+// "" when `data` is laid out as a message of type t; otherwise the reason.
+std::string check_layout(MsgType t, const std::vector<std::uint8_t>& data) {
+  const std::string name = type_name(t);
+  const std::uint64_t n = data.size();
+  if (n < 8)
+    return "not a " + name + ": " + std::to_string(n) + " bytes, shorter than a fingerprint";
+  const auto fp = static_cast<std::int64_t>(be(data.data(), 8));
+  const TypeInfo& info = types()[static_cast<int>(t)];
+  if (fp != info.fingerprint) {
+    const MsgType other = type_by_fingerprint(data);
+    return "not a " + name + ": its fingerprint " + fingerprint_text(data) +
+           (other != MsgType::unknown ? std::string(" is ") + type_name(other) + "'s"
+                                      : std::string(" is none of the protocol's types"));
+  }
+  std::uint64_t pos = 8;
+  std::int64_t num = 0;
+  const auto need = [&](std::uint64_t bytes, const char* field) -> std::string {
+    if (n - pos < bytes)
+      return name + " truncated: " + field + " needs " + std::to_string(bytes) + " bytes at byte " +
+             std::to_string(pos) + ", " + std::to_string(n - pos) + " left";
+    return "";
+  };
+  for (const Field& f : layout(t)) {
+    std::string err;
+    switch (f.kind) {
+      case 'S': {
+        if (!(err = need(4, f.name)).empty()) return err;
+        const auto len = static_cast<std::int32_t>(be(data.data() + pos, 4));
+        pos += 4;
+        if (len < 1 || std::uint64_t(len) > n - pos)
+          return name + ": string " + f.name + " has length " + std::to_string(len) + " at byte " +
+                 std::to_string(pos - 4) + " (allowed 1 to " + std::to_string(n - pos) +
+                 ", the NUL included)";
+        if (data[pos + std::uint64_t(len) - 1] != 0)
+          return name + ": string " + f.name + " is not NUL-terminated";
+        pos += std::uint64_t(len);
+        break;
+      }
+      case 'B':
+        if (!(err = need(1, f.name)).empty()) return err;
+        pos += 1;
+        break;
+      case 'I':
+      case 'N':
+        if (!(err = need(4, f.name)).empty()) return err;
+        if (f.kind == 'N') {
+          num = static_cast<std::int32_t>(be(data.data() + pos, 4));
+          if (num < 0) return name + ": num_cgps " + std::to_string(num) + " is negative";
+        }
+        pos += 4;
+        break;
+      case 'L':
+      case 'D':
+        if (!(err = need(8, f.name)).empty()) return err;
+        pos += 8;
+        break;
+      case '1':
+      case '3': {
+        const std::uint64_t bytes = std::uint64_t(num) * 8u * (f.kind == '3' ? 3u : 1u);
+        if (n - pos < bytes)
+          return name + " truncated: num_cgps " + std::to_string(num) + " needs " +
+                 std::to_string(bytes) + " bytes of " + f.name + " at byte " + std::to_string(pos) +
+                 ", " + std::to_string(n - pos) + " left";
+        pos += bytes;
+        break;
+      }
+      default:
+        break;
+    }
+  }
+  if (pos != n)
+    return name + ": " + std::to_string(n - pos) + " bytes left over after the last field";
+  return "";
+}
+
+}  // namespace
+
+const char* type_name(MsgType t) {
+  return t == MsgType::unknown ? "unknown" : types()[static_cast<int>(t)].name;
+}
+
+const char* type_suffix(MsgType t) {
+  return t == MsgType::unknown ? "" : types()[static_cast<int>(t)].suffix;
+}
+
+MsgType type_by_channel(std::string_view channel, std::string* prefix) {
+  for (int i = 0; i < kTypes; ++i) {
+    const std::string_view suffix = types()[i].suffix;
+    if (channel.size() > suffix.size() &&
+        channel.substr(channel.size() - suffix.size()) == suffix) {
+      if (prefix != nullptr)
+        *prefix = std::string(channel.substr(0, channel.size() - suffix.size()));
+      return types()[i].type;
+    }
+  }
+  if (prefix != nullptr) prefix->clear();
+  return MsgType::unknown;
+}
+
+MsgType type_by_fingerprint(const std::vector<std::uint8_t>& data) {
+  if (data.size() < 8) return MsgType::unknown;
+  const auto fp = static_cast<std::int64_t>(be(data.data(), 8));
+  for (int i = 0; i < kTypes; ++i)
+    if (types()[i].fingerprint == fp) return types()[i].type;
+  return MsgType::unknown;
+}
+
+std::string fingerprint_text(const std::vector<std::uint8_t>& data) {
+  char buf[48];
+  if (data.size() < 8) {
+    std::snprintf(buf, sizeof buf, "(%zu bytes, no fingerprint)", data.size());
+    return buf;
+  }
+  std::snprintf(buf, sizeof buf, "0x%016llx", static_cast<unsigned long long>(be(data.data(), 8)));
+  return buf;
+}
+
+namespace {
+template <class T>
+MsgType type_of();
+template <>
+MsgType type_of<cosimlcm::hello_t>() {
+  return MsgType::hello;
+}
+template <>
+MsgType type_of<cosimlcm::welcome_t>() {
+  return MsgType::welcome;
+}
+template <>
+MsgType type_of<cosimlcm::solid_state_t>() {
+  return MsgType::solid_state;
+}
+template <>
+MsgType type_of<cosimlcm::fluid_state_t>() {
+  return MsgType::fluid_state;
+}
+template <>
+MsgType type_of<cosimlcm::resend_t>() {
+  return MsgType::resend;
+}
+template <>
+MsgType type_of<cosimlcm::stop_t>() {
+  return MsgType::stop;
+}
+}  // namespace
+
+template <class T>
+std::string decode_as(const std::vector<std::uint8_t>& data, T& out) {
+  const MsgType t = type_of<T>();
+  std::string err = check_layout(t, data);
+  if (!err.empty()) return err;
+  try {
+    const int used = out.decode(data.data(), 0, static_cast<int>(data.size()));
+    if (used != static_cast<int>(data.size()))
+      return std::string(type_name(t)) + ": the generated decoder failed (" + std::to_string(used) +
+             ")";
+  } catch (const std::exception& e) {
+    return std::string(type_name(t)) + ": the generated decoder failed: " + e.what();
+  }
+  return "";
+}
+
+template std::string decode_as(const std::vector<std::uint8_t>&, cosimlcm::hello_t&);
+template std::string decode_as(const std::vector<std::uint8_t>&, cosimlcm::welcome_t&);
+template std::string decode_as(const std::vector<std::uint8_t>&, cosimlcm::solid_state_t&);
+template std::string decode_as(const std::vector<std::uint8_t>&, cosimlcm::fluid_state_t&);
+template std::string decode_as(const std::vector<std::uint8_t>&, cosimlcm::resend_t&);
+template std::string decode_as(const std::vector<std::uint8_t>&, cosimlcm::stop_t&);
+
+}  // namespace cosim::logtool

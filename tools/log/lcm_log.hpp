@@ -1,0 +1,92 @@
+// Reading LCM log files (the format lcm-logger writes) and decoding the project's messages
+// from them safely: a malformed message is reported with one line, never decoded into a
+// huge allocation or read past its end. The protocol is protocol/README.md.
+#pragma once
+
+#include <cstdint>
+#include <cstdio>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace cosim::logtool {
+
+/// Input the tool refuses (a missing file, not an LCM log, a bad option, a step not in the
+/// log): one line naming it; the command line tool exits 2.
+class LogInputError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// One event of an LCM log: lcm-logger's event number, its receive time (microseconds since
+/// 1970-01-01 UTC), the channel and the message bytes.
+struct LogEvent {
+  std::int64_t number = 0;
+  std::int64_t utime = 0;
+  std::string channel;
+  std::vector<std::uint8_t> data;
+  std::uint64_t offset = 0;  ///< byte offset of the event in the file
+};
+
+/// Streams the events of an LCM log file, in file order. The format (LCM's eventlog, all
+/// integers big-endian): per event the magic 0xEDA1DA01, int64 event number, int64 utime,
+/// int32 channel length, int32 data length, the channel, the data. Like LCM's own reader,
+/// a corrupt stretch is skipped up to the next magic (counted in skipped_bytes()); a file
+/// that ends inside an event (a logger stopped mid-write) ends the log with a warning.
+class LogReader {
+ public:
+  /// @throws LogInputError: no such file, not a regular file, unreadable, empty, or its
+  ///         first bytes are not an LCM event.
+  explicit LogReader(const std::string& path);
+  ~LogReader();
+  LogReader(const LogReader&) = delete;
+  LogReader& operator=(const LogReader&) = delete;
+
+  /// The next event; false at the end of the log.
+  bool next(LogEvent& event);
+
+  const std::string& path() const { return path_; }
+  std::uint64_t file_bytes() const { return file_bytes_; }
+  /// Bytes skipped because they were not a well-formed event (corrupt stretches).
+  std::uint64_t skipped_bytes() const { return skipped_; }
+  /// Non-empty when the log ended inside an event: one line naming the offset.
+  const std::string& truncated() const { return truncated_; }
+
+ private:
+  bool read_exact(void* buf, std::size_t n);
+  bool resync(std::uint64_t from);
+
+  std::string path_;
+  std::FILE* file_ = nullptr;
+  std::uint64_t file_bytes_ = 0;
+  std::uint64_t pos_ = 0;
+  std::uint64_t skipped_ = 0;
+  std::string truncated_;
+};
+
+/// The six message types of the protocol, and the rest.
+enum class MsgType { hello, welcome, solid_state, fluid_state, resend, stop, unknown };
+
+/// "hello_t", ..., "stop_t"; "unknown" for MsgType::unknown.
+const char* type_name(MsgType t);
+/// The channel suffix of a type: "HELLO", ..., "STOP"; "" for unknown.
+const char* type_suffix(MsgType t);
+/// The type a channel carries by its suffix (protocol/README.md, "Channels"), and the
+/// prefix before the suffix; MsgType::unknown (prefix empty) for a channel with none of them.
+MsgType type_by_channel(std::string_view channel, std::string* prefix = nullptr);
+/// The type whose LCM fingerprint the message starts with; unknown when it has no
+/// fingerprint of the project's types.
+MsgType type_by_fingerprint(const std::vector<std::uint8_t>& data);
+/// The message's fingerprint in hex ("0x..."), or "(n bytes, no fingerprint)".
+std::string fingerprint_text(const std::vector<std::uint8_t>& data);
+
+/// Decodes `data` as message type T (cosimlcm::hello_t, ...). Checks the fingerprint, the
+/// string lengths and the array sizes against the bytes before the generated decoder runs,
+/// and that no byte is left over.
+/// @return "" on success; otherwise one line naming the type and what is wrong (`out` is
+///         then unspecified).
+template <class T>
+std::string decode_as(const std::vector<std::uint8_t>& data, T& out);
+
+}  // namespace cosim::logtool
