@@ -794,7 +794,7 @@ class Replay {
     if (p.refused) {
       err_ << "cosim-replay: " << o_.scene_path << " does not match the logged run: "
            << (fluid ? "the fluid's coordinator refused the logged solid hello_t: "
-                     : "the logged fluid hello_t refuses the solid's: ")
+                     : "the coordinator's check of the solid's hello_t against the logged fluid's: ")
            << one_line(*p.refused) << "\n";
       cleanup(output, true);
       return exit_code::bad_input;
