@@ -33,6 +33,43 @@ double LinearSheetForce::evaluate(const Eigen::Matrix3Xd& x, Eigen::Matrix3Xd& f
   return energy;
 }
 
+namespace {
+
+/// Whether every entry of k in the rows and columns of local component `c` (DOF 3 p + c)
+/// is zero.
+bool component_unused(const Eigen::MatrixXd& k, int c) {
+  for (Eigen::Index i = c; i < k.rows(); i += 3)
+    if (!k.row(i).isZero(0.0) || !k.col(i).isZero(0.0)) return false;
+  return true;
+}
+
+/// The local displacement u (3 x m, local axes) of a term packed for its coupling, and the
+/// generalised force g = K u unpacked back into 3 x m.
+void apply_term(const Eigen::MatrixXd& k, int coupling, const TermPoints& u, TermPoints& g,
+                double& energy) {
+  const auto m = u.cols();
+  if (coupling == 0) {  // in-plane: (a, b) of every node
+    TermVector v(2 * m);
+    for (Eigen::Index p = 0; p < m; ++p) v.segment<2>(2 * p) = u.col(p).head<2>();
+    const TermVector kv = k * v;
+    energy += 0.5 * v.dot(kv);
+    for (Eigen::Index p = 0; p < m; ++p) g.col(p) << kv(2 * p), kv(2 * p + 1), 0.0;
+  } else if (coupling == 1) {  // normal: n of every node
+    TermVector v(m);
+    for (Eigen::Index p = 0; p < m; ++p) v(p) = u(2, p);
+    const TermVector kv = k * v;
+    energy += 0.5 * v.dot(kv);
+    for (Eigen::Index p = 0; p < m; ++p) g.col(p) << 0.0, 0.0, kv(p);
+  } else {
+    const TermVector v = Eigen::Map<const TermVector>(u.data(), 3 * m);
+    const TermVector kv = k * v;
+    energy += 0.5 * v.dot(kv);
+    g = Eigen::Map<const TermPoints>(kv.data(), 3, m);
+  }
+}
+
+}  // namespace
+
 CorotationalSheetForce::CorotationalSheetForce(const std::vector<SheetBlock>& sheets) {
   for (const SheetBlock& s : sheets) {
     for (const StiffnessTerm& t : s.terms) {
@@ -41,11 +78,25 @@ CorotationalSheetForce::CorotationalSheetForce(const std::vector<SheetBlock>& sh
       if (m > kMaxTermNodes)
         throw std::logic_error("CorotationalSheetForce: a term of " + std::to_string(m) +
                                " CGPs; the scratch holds " + std::to_string(kMaxTermNodes));
-      // K in scene axes: blockwise A K A^T.
-      c.k = Eigen::MatrixXd(3 * m, 3 * m);
-      for (Eigen::Index p = 0; p < m; ++p)
-        for (Eigen::Index q = 0; q < m; ++q)
-          c.k.block<3, 3>(3 * p, 3 * q) = s.axes * t.k.block<3, 3>(3 * p, 3 * q) * s.axes.transpose();
+      // K stays in the sheet's local axes; keep only the components it couples.
+      const bool no_normal = component_unused(t.k, 2);
+      const bool no_plane = component_unused(t.k, 0) && component_unused(t.k, 1);
+      if (no_normal && !no_plane) {
+        c.coupling = Coupling::InPlane;
+        c.k.resize(2 * m, 2 * m);
+        for (Eigen::Index p = 0; p < m; ++p)
+          for (Eigen::Index q = 0; q < m; ++q)
+            c.k.block<2, 2>(2 * p, 2 * q) = t.k.block<2, 2>(3 * p, 3 * q);
+      } else if (no_plane && !no_normal) {
+        c.coupling = Coupling::Normal;
+        c.k.resize(m, m);
+        for (Eigen::Index p = 0; p < m; ++p)
+          for (Eigen::Index q = 0; q < m; ++q) c.k(p, q) = t.k(3 * p + 2, 3 * q + 2);
+      } else {
+        c.coupling = Coupling::All;
+        c.k = t.k;
+      }
+      c.axes = s.axes;
       Eigen::Vector3d centre = Eigen::Vector3d::Zero();
       for (const Eigen::Index l : t.frame) centre += s.reference_bohr.col(l);
       if (!t.frame.empty()) centre /= static_cast<double>(t.frame.size());
@@ -53,17 +104,15 @@ CorotationalSheetForce::CorotationalSheetForce(const std::vector<SheetBlock>& sh
       for (Eigen::Index p = 0; p < m; ++p) {
         const Eigen::Index l = t.nodes[static_cast<std::size_t>(p)];
         c.nodes.push_back(s.first + l);
-        c.ref_nodes.col(p) = s.reference_bohr.col(l) - centre;
+        c.ref_nodes.col(p) = s.axes.transpose() * (s.reference_bohr.col(l) - centre);
       }
       c.ref_frame.resize(3, static_cast<Eigen::Index>(t.frame.size()));
       c.ref_frame_ab.resize(2, static_cast<Eigen::Index>(t.frame.size()));
-      c.plane = s.axes.leftCols<2>();
-      c.normal = s.axes.col(2);
       for (std::size_t k = 0; k < t.frame.size(); ++k) {
         const auto kk = static_cast<Eigen::Index>(k);
         c.frame.push_back(s.first + t.frame[k]);
-        c.ref_frame.col(kk) = s.reference_bohr.col(t.frame[k]) - centre;
-        c.ref_frame_ab.col(kk) = c.plane.transpose() * c.ref_frame.col(kk);
+        c.ref_frame.col(kk) = s.axes.transpose() * (s.reference_bohr.col(t.frame[k]) - centre);
+        c.ref_frame_ab.col(kk) = c.ref_frame.col(kk).head<2>();
       }
       terms_.push_back(std::move(c));
     }
@@ -76,19 +125,20 @@ double CorotationalSheetForce::evaluate(const Eigen::Matrix3Xd& x, Eigen::Matrix
   for (const Term& t : terms_) {
     const auto nf = static_cast<Eigen::Index>(t.frame.size());
     const auto m = static_cast<Eigen::Index>(t.nodes.size());
+    const int coupling = static_cast<int>(t.coupling);
+    TermPoints u(3, m), g(3, m);
     if (nf == 0) {  // a term tied to the plate: evaluated in the fixed frame
-      TermVector u(3 * m);
       for (Eigen::Index p = 0; p < m; ++p)
-        u.segment<3>(3 * p) = x.col(t.nodes[static_cast<std::size_t>(p)]) - t.ref_nodes.col(p);
-      const TermVector g = t.k * u;
-      energy += 0.5 * u.dot(g);
-      for (Eigen::Index p = 0; p < m; ++p) f.col(t.nodes[static_cast<std::size_t>(p)]) -= g.segment<3>(3 * p);
+        u.col(p) = t.axes.transpose() * x.col(t.nodes[static_cast<std::size_t>(p)]) - t.ref_nodes.col(p);
+      apply_term(t.k, coupling, u, g, energy);
+      for (Eigen::Index p = 0; p < m; ++p) f.col(t.nodes[static_cast<std::size_t>(p)]) -= t.axes * g.col(p);
       continue;
     }
     Eigen::Vector3d centre = Eigen::Vector3d::Zero();
     for (const Eigen::Index l : t.frame) centre += x.col(l);
     centre /= static_cast<double>(nf);
-    // Polar decomposition of the flat frame's F = A P^T (see the header).
+    // Polar decomposition of the flat frame's F = A P^T (see the header), with P = the
+    // sheet's (e_a, e_b): in local axes Q = A (A^T A)^(-1/2) are the rotated e_a, e_b.
     Eigen::Matrix<double, 3, 2> a2 = Eigen::Matrix<double, 3, 2>::Zero();
     for (Eigen::Index k = 0; k < nf; ++k)
       a2 += (x.col(t.frame[static_cast<std::size_t>(k)]) - centre) * t.ref_frame_ab.col(k).transpose();
@@ -96,36 +146,42 @@ double CorotationalSheetForce::evaluate(const Eigen::Matrix3Xd& x, Eigen::Matrix
     const double det_root = std::sqrt(m2.determinant());
     const Eigen::Matrix2d root =  // (A^T A)^(1/2) of a 2 x 2 SPD matrix, closed form
         (m2 + det_root * Eigen::Matrix2d::Identity()) / std::sqrt(m2.trace() + 2.0 * det_root);
-    const Eigen::Matrix<double, 3, 2> q = a2 * root.inverse();
-    const Eigen::Vector3d qn = q.col(0).cross(q.col(1));
-    const Eigen::Matrix3d r = q * t.plane.transpose() + qn * t.normal.transpose();
-    const Eigen::Matrix3d s = t.plane * root * t.plane.transpose();
+    // root^-1 = adj(root) / det(root), adj(M) = tr(M) I - M for a 2 x 2 M.
+    const double tr_root = root.trace(), det_root_m = root.determinant();
+    const Eigen::Matrix2d adj_root = tr_root * Eigen::Matrix2d::Identity() - root;
+    const Eigen::Matrix<double, 3, 2> q = a2 * (adj_root / det_root_m);
+    // RA: the sheet's local axes, rotated with the frame (columns q_a, q_b, q_a x q_b).
+    Eigen::Matrix3d ra;
+    ra.leftCols<2>() = q;
+    ra.col(2) = q.col(0).cross(q.col(1));
 
-    TermVector u(3 * m);
     TermPoints y(3, m);
     for (Eigen::Index p = 0; p < m; ++p) {
-      y.col(p) = r.transpose() * (x.col(t.nodes[static_cast<std::size_t>(p)]) - centre);
-      u.segment<3>(3 * p) = y.col(p) - t.ref_nodes.col(p);
+      y.col(p) = ra.transpose() * (x.col(t.nodes[static_cast<std::size_t>(p)]) - centre);
+      u.col(p) = y.col(p) - t.ref_nodes.col(p);
     }
-    const TermVector g = t.k * u;
-    energy += 0.5 * u.dot(g);
+    apply_term(t.k, coupling, u, g, energy);
 
-    // dE = sum_k g_k . R^T (dx_k - dc) - omega . tau,  tau = sum_k y_k x g_k.
+    // dE = sum_k g_k . (RA)^T (dx_k - dc) - omega . tau,  tau = sum_k y_k x g_k (local
+    // axes; omega the frame's rotation rate in them). S in local axes is the 2 x 2 root
+    // padded with a zero normal row and column.
     Eigen::Vector3d tau = Eigen::Vector3d::Zero();
     Eigen::Vector3d g_sum = Eigen::Vector3d::Zero();
     for (Eigen::Index p = 0; p < m; ++p) {
-      const Eigen::Vector3d gp = g.segment<3>(3 * p);
-      tau += y.col(p).cross(gp);
-      g_sum += gp;
-      f.col(t.nodes[static_cast<std::size_t>(p)]) -= r * gp;
+      tau += y.col(p).cross(g.col(p));
+      g_sum += g.col(p);
+      f.col(t.nodes[static_cast<std::size_t>(p)]) -= ra * g.col(p);
     }
-    const Eigen::Matrix3d a = s.trace() * Eigen::Matrix3d::Identity() - s;
-    const Eigen::Vector3d mu = a.partialPivLu().solve(tau);
-    const Eigen::Vector3d shift = r * g_sum / static_cast<double>(nf);
+    // (tr S I - S) mu = tau, block diagonal in local axes: the (a, b) block is
+    // tr(root) I - root = adj(root), whose inverse is root / det(root); the n entry tr(root).
+    Eigen::Vector3d mu;
+    mu.head<2>() = root * tau.head<2>() / det_root_m;
+    mu(2) = tau(2) / tr_root;
+    const Eigen::Vector3d shift = ra * g_sum / static_cast<double>(nf);
     for (Eigen::Index k = 0; k < nf; ++k) {
       const Eigen::Index l = t.frame[static_cast<std::size_t>(k)];
-      // -dE/dx_f = R (mu x b_f) + R sum_k g_k / n_f
-      f.col(l) += r * mu.cross(t.ref_frame.col(k)) + shift;
+      // -dE/dx_f = RA (mu x b_f) + RA sum_k g_k / n_f
+      f.col(l) += ra * mu.cross(t.ref_frame.col(k)) + shift;
     }
   }
   return energy;

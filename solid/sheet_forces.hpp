@@ -60,13 +60,18 @@ class CorotationalSheetForce final : public SheetForce {
   double evaluate(const Eigen::Matrix3Xd& x, Eigen::Matrix3Xd& f) const override;
 
  private:
+  /// Which local components a term's stiffness couples. On a flat reference sheet the
+  /// membrane (Q4) terms touch only the in-plane (a, b) components and the plate terms only
+  /// the normal one, so each is applied as a 2m x 2m or m x m matrix instead of 3m x 3m.
+  enum class Coupling { InPlane, Normal, All };
   struct Term {
     std::vector<Eigen::Index> nodes, frame;  ///< model-wide CGP indices
-    Eigen::MatrixXd k;                       ///< scene axes
-    Eigen::Matrix3Xd ref_nodes, ref_frame;   ///< X - C of nodes and frame
+    Coupling coupling = Coupling::All;
+    Eigen::MatrixXd k;                       ///< the coupled components, local axes
+    Eigen::Matrix3Xd ref_nodes;              ///< X - C of the nodes, local axes (a, b, n)
     Eigen::Matrix2Xd ref_frame_ab;           ///< X - C of the frame in the sheet's (a, b)
-    Eigen::Matrix<double, 3, 2> plane;       ///< the sheet's e_a, e_b (scene axes)
-    Eigen::Vector3d normal;                  ///< the sheet's n = e_a x e_b
+    Eigen::Matrix3Xd ref_frame;              ///< X - C of the frame, local axes
+    Eigen::Matrix3d axes;                    ///< the sheet's (a, b, n) -> scene axes
   };
   std::vector<Term> terms_;
 };
