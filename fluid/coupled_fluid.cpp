@@ -491,6 +491,9 @@ class CoupledFluid {
   }
 
   int end(const Ending& e) {
+    // A run that stops after the handshake still reports what it received and refused.
+    if (e.code != kOk && welcome_ && welcome_->accepted)
+      out_ << "fluid: coupled run stopped; " << counters() << "\n";
     out_.flush();
     last_reason_ = e.reason;
     return e.code;

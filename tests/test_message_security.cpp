@@ -636,6 +636,7 @@ TEST(FluidCoupled, MalformedMessagesAreRejected) {
     EXPECT_GE(solid.resends_for_state, 2) << p.name;
     ASSERT_FALSE(solid.stops.empty()) << p.name;
     EXPECT_EQ(solid.stops.back().exit_code, p.code) << p.name;
+    EXPECT_EQ(counter(r.out, "rejected"), 3) << p.name << ": " << r.out;
   }
 
   // A solid that sends only refused hello_t: the handshake is refused, naming the field.
@@ -835,12 +836,18 @@ std::string mutate_scene(Mutator& mu, const std::string& text, const std::vector
         std::istringstream in(corpus[mu.below(corpus.size())]);
         std::vector<std::string> other;
         for (std::string l; std::getline(in, l);) other.push_back(l);
-        if (!other.empty()) lines.insert(at(mu.below(lines.size() + 1)), other[mu.below(other.size())]);
+        if (other.empty()) break;
+        // One draw per statement: the order of evaluation of arguments is unspecified, and
+        // the inputs must be the same with every compiler.
+        const std::string& pick = other[mu.below(other.size())];
+        lines.insert(at(mu.below(lines.size() + 1)), pick);
         break;
       }
-      case 4:
-        lines.insert(at(mu.below(lines.size() + 1)), headers[mu.below(std::size(headers))]);
+      case 4: {
+        const char* header = headers[mu.below(std::size(headers))];
+        lines.insert(at(mu.below(lines.size() + 1)), header);
         break;
+      }
       default:
         break;
     }
