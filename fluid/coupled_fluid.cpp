@@ -10,6 +10,7 @@
 #include <memory>
 #include <optional>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include <lcm/lcm-cpp.hpp>
@@ -30,7 +31,9 @@
 #include "protocol/checkpoint_file.hpp"
 #include "protocol/handshake.hpp"
 #include "protocol/hello_lcm.hpp"
+#include "protocol/message_checks.hpp"
 #include "protocol/step_sequencer.hpp"
+#include "protocol/text.hpp"
 #include "protocol/units.hpp"
 
 namespace cosim::fluid {
@@ -63,6 +66,7 @@ class CoupledFluid {
         lcm_(o.bus != nullptr ? *o.bus : *own_lcm_),
         net_(lcm_, o.faults, "fluid"),
         foreign_(o.token, [this](const std::string& line) { out_ << "fluid: " << line << "\n"; }),
+        rejections_([this](const std::string& line) { out_ << "fluid: " << line << "\n"; }),
         solid_seq_(0),
         watch_(ms(c_.peer_timeout_s), ms(c_.resend_after_s)) {
     protocol::UnitInputs in;
@@ -85,6 +89,15 @@ class CoupledFluid {
     subs_.push_back(lcm_.subscribe(ch_.resend, &CoupledFluid::on_resend, this));
     subs_.push_back(lcm_.subscribe(ch_.stop, &CoupledFluid::on_stop, this));
 
+    // A restart waits for solid_state_t(N) from the start, so that the solid's republished
+    // message passes the step-window check even if it comes before the checkpoint is read
+    // (an unreadable file is reported by restore(), after the handshake).
+    if (!o_.restart.empty()) {
+      try {
+        solid_seq_ = protocol::StepSequencer(protocol::CheckpointReader(o_.restart).int64_attr("step"));
+      } catch (const std::exception&) {
+      }
+    }
     if (auto e = handshake()) return end(*e);
     try {
       return step_all();
@@ -144,6 +157,7 @@ class CoupledFluid {
       }
       inbox_.erase(inbox_.begin(), inbox_.upper_bound(step));
       solid_seq_.advance();
+      states_refused_ = 0;
       // Eqs. 21-24 and 25-26: spread J_l at X_l, collide with the forcing, stream.
       ib.spread(solver, x, j);
       solver.step();
@@ -345,7 +359,7 @@ class CoupledFluid {
     const cosimlcm::hello_t own = protocol::to_lcm(mine);
     net_.publish(ch_.hello, own);
     const Clock::time_point deadline = Clock::now() + ms(c_.handshake_timeout_s);
-    while (!solid_hello_) {
+    while (!solid_hello_ && !hello_refusal_) {
       if (stop_) return stop_;
       if (Clock::now() > deadline) {
         publish_stop(0, kPeerLost, "no solid hello_t within the handshake timeout");
@@ -355,12 +369,15 @@ class CoupledFluid {
       lcm_.handleTimeout(50);
       net_.pump();
     }
+    // A solid whose hello_t failed the message checks kRejectedCopiesLimit times in a row
+    // is refused with the reason (protocol/README.md section 8a).
     const protocol::HandshakeResult r =
-        protocol::check_handshake(mine, protocol::from_lcm(*solid_hello_), o_.token);
+        hello_refusal_ ? protocol::HandshakeResult{false, "handshake refused: " + *hello_refusal_, 0}
+                       : protocol::check_handshake(mine, protocol::from_lcm(*solid_hello_), o_.token);
     welcome_ = cosimlcm::welcome_t{};
     welcome_->token = o_.token;
     welcome_->accepted = r.accepted ? 1 : 0;
-    welcome_->reason = r.reason;
+    welcome_->reason = protocol::bounded_reason(r.reason);
     welcome_->total_steps = s_.steps;
     welcome_->rigid_steps = c_.rigid_steps;
     welcome_->time_ratio = r.accepted ? r.time_ratio : c_.time_ratio;
@@ -370,6 +387,7 @@ class CoupledFluid {
     }
     if (!r.accepted) return Ending{kBadInput, r.reason};
     num_cgps_ = solid_hello_->num_cgps;
+    time_ratio_ = r.time_ratio;
     out_ << "fluid: handshake accepted: solid model " << solid_hello_->model << ", "
          << num_cgps_ << " CGPs, A_T = " << r.time_ratio << ", " << s_.steps
          << " LB steps (" << c_.rigid_steps << " rigid)" << std::endl;
@@ -380,6 +398,7 @@ class CoupledFluid {
   std::optional<Ending> wait_for_solid_state(std::int64_t step) {
     while (!inbox_.count(step)) {
       if (stop_) return stop_;
+      if (refused_state_) return refused_ending(step);
       lcm_.handleTimeout(10);
       net_.pump();
       if (inbox_.count(step)) break;
@@ -451,6 +470,18 @@ class CoupledFluid {
     return std::nullopt;
   }
 
+  /// The solid sent only refused copies of the awaited step (kRejectedCopiesLimit in a row):
+  /// the run ends naming the field, with check_solid_state's code where it applies (2, or 3
+  /// for a non-finite number), else 2.
+  Ending refused_ending(std::int64_t step) {
+    if (auto e = check_solid_state(refused_state_->first, step)) return *e;
+    const std::string why = "solid_state_t of step " + std::to_string(step) + ": " +
+                            refused_state_->second.detail() + " (" +
+                            std::to_string(protocol::kRejectedCopiesLimit) + " copies refused)";
+    publish_stop(step, kBadInput, why);
+    return Ending{kBadInput, why};
+  }
+
   void publish_fluid_state(std::int64_t step, const std::vector<MarkerSample>& samples) {
     cosimlcm::fluid_state_t m{};
     m.token = o_.token;
@@ -474,7 +505,7 @@ class CoupledFluid {
     m.token = o_.token;
     m.step = step;
     m.exit_code = code;
-    m.reason = reason;
+    m.reason = protocol::bounded_reason(reason);
     for (int k = 0; k < 3; ++k) {
       net_.publish(ch_.stop, m);
       std::this_thread::sleep_for(std::chrono::milliseconds(20));
@@ -483,46 +514,115 @@ class CoupledFluid {
     net_.flush();
   }
 
-  void on_hello(const lcm::ReceiveBuffer*, const std::string& channel, const cosimlcm::hello_t* m) {
-    if (!foreign_.admit(channel, m->token)) return;
-    if (m->role != "solid") return;  // our own announcement
+  /// Decodes a message of the run after checking its bytes (protocol/message_checks.hpp);
+  /// false (counted) if it does not decode or carries another run's token.
+  template <class Message>
+  bool receive(const lcm::ReceiveBuffer* rbuf, const std::string& channel, Message& m) {
+    if (const auto why = protocol::decode_checked(rbuf->data, rbuf->data_size, m)) {
+      if (undecodable_[channel]++ == 0)
+        out_ << "fluid: a message on " << channel << " does not decode as "
+             << Message::getTypeName() << " (" << *why
+             << "); such messages are counted and ignored\n";
+      return false;
+    }
+    return foreign_.admit(channel, m.token);
+  }
+
+  /// What a message of the run must satisfy now: the token, the handshake's CGP count, the
+  /// steps from 0 to the awaited one + kStepWindow (within the run), A_T.
+  protocol::Expectation expectation() const {
+    protocol::Expectation e;
+    e.token = o_.token;
+    e.num_cgps = num_cgps_;
+    e.lowest_step = 0;
+    e.highest_step = std::min<std::int64_t>(solid_seq_.expected_step() + protocol::kStepWindow,
+                                            s_.steps - 1);
+    e.time_ratio = time_ratio_;
+    return e;
+  }
+
+  void on_hello(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
+    cosimlcm::hello_t m{};
+    if (!receive(rbuf, channel, m)) return;
+    if (const auto r = protocol::check(m, expectation())) {
+      rejections_.add(channel, *r);
+      if (!solid_hello_ && ++hellos_refused_ >= protocol::kRejectedCopiesLimit && !hello_refusal_)
+        hello_refusal_ = r->what;
+      return;
+    }
+    if (m.role != "solid") return;  // our own announcement
     watch_.heard(Clock::now());
-    if (!solid_hello_) solid_hello_ = *m;
+    if (!solid_hello_ && !hello_refusal_) solid_hello_ = m;
     else if (welcome_) net_.publish(ch_.welcome, *welcome_);  // a lost welcome
   }
 
-  void on_solid_state(const lcm::ReceiveBuffer*, const std::string& channel,
-                      const cosimlcm::solid_state_t* m) {
-    if (!foreign_.admit(channel, m->token)) return;
+  void on_solid_state(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
+    cosimlcm::solid_state_t m{};
+    if (!receive(rbuf, channel, m)) return;
+    if (const auto r = protocol::check(m, expectation())) {
+      refuse_state(channel, m, *r);
+      return;
+    }
     watch_.heard(Clock::now());
-    switch (solid_seq_.offer(m->step, m->seq)) {
+    switch (solid_seq_.offer(m.step, m.seq)) {
       case protocol::StepSequencer::Verdict::Accept:
       case protocol::StepSequencer::Verdict::Early:
-        if (m->step < s_.steps + 1 && inbox_.size() < 8) inbox_.emplace(m->step, *m);
+        if (m.step < s_.steps + 1 && inbox_.size() < 8) inbox_.emplace(m.step, std::move(m));
         break;
       default:
         break;
     }
   }
 
-  void on_resend(const lcm::ReceiveBuffer*, const std::string& channel, const cosimlcm::resend_t* m) {
-    if (!foreign_.admit(channel, m->token)) return;
+  /// A solid_state_t that failed the checks: counted, never applied. A refused copy of the
+  /// awaited step is asked for again at once; after kRejectedCopiesLimit refused copies in
+  /// a row the run ends (wait_for_solid_state).
+  void refuse_state(const std::string& channel, const cosimlcm::solid_state_t& m,
+                    const protocol::Rejection& r) {
+    rejections_.add(channel, r);
+    if (!welcome_ || !welcome_->accepted || m.step != solid_seq_.expected_step() ||
+        solid_seq_.expected_received() || refused_state_)
+      return;
+    if (++states_refused_ >= protocol::kRejectedCopiesLimit) {
+      refused_state_.emplace(m, r);
+      return;
+    }
+    cosimlcm::resend_t q{};
+    q.token = o_.token;
+    q.step = m.step;
+    q.what = "solid_state";
+    net_.publish(ch_.resend, q);
+    ++resends_asked_;
+  }
+
+  void on_resend(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
+    cosimlcm::resend_t m{};
+    if (!receive(rbuf, channel, m)) return;
+    if (const auto r = protocol::check(m, expectation())) {
+      rejections_.add(channel, *r);
+      return;
+    }
     // Our own requests come back on the bus. A peer's request is not news of progress
     // (protocol/README.md 7-8): silence counts from the last message applied.
-    if (m->what != "fluid_state") return;
+    if (m.what != "fluid_state") return;
     for (const cosimlcm::fluid_state_t& f : sent_)
-      if (f.step == m->step) {
+      if (f.step == m.step) {
         net_.publish(ch_.fluid_state, f);
         ++resends_answered_;
       }
   }
 
-  void on_stop(const lcm::ReceiveBuffer*, const std::string& channel, const cosimlcm::stop_t* m) {
-    if (!foreign_.admit(channel, m->token)) return;
+  void on_stop(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
+    cosimlcm::stop_t m{};
+    if (!receive(rbuf, channel, m)) return;
+    if (const auto r = protocol::check(m, expectation())) {
+      rejections_.add(channel, *r);
+      return;
+    }
     if (stop_) return;
-    stop_ = Ending{m->exit_code == 0 ? kOk : kPeerLost,
-                   "the solid stopped at step " + std::to_string(m->step) + " with exit code " +
-                       std::to_string(m->exit_code) + ": " + m->reason};
+    stop_ = Ending{m.exit_code == 0 ? kOk : kPeerLost,
+                   "the solid stopped at step " + std::to_string(m.step) + " with exit code " +
+                       std::to_string(m.exit_code) + ": " + protocol::one_line(m.reason)};
   }
 
   std::string counters() const {
@@ -530,7 +630,14 @@ class CoupledFluid {
            std::to_string(solid_seq_.duplicates()) + ", stale " + std::to_string(solid_seq_.stale()) +
            ", early " + std::to_string(solid_seq_.early()) + ", resends asked " +
            std::to_string(resends_asked_) + " answered " + std::to_string(resends_answered_) +
+           ", undecodable " + std::to_string(undecodable()) + ", " + rejections_.summary() +
            (net_.active() ? "; " + net_.summary() : std::string());
+  }
+
+  std::int64_t undecodable() const {
+    std::int64_t n = 0;
+    for (const auto& [channel, k] : undecodable_) n += k;
+    return n;
   }
 
   /// Ends the run on the fluid's own error: the solid is told (stop_t) before we go.
@@ -540,6 +647,9 @@ class CoupledFluid {
   }
 
   int end(const Ending& e) {
+    // A run that stops after the handshake still reports what it received and refused.
+    if (e.code != kOk && welcome_ && welcome_->accepted)
+      out_ << "fluid: coupled run stopped; " << counters() << "\n";
     out_.flush();
     last_reason_ = e.reason;
     return e.code;
@@ -559,12 +669,20 @@ class CoupledFluid {
   protocol::FaultyTransport net_;  ///< every publish goes through it (faults: tests only)
   std::vector<lcm::Subscription*> subs_;
   protocol::ForeignCounter foreign_;
+  protocol::MessageRejections rejections_;
+  std::map<std::string, std::int64_t> undecodable_;
   protocol::StepSequencer solid_seq_;
   protocol::PeerWatch watch_;
   protocol::UnitConverter units_;
   std::optional<cosimlcm::hello_t> solid_hello_;
   std::optional<cosimlcm::welcome_t> welcome_;
   std::optional<Ending> stop_;
+  int hellos_refused_ = 0;                    ///< solid hello_t refused by the checks
+  std::optional<std::string> hello_refusal_;  ///< set after kRejectedCopiesLimit of them
+  int states_refused_ = 0;                    ///< refused copies of the awaited step
+  /// The last refused copy once kRejectedCopiesLimit were refused in a row, and why.
+  std::optional<std::pair<cosimlcm::solid_state_t, protocol::Rejection>> refused_state_;
+  std::int32_t time_ratio_ = 0;  ///< A_T agreed in the handshake
   std::map<std::int64_t, cosimlcm::solid_state_t> inbox_;
   std::deque<cosimlcm::fluid_state_t> sent_;
   std::int32_t num_cgps_ = 0;

@@ -39,6 +39,11 @@
 //    65536 the padded index arithmetic leaves int. The population memory is checked
 //    against this machine's memory as well, so a typo fails here and not in malloc.
 //  - threads <= 1024: more than any machine this runs on; a larger number is a typo.
+//  - dx_um and reference_length_um in [1e-9, 1e6] micrometres (a femtometre to a metre):
+//    far beyond any scene either way, and the conversions (cells, dt = dx / c, Re) stay
+//    positive finite numbers (1e308 um gives an infinite domain, 1e-320 um a zero dt).
+//  - a tau derived from reynolds must be > 1/2 like a given one: a huge Re (or a tiny
+//    L / dx) rounds nu = U L / Re to 0 and tau to exactly 1/2.
 
 namespace cosim::fluid {
 
@@ -377,6 +382,8 @@ void load_grid(const Reader& r, FluidScene& s) {
   if (const auto dx = r.number("grid", "dx_um")) {
     if (!(*dx > 0.0))
       r.bad(*r.node("grid", "dx_um"), "grid.dx_um", "must be > 0 (micrometres per cell)");
+    if (!(*dx >= SceneLimits::length_min_um && *dx <= SceneLimits::length_max_um))
+      r.bad(*r.node("grid", "dx_um"), "grid.dx_um", "must be in [1e-9, 1e6] micrometres per cell");
     s.dx_um = *dx;
   }
   const std::size_t need = population_bytes(s.params.shape), have = machine_memory_bytes();
@@ -608,6 +615,9 @@ void load_fluid(const Reader& r, FluidScene& s) {
     if (!(*length > 0.0))
       r.bad(*r.node("fluid", "reference_length_um"), "fluid.reference_length_um",
             "must be > 0 (micrometres)");
+    if (!(*length >= SceneLimits::length_min_um && *length <= SceneLimits::length_max_um))
+      r.bad(*r.node("fluid", "reference_length_um"), "fluid.reference_length_um",
+            "must be in [1e-9, 1e6] micrometres");
     s.reference_length_um = *length;
   }
   const std::string tau_range =
@@ -641,6 +651,11 @@ void load_fluid(const Reader& r, FluidScene& s) {
     const double length_cells = *length / s.dx_um;
     const double nu = speed * length_cells / *re;
     const double derived = 0.5 + 3.0 * nu;  // Eq. 13
+    if (!(derived > SceneLimits::tau_min))
+      r.bad(n, "fluid.reynolds",
+            "gives tau = " + format_double(derived) + " (nu = U L / Re = " + format_double(nu) +
+                " in lattice units): BGK is unstable at or below 1/2; lower Re, or use a finer "
+                "grid or a longer reference length");
     if (derived > SceneLimits::tau_max)
       r.bad(n, "fluid.reynolds",
             "gives tau = " + format_fixed(derived, 4) + " (nu = U L / Re = " +

@@ -36,6 +36,9 @@ struct SceneLimits {
   static constexpr int grid_max = 65536;
   static constexpr int threads_max = 1024;
   static constexpr double paper_dx_um = 0.2561;  ///< Table 1
+  /// Lengths in micrometres (dx_um, reference_length_um) within [length_min_um, length_max_um].
+  static constexpr double length_min_um = 1e-9;
+  static constexpr double length_max_um = 1e6;
 };
 
 /// [coupling] of a coupled scene (protocol/README.md): read by both processes.

@@ -35,6 +35,7 @@
 #include "protocol/handshake.hpp"
 #include "protocol/hdf5_handle.hpp"
 #include "protocol/hdf5_quiet.hpp"
+#include "protocol/message_checks.hpp"
 #include "protocol/step_sequencer.hpp"
 #include "protocol/text.hpp"
 #include "protocol/units.hpp"
@@ -112,7 +113,8 @@ class CoupledSolid {
                std::ostream& err)
       : s_(scene), c_(*scene.coupling), o_(options), out_(out), err_(err),
         ch_(c_.channel_prefix), units_(scene.unit_inputs()),
-        watch_(peer_timeout_ms(c_), resend_after_ms(c_)) {}
+        watch_(peer_timeout_ms(c_), resend_after_ms(c_)),
+        rejections_([this](const std::string& line) { out_ << "solid: " << line << "\n"; }) {}
 
   CoupledSolid(const CoupledSolid&) = delete;
   CoupledSolid& operator=(const CoupledSolid&) = delete;
@@ -164,6 +166,7 @@ class CoupledSolid {
       compute_s_ += std::chrono::duration<double>(Clock::now() - t1).count();
       ++timed_steps_;
       seq_.advance();
+      states_refused_ = 0;
       if (std::optional<cosimlcm::fluid_state_t> held = early_.take(seq_.expected_step()))
         offer(std::move(*held));
       early_.drop_before(seq_.expected_step());
@@ -626,7 +629,7 @@ class CoupledSolid {
     m.token = o_.token;
     m.step = last_step_;
     m.exit_code = code;
-    m.reason = one_line(reason);
+    m.reason = protocol::bounded_reason(one_line(reason));
     for (int k = 0; k < kStopCopies; ++k) {
       if (k > 0) std::this_thread::sleep_for(kStopSpacing);
       net_->pump();
@@ -649,27 +652,89 @@ class CoupledSolid {
   /// run's token.
   template <class Message>
   bool receive(const lcm::ReceiveBuffer* rbuf, const std::string& channel, Message& m) {
-    if (m.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size)) < 0) {
+    // The bytes are checked before the generated decode trusts their lengths and counts
+    // (protocol/message_checks.hpp).
+    if (const auto why = protocol::decode_checked(rbuf->data, rbuf->data_size, m)) {
       if (undecodable_[channel]++ == 0)
         out_ << "solid: a message on " << channel << " does not decode as " << Message::getTypeName()
-             << " (another protocol version on this channel?); such messages are counted and "
-                "ignored\n";
+             << " (" << *why << "; another protocol version on this channel?); such messages "
+                "are counted and ignored\n";
       return false;
     }
     return foreign_->admit(channel, m.token);
   }
 
+  /// What a message of the run must satisfy now: the token, this solid's CGP count, the
+  /// steps from 1 to the awaited one + kStepWindow (within the run), A_T.
+  protocol::Expectation expectation() const {
+    protocol::Expectation e;
+    e.token = o_.token;
+    e.num_cgps = static_cast<std::int32_t>(n_);
+    e.lowest_step = 1;
+    e.highest_step = std::min<std::int64_t>(seq_.expected_step() + protocol::kStepWindow,
+                                            total_steps_ - 1);
+    e.time_ratio = c_.time_ratio;
+    return e;
+  }
+
+  /// Counts a message that failed the checks; true if it did (drop it).
+  template <class Message>
+  bool refused(const std::string& channel, const Message& m) {
+    const auto r = protocol::check(m, expectation());
+    if (r) rejections_.add(channel, *r);
+    return r.has_value();
+  }
+
   void on_welcome(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
     cosimlcm::welcome_t m{};
     if (!receive(rbuf, channel, m)) return;
+    if (const auto r = protocol::check(m, expectation())) {
+      rejections_.add(channel, *r);
+      // The coordinator answers every hello_t with its welcome_t: only refused copies
+      // (kRejectedCopiesLimit in a row) end the run, naming the field.
+      if (!welcome_ && ++welcomes_refused_ >= protocol::kRejectedCopiesLimit && !fatal_)
+        fatal_ = Ending{exit_code::bad_input,
+                        r->what + " (" + std::to_string(protocol::kRejectedCopiesLimit) +
+                            " copies refused)",
+                        true};
+      return;
+    }
     if (!welcome_) welcome_ = std::move(m);  // later copies answer our repeated hellos
   }
 
   void on_fluid_state(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
     cosimlcm::fluid_state_t m{};
     if (!receive(rbuf, channel, m)) return;
+    if (const auto r = protocol::check(m, expectation())) {
+      refuse_state(channel, m, *r);
+      return;
+    }
     watch_.heard(Clock::now());
     offer(std::move(m));
+  }
+
+  /// A fluid_state_t that failed the checks: counted, never applied. A refused copy of the
+  /// awaited step is asked for again at once; after kRejectedCopiesLimit refused copies in a
+  /// row the run ends, naming the field, with check_fluid_state's code where it applies (2,
+  /// or 3 for a non-finite number or rho <= 0), else 2.
+  void refuse_state(const std::string& channel, const cosimlcm::fluid_state_t& m,
+                    const protocol::Rejection& r) {
+    rejections_.add(channel, r);
+    if (!welcome_ || !welcome_->accepted || fatal_ || m.step != seq_.expected_step() ||
+        seq_.expected_received())
+      return;
+    if (++states_refused_ < protocol::kRejectedCopiesLimit) {
+      request_resend();
+      return;
+    }
+    if (auto e = check_fluid_state(m)) {
+      fatal_ = *e;
+      return;
+    }
+    fatal_ = Ending{exit_code::bad_input,
+                    "fluid_state_t of step " + std::to_string(m.step) + ": " + r.detail() + " (" +
+                        std::to_string(protocol::kRejectedCopiesLimit) + " copies refused)",
+                    true};
   }
 
   void offer(cosimlcm::fluid_state_t m) {
@@ -691,7 +756,7 @@ class CoupledSolid {
 
   void on_resend(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
     cosimlcm::resend_t m{};
-    if (!receive(rbuf, channel, m)) return;
+    if (!receive(rbuf, channel, m) || refused(channel, m)) return;
     if (m.what != "solid_state") return;  // our own request for fluid_state, heard back
     ++resend_requests_;
     for (const cosimlcm::solid_state_t& sent : sent_)
@@ -705,7 +770,7 @@ class CoupledSolid {
 
   void on_stop(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
     cosimlcm::stop_t m{};
-    if (!receive(rbuf, channel, m)) return;
+    if (!receive(rbuf, channel, m) || refused(channel, m)) return;
     if (!stop_) stop_ = std::move(m);
   }
 
@@ -846,7 +911,7 @@ class CoupledSolid {
            ", early " + std::to_string(seq_.early()) + ", resends asked " +
            std::to_string(resends_asked_) + ", resend requests " + std::to_string(resend_requests_) +
            " answered " + std::to_string(resends_answered_) + ", undecodable " +
-           std::to_string(undecodable) +
+           std::to_string(undecodable) + ", " + rejections_.summary() +
            (net_ && net_->active() ? "; " + net_->summary() : std::string());
   }
 
@@ -923,6 +988,9 @@ class CoupledSolid {
   protocol::StepSequencer seq_{1};  // fluid_state_t(1) is the first the solid waits for
   protocol::PeerWatch watch_;
   protocol::EarlyBuffer<cosimlcm::fluid_state_t> early_{kEarlyHeld};
+  protocol::MessageRejections rejections_;
+  int welcomes_refused_ = 0;  ///< welcome_t refused by the checks before one was taken
+  int states_refused_ = 0;    ///< refused copies of the awaited fluid_state_t
 
   std::optional<cosimlcm::welcome_t> welcome_;
   std::optional<cosimlcm::stop_t> stop_;

@@ -35,6 +35,10 @@
 //  - clamped_rows in [1, ny_cg): at least one row holds the sheet to the plate (a free-
 //    floating sheet has rigid-body modes and no vibration to validate); at least one row
 //    must be free.
+//  - lengths in micrometres within [1e-9, 1e6] in magnitude (a femtometre to a metre): far
+//    beyond any sheet or grid of the paper either way, and every conversion (to bohr, to
+//    lattice cells, dt_LB = dx / c) stays a positive finite number; 1e308 um would be
+//    infinite in bohr, 1e-320 um zero.
 //  - dt_s > 0: the upper limit is the model's stable step 2 / omega_max, checked by the
 //    `solid` executable once the model is built (it is not known before).
 //  - [coupling] (the same limits as fluid/scene_config.cpp, which reads the same keys):
@@ -232,6 +236,14 @@ const char* type_name(const toml::node& n) {
   }
 }
 
+/// |v| within [length_min_um, length_max_um].
+bool length_in_range(double v) {
+  const double a = std::abs(v);
+  return a >= SolidSceneLimits::length_min_um && a <= SolidSceneLimits::length_max_um;
+}
+
+std::string length_range_text() { return "must be in [1e-9, 1e6] micrometres"; }
+
 bool valid_name(const std::string& s) {
   return !s.empty() && s.size() <= 64 &&
          std::all_of(s.begin(), s.end(),
@@ -405,6 +417,14 @@ class Reader {
     return v;
   }
 
+  /// A length in micrometres: > 0 and within SolidSceneLimits' range.
+  std::optional<double> length_um(const Scope& s, const char* key, const std::string& what) const {
+    const auto v = positive(s, key, what);
+    if (v && !length_in_range(*v))
+      bad(*s.node(key), s.key(key), length_range_text() + " (" + what + ")");
+    return v;
+  }
+
  private:
   static std::vector<const char*> allowed_keys(const Section& sec, bool coupled) {
     std::vector<const char*> keys = sec.keys;
@@ -504,7 +524,7 @@ void load_contact(const Reader& r, SolidScene& s) {
   const Scope sec = r.section("contact");
   if (const auto v = r.positive(sec, "epsilon_eV", "the Lennard-Jones energy, eV"))
     s.config.contact.epsilon_eV = *v;
-  if (const auto v = r.positive(sec, "cutoff_um", "the cut-off sigma, micrometres"))
+  if (const auto v = r.length_um(sec, "cutoff_um", "the cut-off sigma, micrometres"))
     s.config.contact.cutoff_bohr = *v * kMicrometre / PhysicalConstants::bohr_m;
 }
 
@@ -536,10 +556,12 @@ void load_sheets(const Reader& r, SolidScene& s) {
         else
           r.bad(*n, sec.key("spacing_um"), shape);
         if (!(h[c] > 0.0) || !std::isfinite(h[c])) r.bad(*n, sec.key("spacing_um"), shape);
+        if (!length_in_range(h[c]))
+          r.bad(*n, sec.key("spacing_um"), length_range_text() + " (the CGP spacings)");
       }
       spec.width_spacing_bohr = h[0] * kMicrometre / PhysicalConstants::bohr_m;
       spec.height_spacing_bohr = h[1] * kMicrometre / PhysicalConstants::bohr_m;
-    } else if (const auto v = r.positive(sec, "spacing_um", "the CGP spacing, micrometres")) {
+    } else if (const auto v = r.length_um(sec, "spacing_um", "the CGP spacing, micrometres")) {
       spec.width_spacing_bohr = spec.height_spacing_bohr = *v * kMicrometre / PhysicalConstants::bohr_m;
     }
     if (const toml::node* n = sec.node("base_um")) {
@@ -556,6 +578,8 @@ void load_sheets(const Reader& r, SolidScene& s) {
         else
           r.bad(*n, sec.key("base_um"), shape);
         if (!std::isfinite(v)) r.bad(*n, sec.key("base_um"), shape);
+        if (std::abs(v) > SolidSceneLimits::length_max_um)
+          r.bad(*n, sec.key("base_um"), "must lie within 1e6 micrometres of the origin on each axis");
         spec.base_bohr[c] = v * kMicrometre / PhysicalConstants::bohr_m;
       }
     }
@@ -581,7 +605,7 @@ void load_sheets(const Reader& r, SolidScene& s) {
 
 void load_grid(const Reader& r, SolidScene& s) {
   const Scope sec = r.section("grid");
-  if (const auto v = r.positive(sec, "dx_um", "micrometres per lattice cell, dx_LB = dx_CG"))
+  if (const auto v = r.length_um(sec, "dx_um", "micrometres per lattice cell, dx_LB = dx_CG"))
     s.dx_m = *v * kMicrometre;
 }
 
@@ -687,6 +711,9 @@ void load_mode_sections(const Reader& r, SolidScene& s) {
     if (*a == 0.0)
       r.bad(*pert.node("tip_displacement_um"), pert.key("tip_displacement_um"),
             "must be non-zero (micrometres along the sheet normal; 0 would not vibrate)");
+    if (!length_in_range(*a))
+      r.bad(*pert.node("tip_displacement_um"), pert.key("tip_displacement_um"),
+            "|value| " + length_range_text() + " (along the sheet normal)");
     s.tip_displacement_bohr = *a * kMicrometre / PhysicalConstants::bohr_m;
   } else {
     if (!load.table)

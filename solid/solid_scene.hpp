@@ -38,6 +38,11 @@ struct SolidSceneLimits {
   static constexpr int stages_min = 1, stages_max = 16;
   static constexpr int cgps_per_axis_max = 65536;
   static constexpr double bending_poisson_max = 0.5;  ///< exclusive
+  /// Lengths in micrometres (dx_um, spacing_um, cutoff_um, base_um, tip_displacement_um):
+  /// magnitudes in [length_min_um, length_max_um], so that every conversion to bohr and to
+  /// the lattice stays a positive finite number.
+  static constexpr double length_min_um = 1e-9;
+  static constexpr double length_max_um = 1e6;
 };
 
 /// [coupling] of a coupled scene (protocol/README.md sections 1, 2, 6-8); the fluid reads
