@@ -234,6 +234,8 @@ class Knob:
     memory_columns: list[str]  # "process" or "fluid", "solid"
     extra_columns: list[tuple[str, str]] = field(default_factory=list)  # (key, header)
     remarks: Callable[["Knob"], list[str]] | None = None
+    rank: bool = True      # mark the best error-for-time front
+    ref_short: str = "finest setting"  # the summary table's reference column
 
 
 def pareto(settings: list[Setting]) -> None:
@@ -449,7 +451,7 @@ def _repeat(plan: Plan, setting: Setting, fn: Callable[[], tuple[int, float, dic
 
 
 def knob_fluid_resolution(plan: Plan) -> Knob:
-    cells = [8, 16, 32] if plan.short else [8, 16, 32, 64, 128]
+    cells = [8, 16, 32] if plan.short else [8, 16, 32, 64, 128, 256]
     knob = Knob(
         key="resolution_fluid", title="Grid resolution: fluid validation case (Poiseuille start-up)",
         kind="resolution",
@@ -464,7 +466,7 @@ def knob_fluid_resolution(plan: Plan) -> Knob:
                    "sin(n pi y'/H) exp(-nu n^2 pi^2 t / H^2), y' = y + 1/2, H = N (the series to 1e-18 of the "
                    "steady amplitude). Error: relative L2 norm of u_x - u over all cells of the last step's "
                    "field snapshot."),
-        error_name="relative L2 error of u_x", settings=[], memory_columns=["process"],
+        error_name="relative L2 error of u_x", settings=[], memory_columns=["process"], ref_short="analytic",
         extra_columns=[("tau", "tau"), ("steps", "steps"), ("order", "observed order")])
     for n in cells:
         case = PoiseuilleCase(n, 0.8)
@@ -495,7 +497,7 @@ def knob_fluid_acoustic(plan: Plan) -> Knob:
                f"(acoustic scaling), the viscosity of air fixed ({AIR_NU_M2_S:g} m^2/s), so "
                "tau = 1/2 + 3 nu / (c dx) grows with N; compared at the same t nu / H^2 and the same U."),
         reference="Analytic, as above.",
-        error_name="relative L2 error of u_x", settings=[], memory_columns=["process"],
+        error_name="relative L2 error of u_x", settings=[], memory_columns=["process"], ref_short="analytic",
         extra_columns=[("tau", "tau"), ("steps", "steps"), ("order", "observed order")])
     for n in cells:
         case = PoiseuilleCase(n, acoustic_tau(n))
@@ -513,9 +515,9 @@ def knob_fluid_acoustic(plan: Plan) -> Knob:
     magic = 0.5 + math.sqrt(3.0 / 16.0)
     knob.remarks = lambda k: [
         "The error stops falling once tau passes the value where half-way bounce-back is exact for BGK "
-        f"(tau = 1/2 + sqrt(3/16) = {magic:.3f}, He et al. 1997): the wall slip, relative to U, grows as "
-        "(tau - 1/2)^2 / N^2, and with tau - 1/2 proportional to N it tends to a constant (a Knudsen-number "
-        "error, fixed by the physical dx / c and nu). A resolution study of this fluid therefore holds tau "
+        f"(tau = 1/2 + sqrt(3/16) = {magic:.3f}, He et al. 1997): the wall slip relative to U is proportional "
+        "to (16 (tau - 1/2)^2 - 3) / N^2, and with tau - 1/2 proportional to N it tends to a constant (a "
+        "Knudsen-number error, fixed by the physical dx / c and nu). A resolution study of this fluid therefore holds tau "
         "(diffusive scaling, the row above); refining a physical scene at fixed air viscosity converges "
         "only to that floor. This row is not on the resolution test's list."]
     return knob
@@ -531,30 +533,40 @@ def _orders(knob: Knob) -> None:
 
 def _order_remark(knob: Knob, why: str) -> str:
     orders = [st.extra["order"] for st in knob.settings if "order" in st.extra]
-    return f"Observed orders between successive grids: {', '.join(orders)} ({why})." if orders else ""
+    return f"Observed orders between successive settings: {', '.join(orders)} ({why})." if orders else ""
 
 
 def knob_coupled_resolution(plan: Plan) -> Knob:
     levels = [0, 1, 2] if plan.short else [0, 1, 2, 3]
+    dxs = [2.0 * H_PAPER_UM / 2**k for k in levels]
+    dt_base = H_PAPER_UM * 1e-6 / LATTICE_SPEED_M_S  # dt_LB at 0.2561 um
+    sheets = ", ".join(f"{2 * 2**k + 1} x {5 * 2**k + 1}" for k in levels)
+    taus = ", ".join(f"{0.5 + 3 * 0.05 * (COUPLED_REFERENCE_UM / h) / COUPLED_REYNOLDS:.3g}" for h in dxs)
+    a_ts = ", ".join(str(COUPLED_BASE_A_T * 2**k // 2) for k in levels)
+    steps = ", ".join(str(COUPLED_BASE_STEPS * 2**k // 2) for k in levels)
+    t_cmp = (COUPLED_BASE_STEPS // 2 - 1) * 2 * dt_base
     knob = Knob(
         key="resolution_coupled", title="Grid resolution: coupled case (a sheet in channel flow)",
         kind="resolution",
         setup=("`scenes/coupled_small.toml`'s channel (10.24 x 7.68 x 7.68 um: Blasius inlet, outflow, plate, "
                "free-slip top, periodic span) with one sheet at 90 deg, the same physical sheet at every dx: "
-               "CGP spacing dx_CG = dx_LB, the CGPs nested (3 x 6, 5 x 11, 9 x 21, 17 x 41 for dx = 0.5122, "
-               "0.2561, 0.12805, 0.064025 um) so that the marked CGP stays at the same place, 2e6 atoms per CGP "
-               "at 0.2561 um scaled with dx^2, RCGP stages fixed at 9 (the same C and D); the fluid at "
-               f"Re {COUPLED_REYNOLDS:g} on the sheet's base height (tau = 0.8 at 0.2561 um) and U/c = 0.05 at "
-               "every dx, so with dt = dx / c and the viscosity fixed tau - 1/2 doubles with each halving of "
-               "dx (0.65, 0.8, 1.1, 1.7); A_T doubles too (75 ... 600), keeping dt_CG the same fraction of the "
-               "sheet's stable step. 22.3 ns of rigid spin-up, then the sheet is free; the run covers 89.2 ns "
-               "(100, 200, 400, 800 LB steps)."),
+               f"CGP spacing dx_CG = dx_LB, the CGPs nested ({sheets} for dx = "
+               f"{', '.join(f'{h:.6g}' for h in dxs)} um) so that the marked CGP stays at the same place, 2e6 "
+               "atoms per CGP at 0.2561 um scaled with dx^2, RCGP stages fixed at 9 (the same C and D); the "
+               f"fluid at Re {COUPLED_REYNOLDS:g} on {COUPLED_REFERENCE_UM:.4g} um (tau = 0.8 at 0.2561 um) and "
+               "U/c = 0.05 at every dx, so with dt = dx / c and the air's viscosity fixed, tau - 1/2 doubles "
+               f"with each halving of dx ({taus}); A_T doubles too ({a_ts}), keeping dt_CG the same fraction "
+               f"of the sheet's stable step (which falls as dx^2). {COUPLED_BASE_RIGID * dt_base * 1e9:.3g} ns "
+               f"of rigid spin-up, then the sheet is free; {COUPLED_BASE_STEPS * dt_base * 1e9:.3g} ns in all "
+               f"({steps} LB steps). One OpenMP thread per process (the serial scheme runs one side at a "
+               "time)."),
         reference=("The finest grid (no analytic solution). Error: |d(T) - d_ref(T)| / |d_ref(T)| of the marked "
-                   "CGP's displacement vector d (middle of the top row) at T = 99 coarse steps (44.2 ns), the "
-                   "last time every grid writes; also shown: the same over every output time of the free phase "
+                   f"CGP's displacement vector d (middle of the top row) at T = {t_cmp * 1e9:.4g} ns (the "
+                   "coarsest grid's last step, the last time every grid writes); also shown: the same over "
+                   "every output time of the free phase "
                    "(RMS of |d - d_ref| over RMS |d_ref| on the coarsest grid's times)."),
         error_name="relative error of the marked CGP's displacement at T", settings=[],
-        memory_columns=["fluid", "solid"],
+        memory_columns=["fluid", "solid"], ref_short="finest grid",
         extra_columns=[("grid", "grid"), ("sheet", "CGPs"), ("tau", "tau"), ("a_t", "A_T"),
                        ("traj", "error over the free phase"), ("order", "observed order")])
     runs = {}
@@ -592,7 +604,7 @@ def knob_coupled_resolution(plan: Plan) -> Knob:
     ref_st.extra["traj"] = "reference"
     _orders(knob)
     knob.remarks = lambda k: [
-        f"The reference's marked CGP at T: d = ({d_ref[0]:.5f}, {d_ref[1]:.5f}, {d_ref[2]:.2e}) um.",
+        f"The reference's marked CGP at T: d = ({d_ref[0]:.5f}, {d_ref[1]:.3e}, {d_ref[2]:.1e}) um.",
         _order_remark(k, "against the finest grid, which carries its own error; the fluid's tau changes with dx, "
                          "the immersed boundary's kernel width (2 dx) and the sheet's discretisation too")]
     return knob
@@ -604,11 +616,10 @@ def knob_time_ratio(plan: Plan) -> Knob:
         setup=("`scenes/coupled_small.toml` (40 x 30 x 30 cells, dx = 0.2561 um, a 5 x 10 sheet at 90 deg, "
                "50 rigid + 150 free LB steps, serial scheme) with only `[coupling] time_ratio` changed."),
         reference=("The largest A_T (no analytic solution). Error: |d(T) - d_ref(T)| / |d_ref(T)| of the marked "
-                   "CGP's displacement at the last step. The fluid's force on each CGP is held over an LB "
-                   "interval whatever A_T is, so this row isolates the solid's time integration (velocity "
-                   "Verlet, second order in dt_CG)."),
+                   "CGP's displacement at the last step. The fluid's sample at the CGPs is held over an LB "
+                   "interval whatever A_T is, so this row isolates the solid's substepping."),
         error_name="relative error of the marked CGP's displacement", settings=[],
-        memory_columns=["fluid", "solid"],
+        memory_columns=["fluid", "solid"], ref_short="largest A_T",
         extra_columns=[("dt", "dt_CG / stable step"), ("order", "observed order")])
     probe_dir = plan.out / "runs" / knob.key / "check"
     probe = coupled_base_scene(probe_dir, COUPLED_BASE_A_T, "coupled_at_check", "the stable A_T")
@@ -642,7 +653,7 @@ def knob_time_ratio(plan: Plan) -> Knob:
     if rc == 0:
         raise StudyError(f"{knob.key}: A_T = {a_min - 1} is below the stable limit ({stable_text}) "
                          f"but the run was not refused ({out})")
-    reason = last_line(out / "fluid.log")
+    reason = last_line(out / "fluid.log").split("; the largest")[0]
     refused.note = f"refused (exit {rc}): {reason}"
     knob.settings.insert(0, refused)
     knob.remarks = lambda k: [
@@ -681,7 +692,8 @@ def knob_truncation(plan: Plan) -> Knob:
                    "substeps), i.e. how much the integrated sheet changes with the range. Also shown: f1 of "
                    "the sheet in vacuum as `solid` prints it."),
         error_name="relative difference of the marked CGP's trajectory from range 3", settings=[],
-        memory_columns=["process"], extra_columns=[("f", "f1, f2, f3 (Hz)")])
+        memory_columns=["process"], extra_columns=[("f", "f1, f2, f3 (Hz)")], rank=False,
+        ref_short="range 3")
     stage_counts = [1, 5] if plan.short else [1, 3, 5, 9]
     for stages in stage_counts:
         group = {}
@@ -693,7 +705,7 @@ def knob_truncation(plan: Plan) -> Knob:
             cmd = [str(SOLID), str(scene), "--substeps", str(TRUNCATION_SUBSTEPS), "--quiet"]
             rc, _, _ = run_process([str(SOLID), str(scene), "--check"], log, plan.threads)
             if rc != 0:
-                st.note = f"construction fails (exit {rc}): {last_line(log)}"
+                st.note = f"construction fails (exit {rc}): {last_line(log).split(': ', 1)[-1]}"
                 st.reference = False
                 print(f"  {st.label:<28} {st.note}", flush=True)
                 knob.settings.append(st)
@@ -712,15 +724,29 @@ def knob_truncation(plan: Plan) -> Knob:
         elif 2 in group:
             knob.settings[-2].note = "no range 3 to compare with"
     failed = [st for st in knob.settings if st.note.startswith("construction fails")]
-    knob.remarks = lambda k: [
+
+    def cost_line(k: Knob) -> str:
+        pairs = []
+        for stages in stage_counts:
+            r2 = next((s for s in k.settings if s.label == f"stages {stages}, range 2" and s.measurement), None)
+            r3 = next((s for s in k.settings if s.label == f"stages {stages}, range 3" and s.measurement), None)
+            if r2 and r3:
+                pairs.append(f"stages {stages}: {r2.measurement.wall_s:.2f} s and {fmt_mib(r2.measurement.rss_kib['process'])} MiB "
+                             f"against {r3.measurement.wall_s:.2f} s and {fmt_mib(r3.measurement.rss_kib['process'])} MiB")
+        return ("Not ranked: at every stage count range 2 gives the same sheet faster and in less memory "
+                "(range 2 against range 3, " + "; ".join(pairs) + "): range 2 is the front.") if pairs else ""
+
+    knob.remarks = lambda k: [cost_line(k),
         "The finite sheet takes only the construction's elastic constants and bending rigidities "
         "(`docs/solid.md` section 3), and moment matching restores exactly those after each truncation, "
         "so the range leaves the integrated sheet the same to the size of the differences above; what it "
         "changes is the CG lattice's own dispersion at finite wavelength (`docs/solid.md` section 2), "
         "which the sheet model does not use. Range 3 costs the construction's time and memory (the "
         "stage-1 cell holds 1568 atoms instead of 800).",
-        ("Range 3 does not build " + ", ".join(st.label.split(",")[0] for st in failed)
-         + ": the moment-matched kernel of a later stage is not positive (the line above), so the paper's "
+        ("Range 3 does not build " + ", ".join(st.label.split(",")[0].replace("stages ", "") for st in failed)
+         + " stages: the construction stops at "
+         + ", ".join(sorted({m.group(0) for st in failed for m in [re.search(r"RCGP stage \d+", st.note)] if m}))
+         + ", where the moment-matched kernel is not positive (K(q) < 0, the row above); so the paper's "
            "sheet (9 stages) can only be built with range 2.") if failed else ""]
     return knob
 
@@ -735,7 +761,7 @@ def knob_scheme(plan: Plan, schemes: list[tuple[str, dict]]) -> Knob:
         reference=("The most accurate scheme on offer (none to compare with yet: a single scheme has no error "
                    "of its own here)."),
         error_name="relative error of the marked CGP's displacement", settings=[],
-        memory_columns=["fluid", "solid"])
+        memory_columns=["fluid", "solid"], rank=len(schemes) > 1, ref_short="none (one scheme)")
     for name, patch in schemes:
         st = Setting(name, len(knob.settings))
         out = plan.out / "runs" / knob.key / name
@@ -758,8 +784,8 @@ def knob_precision() -> Knob:
         setup="Both servers compute in double precision (64-bit) only; single precision is not offered yet "
               "(it comes with a later issue). Every row above is double precision.",
         reference="Not applicable until a second precision exists.",
-        error_name="-", settings=[Setting("double (the only one)", 0, note="not offered: no other precision")],
-        memory_columns=[])
+        error_name="error", settings=[Setting("double (the only one)", 0, note="not offered: no other precision")],
+        memory_columns=[], rank=False, ref_short="none (one precision)")
 
 
 # Coupling schemes the servers offer: (name, scene keys that select it). Add e.g.
@@ -775,6 +801,8 @@ def fmt_mib(kib: int | None) -> str:
 
 
 def knob_table(knob: Knob) -> list[str]:
+    if knob.kind == "not offered":
+        return ["| setting | status |", "| --- | --- |"] + [f"| {st.label} | {st.note} |" for st in knob.settings]
     head = ["setting", knob.error_name, "wall s"]
     for c in knob.memory_columns:
         head.append("peak RSS MiB" if c == "process" else f"peak RSS {c} MiB")
@@ -793,7 +821,7 @@ def knob_table(knob: Knob) -> list[str]:
         for c in knob.memory_columns:
             cells.append(fmt_mib(m.rss_kib.get(c)) if m else "-")
         cells += [st.extra.get(k, "") for k, _ in knob.extra_columns]
-        cells.append("yes" if st.front else "")
+        cells.append(("yes" if st.front else "") if knob.rank else "-")
         rows.append("| " + " | ".join(cells) + " |")
     return rows
 
@@ -843,6 +871,13 @@ def plot_knob(knob: Knob, path: Path) -> bool:
                     fontsize=8)
     ax.set_xscale("log")
     ax.set_yscale("log")
+    from matplotlib.ticker import FuncFormatter, NullFormatter
+    plain = FuncFormatter(lambda v, _: f"{v:g}")
+    for axis, values in ((ax.xaxis, x), (ax.yaxis, y)):
+        axis.set_major_formatter(plain)
+        # Within a decade the minor ticks carry the only labels; across decades they clutter.
+        axis.set_minor_formatter(plain if max(values) / min(values) < 10 else NullFormatter())
+    ax.tick_params(axis="both", which="both", labelsize=7)
     ax.set_xlabel("wall time, s (median)")
     ax.set_ylabel(knob.error_name)
     ax.set_title(knob.title, fontsize=9)
@@ -884,9 +919,9 @@ def write_markdown(knobs: list[Knob], meta: dict, path: Path, figures: Path, fig
     lines = [
         "# Error against run time",
         "",
-        f"Command: `{meta['command']}` (`launch/error-study.sh`; `--short` for the quick version that the test "
-        "`ErrorStudyShortRuns` runs). Every number below is written by that command "
-        "(`launch/error_study.py`); nothing is typed in.",
+        f"Command: `{meta['command']}` ({meta['elapsed_s'] / 60:.1f} min here; `--short` is the quick version "
+        "that the test `ErrorStudyShortRuns` runs). Every number below is written by that command "
+        "(`launch/error_study.py`, which also holds each case's definition); nothing is typed in.",
         "",
         f"- Date: {meta['date']}",
         f"- Machine: {meta['machine']}; load average {meta['load_start']} at the start, {meta['load_end']} at "
@@ -904,16 +939,17 @@ def write_markdown(knobs: list[Knob], meta: dict, path: Path, figures: Path, fig
         "setting has no error and is not ranked)",
         f"- Outputs of the runs: `{meta['out']}` (scenes, logs, HDF5, `results.tsv`, `results.json`)",
         "",
-        "| knob | settings | reference | best error | its wall time |",
-        "| --- | --- | --- | --- | --- |",
+        "| knob | settings | reference | best error | its wall time | on the front |",
+        "| --- | --- | --- | --- | --- | --- |",
     ]
     for k in knobs:
         errs = [st for st in k.settings if st.error is not None]
         best = min(errs, key=lambda s: s.error) if errs else None
         lines.append(f"| [{k.title}](#{_anchor(k)}) | {len(k.settings)} | "
-                     f"{'analytic' if k.key.startswith('resolution_fluid') else ('-' if k.kind == 'not offered' else 'finest / widest setting')} | "
+                     f"{k.ref_short} | "
                      f"{f'{best.error:.3e} ({best.label})' if best else '-'} | "
-                     f"{f'{best.measurement.wall_s:.2f} s' if best and best.measurement else '-'} |")
+                     f"{f'{best.measurement.wall_s:.2f} s' if best and best.measurement else '-'} | "
+                     f"{', '.join(st.label for st in k.settings if st.front) or '-'} |")
     lines.append("")
     for i, k in enumerate(knobs, 1):
         lines += [f"## {i}. {k.title}", "", f"<a id=\"{_anchor(k)}\"></a>", "", k.setup, "",
@@ -1010,7 +1046,8 @@ def main(argv: list[str]) -> int:
         print(f"error_study: {type(e).__name__}: {e}", file=sys.stderr)
         return 1
     for k in knobs:
-        pareto(k.settings)
+        if k.rank:
+            pareto(k.settings)
     meta["load_end"] = load_text()
     meta["elapsed_s"] = time.perf_counter() - t0
     figures = out / "figures"
