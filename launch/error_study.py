@@ -958,11 +958,34 @@ def write_markdown(knobs: list[Knob], meta: dict, path: Path, figures: Path, fig
         lines.append("")
         if k.remarks:
             lines += [r for r in k.remarks(k) if r]
+        spread = spread_remark(k)
+        if spread:
+            lines.append(spread)
+        if k.remarks or spread:
             lines.append("")
         png = figures / f"{k.key}.png"
         if png.exists():
             lines += [f"![{k.title}]({figure_prefix}{k.key}.png)", ""]
     path.write_text("\n".join(lines))
+
+
+def spread_remark(k: Knob) -> str:
+    """How far apart the repeats of one setting are, against how far apart the settings are."""
+    timed = [st for st in k.settings if st.measurement and len(st.measurement.walls_s) > 1]
+    if len(timed) < 2:
+        return ""
+    spreads = [max(st.measurement.walls_s) - min(st.measurement.walls_s) for st in timed]
+    medians = [st.measurement.wall_s for st in timed]
+    worst = max(range(len(timed)), key=lambda i: spreads[i] / medians[i])
+    text = (f"Wall time between repeats of one setting: spread (largest - smallest) {statistics.median(spreads):.2f} s "
+            f"in the median, at most {100 * spreads[worst] / medians[worst]:.0f} % of the median "
+            f"({timed[worst].label}); the settings' medians span {min(medians):.2f} to {max(medians):.2f} s.")
+    ranked = [i for i, st in enumerate(timed) if not st.reference and st.error is not None]
+    if k.rank and len(ranked) > 1 and (max(medians[i] for i in ranked) - min(medians[i] for i in ranked)
+                                       < max(spreads[i] for i in ranked)):
+        text += (" The ranked settings differ in time by less than the largest spread between their repeats "
+                 "(start-up dominates), so the time order on this row's front is within the noise.")
+    return text
 
 
 def _anchor(k: Knob) -> str:
