@@ -1,0 +1,1095 @@
+#!/usr/bin/python3
+"""Error against run time (DESIGN 6): one row per accuracy knob.
+
+    /usr/bin/python3 launch/error_study.py [--short] [--out DIR] [--docs] [--repeats N]
+                                           [--threads N] [--only KNOB,KNOB]
+
+(launch/error-study.sh is the command to use: it builds first unless --no-build.)
+
+Each knob is a list of settings. Each setting writes a scene (derived from a file of
+scenes/) into OUT/runs/KNOB/SETTING/, runs the executables of ROOT/build on it (the fluid
+alone, the solid alone, or both through launch/run-coupled.sh), measures the wall time
+(median of --repeats runs of the whole command, start-up included) and the peak memory
+(the maximum resident set size: os.wait4's ru_maxrss of a single process; for a coupled
+run VmHWM of the fluid and of the solid process, read from /proc while they run, and the
+launcher's ru_maxrss, the largest of all its descendants, as a check), and computes the
+error of the run's HDF5 output against the knob's reference (analytic where one exists,
+else the finest setting). A setting is on the best error-for-time front when no other
+setting of its knob is both faster and more accurate.
+
+Writes OUT/results.tsv (one line per setting), OUT/results.json, OUT/error-vs-runtime.md
+(the tables) and OUT/figures/KNOB.png (error against wall time, log-log). Without --short,
+or with --docs, also docs/error-vs-runtime.md and docs/figures/error-vs-runtime/KNOB.png.
+
+Exit status: 0 done; 1 a run failed or its output could not be read (one line on stderr
+naming the setting and the log); 2 bad arguments or a missing executable.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import json
+import math
+import os
+import platform
+import re
+import shutil
+import statistics
+import subprocess
+import sys
+import threading
+import time
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+import h5py
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+FLUID = ROOT / "build" / "fluid" / "fluid"
+SOLID = ROOT / "build" / "solid" / "solid"
+COUPLED = ROOT / "launch" / "run-coupled.sh"
+DOC = ROOT / "docs" / "error-vs-runtime.md"
+DOC_FIGURES = ROOT / "docs" / "figures" / "error-vs-runtime"
+
+H_PAPER_UM = 0.2561  # Table 1's dx_LB = dx_CG
+
+
+class StudyError(Exception):
+    """A run failed or its output is not what was expected: one line for stderr."""
+
+
+# ---------------------------------------------------------------------------------------
+# Scenes: read a file of scenes/ with tomllib, change keys, write TOML back.
+
+def _toml_value(v) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        if not math.isfinite(v):
+            raise ValueError(f"not a finite number: {v}")
+        return repr(v)
+    if isinstance(v, str):
+        return json.dumps(v)  # a TOML basic string for the characters used here
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    raise TypeError(f"cannot write {type(v).__name__} to TOML")
+
+
+def toml_dumps(scene: dict) -> str:
+    """Tables of scalars and arrays, and arrays of tables ([[sheet]]): what scenes use."""
+    out = []
+    for name, body in scene.items():
+        if isinstance(body, list) and body and all(isinstance(t, dict) for t in body):
+            for t in body:
+                out.append(f"[[{name}]]")
+                out.extend(f"{k} = {_toml_value(v)}" for k, v in t.items())
+                out.append("")
+        elif isinstance(body, dict):
+            out.append(f"[{name}]")
+            out.extend(f"{k} = {_toml_value(v)}" for k, v in body.items())
+            out.append("")
+        else:
+            raise TypeError(f"top-level key {name} is not a table")
+    return "\n".join(out)
+
+
+def load_scene(name: str) -> dict:
+    with open(ROOT / "scenes" / name, "rb") as f:
+        return tomllib.load(f)
+
+
+def write_scene(path: Path, scene: dict, comment: str) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    text = "".join(f"# {line}\n" for line in comment.splitlines()) + "\n" + toml_dumps(scene)
+    path.write_text(text)
+    return path
+
+
+# ---------------------------------------------------------------------------------------
+# Running and measuring.
+
+@dataclass
+class Measurement:
+    walls_s: list[float] = field(default_factory=list)
+    rss_kib: dict[str, int] = field(default_factory=dict)  # "process" or "fluid", "solid", "launcher"
+
+    @property
+    def wall_s(self) -> float:
+        return statistics.median(self.walls_s)
+
+    def add_rss(self, key: str, kib: int) -> None:
+        self.rss_kib[key] = max(self.rss_kib.get(key, 0), int(kib))
+
+
+def _env(threads: int) -> dict:
+    env = dict(os.environ)
+    env["OMP_NUM_THREADS"] = str(threads)
+    return env
+
+
+def run_process(cmd: list[str], log: Path, threads: int) -> tuple[int, float, int]:
+    """Runs one process; its exit code, wall time and its own peak RSS (KiB)."""
+    with open(log, "w") as out:
+        t0 = time.perf_counter()
+        p = subprocess.Popen(cmd, stdout=out, stderr=subprocess.STDOUT, env=_env(threads), cwd=ROOT)
+        _, status, usage = os.wait4(p.pid, 0)
+        wall = time.perf_counter() - t0
+    p.returncode = os.waitstatus_to_exitcode(status)
+    return p.returncode, wall, usage.ru_maxrss
+
+
+def _vm_hwm_kib(pid: int, marker: str) -> int | None:
+    """VmHWM of a live process whose command line mentions `marker`, else None."""
+    try:
+        with open(f"/proc/{pid}/cmdline", "rb") as f:
+            if marker.encode() not in f.read():
+                return None  # not ours (a recycled pid)
+        with open(f"/proc/{pid}/status") as f:
+            for line in f:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1])
+    except (OSError, ValueError):
+        return None
+    return None  # a zombie has no memory map
+
+
+def run_coupled(scene: Path, output: Path, threads: int) -> tuple[int, float, dict[str, int]]:
+    """launch/run-coupled.sh on `scene`: exit code, wall time, peak RSS of fluid and solid
+    (VmHWM polled from /proc every 20 ms; the peak is reached at start-up, when the
+    populations and the sheet's matrices are allocated) and of the launcher's largest
+    descendant (ru_maxrss)."""
+    output.mkdir(parents=True, exist_ok=True)
+    rss = {"fluid": 0, "solid": 0}
+    done = threading.Event()
+
+    def poll():
+        pids: dict[str, int] = {}
+        while not done.is_set():
+            for name in rss:
+                if name not in pids:
+                    try:
+                        pids[name] = int((output / f"{name}.pid").read_text().strip())
+                    except (OSError, ValueError):
+                        continue
+                kib = _vm_hwm_kib(pids[name], str(output))
+                if kib is not None:
+                    rss[name] = max(rss[name], kib)
+            done.wait(0.02)
+
+    for stale in ("fluid.pid", "solid.pid"):
+        (output / stale).unlink(missing_ok=True)
+    poller = threading.Thread(target=poll, daemon=True)
+    with open(output / "launcher.log", "w") as out:
+        t0 = time.perf_counter()
+        p = subprocess.Popen(["bash", str(COUPLED), str(scene), "--output", str(output), "--no-build",
+                              "--quiet"], stdout=out, stderr=subprocess.STDOUT, env=_env(threads), cwd=ROOT)
+        poller.start()
+        _, status, usage = os.wait4(p.pid, 0)
+        wall = time.perf_counter() - t0
+    done.set()
+    poller.join()
+    p.returncode = os.waitstatus_to_exitcode(status)
+    return p.returncode, wall, {"fluid": rss["fluid"], "solid": rss["solid"], "launcher": usage.ru_maxrss}
+
+
+def last_line(path: Path) -> str:
+    try:
+        lines = [line for line in path.read_text(errors="replace").splitlines() if line.strip()]
+    except OSError:
+        return f"({path} unreadable)"
+    return lines[-1] if lines else f"({path} is empty)"
+
+
+# ---------------------------------------------------------------------------------------
+# Settings and knobs.
+
+@dataclass
+class Setting:
+    label: str            # as the table shows it
+    value: float          # the knob's value (cells, A_T, ...), for ordering
+    reference: bool = False   # the reference of a knob without an analytic one
+    # filled by the study
+    measurement: Measurement | None = None
+    error: float | None = None
+    extra: dict = field(default_factory=dict)   # further columns
+    note: str = ""        # e.g. "refused by the coordinator: ..."
+    front: bool = False
+
+
+@dataclass
+class Knob:
+    key: str               # file names
+    title: str
+    kind: str              # "resolution" (errors must fall with resolution), "other", "not offered"
+    setup: str             # what is fixed and what changes (markdown)
+    reference: str         # what the error is measured against (markdown)
+    error_name: str
+    settings: list[Setting]
+    memory_columns: list[str]  # "process" or "fluid", "solid"
+    extra_columns: list[tuple[str, str]] = field(default_factory=list)  # (key, header)
+    remarks: Callable[["Knob"], list[str]] | None = None
+    rank: bool = True      # mark the best error-for-time front
+    ref_short: str = "finest setting"  # the summary table's reference column
+
+
+def pareto(settings: list[Setting]) -> None:
+    """Marks the settings with an error and a time that no other setting beats on both."""
+    pts = [s for s in settings if s.error is not None and s.measurement is not None and not s.reference]
+    for s in pts:
+        s.front = not any(o is not s and o.measurement.wall_s <= s.measurement.wall_s and o.error <= s.error
+                          and (o.measurement.wall_s < s.measurement.wall_s or o.error < s.error)
+                          for o in pts)
+
+
+# ---------------------------------------------------------------------------------------
+# Knob 1: grid resolution of a fluid validation case with an analytic solution.
+#
+# Plane Poiseuille flow started from rest (scenes/poiseuille.toml): walls at y = -1/2 and
+# N - 1/2 (half-way bounce-back), a body force G along x switched on at t = 0. The analytic
+# solution of u_t = nu u_yy + G, u(0) = u(H) = 0, u(y, 0) = 0 (H = N, y' = y + 1/2):
+#   u = G y'(H - y') / (2 nu) - sum_{n odd} 4 G H^2 / (nu n^3 pi^3) sin(n pi y'/H) exp(-nu n^2 pi^2 t / H^2)
+
+POISEUILLE_U_MAX = 0.05
+POISEUILLE_T_STAR = 0.1  # t nu / H^2 at which the profile is compared
+
+
+def poiseuille_analytic(n_cells: int, nu: float, g: float, steps: int) -> np.ndarray:
+    y = np.arange(n_cells) + 0.5
+    h = float(n_cells)
+    u = g * y * (h - y) / (2.0 * nu)
+    for n in range(1, 4001, 2):
+        amp = 4.0 * g * h * h / (nu * n**3 * math.pi**3) * math.exp(-nu * n * n * math.pi**2 * steps / (h * h))
+        if amp < 1e-18 * g * h * h / nu:
+            break
+        u -= amp * np.sin(n * math.pi * y / h)
+    return u
+
+
+@dataclass
+class PoiseuilleCase:
+    cells: int
+    tau: float
+
+    @property
+    def nu(self) -> float:
+        return (self.tau - 0.5) / 3.0
+
+    @property
+    def force(self) -> float:
+        return 8.0 * self.nu * POISEUILLE_U_MAX / self.cells**2
+
+    @property
+    def steps(self) -> int:
+        return max(1, round(POISEUILLE_T_STAR * self.cells**2 / self.nu))
+
+
+def poiseuille_scene(case: PoiseuilleCase, out: Path, why: str) -> Path:
+    s = load_scene("poiseuille.toml")
+    s["scene"] = {"name": f"poiseuille_n{case.cells}",
+                  "description": f"Poiseuille start-up, {case.cells} cells across, tau {case.tau:.4f}"}
+    s["grid"]["ny"] = case.cells
+    s["fluid"] = {"tau": case.tau}
+    s["body_force"] = {"x": case.force}
+    s["run"].update(steps=case.steps, monitor_every=case.steps, initial="rest")
+    s["output"] = {"directory": str(out), "fields_every": case.steps}
+    return write_scene(out / "scene.toml", s, f"error study (launch/error_study.py): {why}\n"
+                       "from scenes/poiseuille.toml")
+
+
+def poiseuille_error(out: Path, case: PoiseuilleCase) -> float:
+    """Relative L2 error of u_x over every cell at the last step against the analytic profile."""
+    path = out / f"fields_{case.steps:06d}.h5"
+    with h5py.File(path, "r") as f:
+        u = f["u"][...][..., 0] / (float(f.attrs["dx_um"]) / float(f.attrs["dt_us"]))  # lattice units
+        if int(f.attrs["step"]) != case.steps:
+            raise StudyError(f"{path}: step {int(f.attrs['step'])}, expected {case.steps}")
+    exact = poiseuille_analytic(case.cells, case.nu, case.force, case.steps)[None, :, None]
+    return float(np.sqrt(np.mean((u - exact) ** 2) / np.mean(np.broadcast_to(exact, u.shape) ** 2)))
+
+
+# The air of Table 1 at the paper's dx: nu_lattice = nu_air / (c dx); with the channel of
+# scenes/poiseuille.toml (32 cells of 0.2561 um) it is tau = 0.5 + 3 nu_lattice.
+AIR_NU_M2_S = 1.5e-5
+SOUND_SPEED_M_S = 331.5
+LATTICE_SPEED_M_S = math.sqrt(3.0) * SOUND_SPEED_M_S
+POISEUILLE_HEIGHT_UM = 32 * H_PAPER_UM
+
+
+def acoustic_tau(cells: int) -> float:
+    dx_m = POISEUILLE_HEIGHT_UM / cells * 1e-6
+    return 0.5 + 3.0 * AIR_NU_M2_S / (LATTICE_SPEED_M_S * dx_m)
+
+
+# ---------------------------------------------------------------------------------------
+# Knobs 2, 3, 5: a coupled case, scenes/coupled_small.toml's family.
+#
+# Resolution: the same physical box (10.24 x 7.68 x 7.68 um), sheet, air and physical time at
+# dx = 0.5122 / 2^k um. The sheet's CGPs nest: nx_cg = 2^(k+1) + 1, ny_cg = 5 2^k + 1 (3 x 6,
+# 5 x 11, 9 x 21, 17 x 41), so the marked CGP (middle of the top row) stays at the same place;
+# spacing dx_CG = dx, mass per CGP proportional to dx^2 (2e6 atoms at 0.2561 um), RCGP stages
+# fixed at 9 (the same D and C at every dx). The fluid keeps Re and Mach (acoustic scaling:
+# dt = dx / c, nu fixed in m^2/s, so tau - 1/2 grows with 1/dx) and A_T grows with 1/dx so
+# that dt_CG stays the same fraction of the sheet's stable step (which falls as dx^2).
+
+COUPLED_BASE_STEPS = 200       # at dx = 0.2561 um, as scenes/coupled_small.toml
+COUPLED_BASE_RIGID = 50
+COUPLED_BASE_A_T = 150
+COUPLED_REYNOLDS = 5.0         # U_max x 10 cells / nu at tau = 0.8: coupled_small's flow
+COUPLED_REFERENCE_UM = 10 * H_PAPER_UM
+
+
+def coupled_resolution_scene(level: int, out: Path) -> tuple[Path, int]:
+    """Level k: dx = 0.5122 / 2^k um. Returns the scene and the step compared (the same
+    physical time at every level)."""
+    scale = 2**level  # cells per 0.5122 um
+    h = 2.0 * H_PAPER_UM / scale
+    s = load_scene("coupled_small.toml")
+    base = s["grid"]
+    s["scene"] = {"name": f"coupled_dx{level}",
+                  "description": f"coupled_small's family at dx = {h:.6g} um"}
+    s["grid"] = {"nx": base["nx"] * scale // 2, "ny": base["ny"] * scale // 2, "nz": base["nz"] * scale // 2,
+                 "dx_um": h}
+    s["fluid"] = {"reynolds": COUPLED_REYNOLDS, "reference_length_um": COUPLED_REFERENCE_UM}
+    steps = COUPLED_BASE_STEPS * scale // 2
+    s["run"] = {"steps": steps, "monitor_every": max(1, steps // 4)}
+    s["output"] = {"directory": str(out), "fields_every": 0, "sheets_every": 0}
+    s["coupling"].update(time_ratio=COUPLED_BASE_A_T * scale // 2, rigid_steps=COUPLED_BASE_RIGID * scale // 2,
+                         peer_timeout_s=120.0)
+    s["solid"] = {"model": "rcgp", "stages": 9}
+    sheet = s["sheet"][0]
+    sheet.update(nx_cg=2 * scale + 1, ny_cg=5 * scale + 1, spacing_um=h,
+                 atoms_per_cgp=2e6 * (h / H_PAPER_UM) ** 2)
+    compared = (COUPLED_BASE_STEPS // 2 - 1) * scale  # the coarsest level's last step, same time
+    return write_scene(out / "scene.toml", s, "error study (launch/error_study.py): grid resolution of a "
+                       f"coupled case, dx = {h:.6g} um\nfrom scenes/coupled_small.toml"), compared
+
+
+def coupled_base_scene(out: Path, a_t: int, name: str, why: str) -> Path:
+    """scenes/coupled_small.toml with A_T = a_t and no snapshots."""
+    s = load_scene("coupled_small.toml")
+    s["scene"] = {"name": name, "description": f"coupled_small with A_T = {a_t}"}
+    s["output"] = {"directory": str(out), "fields_every": 0, "sheets_every": 0}
+    s["coupling"].update(time_ratio=a_t, peer_timeout_s=120.0)
+    return write_scene(out / "scene.toml", s, f"error study (launch/error_study.py): {why}\n"
+                       "from scenes/coupled_small.toml")
+
+
+def marked_displacement(out: Path, step: int | None = None) -> tuple[np.ndarray, float]:
+    """The marked CGP's displacement (um, 3-vector) at `step` (default: the last row) and its time."""
+    path = out / "solid.h5"
+    with h5py.File(path, "r") as f:
+        steps = f["step"][...]
+        row = len(steps) - 1 if step is None else int(np.searchsorted(steps, step))
+        if row >= len(steps) or steps[row] != (steps[-1] if step is None else step):
+            raise StudyError(f"{path}: no row for step {step}")
+        return f["marked_displacement_um"][row, 0, :].astype(float), float(f["time_s"][row])
+
+
+def stable_a_t(scene: Path, log: Path) -> tuple[int, str]:
+    """The smallest A_T the solid's stable step allows for a coupled scene (solid --check)."""
+    env = _env(1)
+    env["COSIM_RUN_TOKEN"] = "0123456789abcdef"
+    r = subprocess.run([str(SOLID), str(scene), "--check"], capture_output=True, text=True, env=env, cwd=ROOT)
+    log.write_text(r.stdout + r.stderr)
+    m = re.search(r"dt_LB = ([0-9.eE+-]+) s.*stable step of the model ([0-9.eE+-]+) s", r.stdout)
+    if r.returncode != 0 or not m:
+        raise StudyError(f"solid --check {scene}: exit {r.returncode}, no stable step in its header (log {log})")
+    dt_lb, stable = float(m.group(1)), float(m.group(2))
+    return math.ceil(dt_lb / stable), f"dt_LB = {dt_lb:.4g} s, stable step {stable:.4g} s"
+
+
+# ---------------------------------------------------------------------------------------
+# Knob 4: the RCGP truncation range (solid alone, `solid --check`).
+
+def rcgp_scene(out: Path, stages: int, truncation: int, scaling: str) -> Path:
+    s = load_scene("sheet_free_vibration.toml")
+    s["scene"] = {"name": f"rcgp_s{stages}_r{truncation}_{scaling}",
+                  "description": f"the paper's 5 x 40 sheet, {stages} stages, truncation range {truncation}"}
+    s["solid"] = {"model": "rcgp", "flexural_scaling": scaling, "stages": stages, "truncation_range": truncation}
+    s["output"] = {"directory": str(out)}
+    return write_scene(out / "scene.toml", s, "error study (launch/error_study.py): RCGP truncation range\n"
+                       "from scenes/sheet_free_vibration.toml")
+
+
+def parse_eigenfrequencies(text: str) -> list[float]:
+    m = re.search(r"eigenfrequencies in vacuum: (.*)", text)
+    if not m:
+        return []
+    return [float(x) for x in re.findall(r"([0-9.eE+-]+) Hz", m.group(1))]
+
+
+# ---------------------------------------------------------------------------------------
+# The study.
+
+@dataclass
+class Plan:
+    short: bool
+    repeats: int
+    threads: int
+    out: Path
+
+
+def _repeat(plan: Plan, setting: Setting, fn: Callable[[], tuple[int, float, dict[str, int]]], what: str,
+            log: Path) -> None:
+    m = Measurement()
+    for _ in range(plan.repeats):
+        rc, wall, rss = fn()
+        if rc != 0:
+            raise StudyError(f"{what}: exit {rc}: {last_line(log)} (log {log})")
+        m.walls_s.append(wall)
+        for k, v in rss.items():
+            m.add_rss(k, v)
+    setting.measurement = m
+    print(f"  {setting.label:<28} wall {m.wall_s:8.2f} s (median of {len(m.walls_s)})  "
+          + "  ".join(f"{k} {v / 1024:.1f} MiB" for k, v in m.rss_kib.items()), flush=True)
+
+
+def knob_fluid_resolution(plan: Plan) -> Knob:
+    cells = [8, 16, 32] if plan.short else [8, 16, 32, 64, 128, 256]
+    knob = Knob(
+        key="resolution_fluid", title="Grid resolution: fluid validation case (Poiseuille start-up)",
+        kind="resolution",
+        setup=(f"Plane Poiseuille flow started from rest ({'`scenes/poiseuille.toml`'}: 8 x N x 8 cells, "
+               "walls at y = -1/2 and N - 1/2 with half-way bounce-back, periodic in x and z), driven by a "
+               f"body force G = 8 nu U / N^2 (U = {POISEUILLE_U_MAX} = the steady centre-line speed over c, "
+               f"Mach {POISEUILLE_U_MAX * math.sqrt(3):.3f}), compared at the dimensionless time "
+               f"t nu / H^2 = {POISEUILLE_T_STAR}, while the profile is still developing. Diffusive scaling: "
+               "tau = 0.8 at every N (nu = 0.1 in lattice units), so the time step in units of H^2 / nu falls "
+               "as 1/N^2 and the run takes N^2 steps."),
+        reference=("Analytic: u(y, t) = G y'(H - y') / (2 nu) - sum over odd n of 4 G H^2 / (nu n^3 pi^3) "
+                   "sin(n pi y'/H) exp(-nu n^2 pi^2 t / H^2), y' = y + 1/2, H = N (the series to 1e-18 of the "
+                   "steady amplitude). Error: relative L2 norm of u_x - u over all cells of the last step's "
+                   "field snapshot."),
+        error_name="relative L2 error of u_x", settings=[], memory_columns=["process"], ref_short="analytic",
+        extra_columns=[("tau", "tau"), ("steps", "steps"), ("order", "observed order")])
+    for n in cells:
+        case = PoiseuilleCase(n, 0.8)
+        st = Setting(f"N = {n}", n)
+        st.extra.update(tau=f"{case.tau:.3f}", steps=str(case.steps))
+        out = plan.out / "runs" / knob.key / f"n{n:03d}"
+        scene = poiseuille_scene(case, out, f"grid resolution, Poiseuille start-up, N = {n} (diffusive scaling)")
+        log = out / "fluid.log"
+        _repeat(plan, st, lambda: (lambda r: (r[0], r[1], {"process": r[2]}))(
+            run_process([str(FLUID), str(scene), "--quiet", "--threads", str(plan.threads)], log, plan.threads)),
+            f"{knob.key} {st.label}", log)
+        st.error = poiseuille_error(out, case)
+        knob.settings.append(st)
+    _orders(knob)
+    knob.remarks = lambda k: [_order_remark(k, "second order expected: the wall slip of half-way bounce-back "
+                                               "at fixed tau and the time step, O(dt) = O(dx^2) here")]
+    return knob
+
+
+def knob_fluid_acoustic(plan: Plan) -> Knob:
+    cells = [8, 16, 32, 64, 128]
+    knob = Knob(
+        key="resolution_fluid_acoustic",
+        title="Grid resolution in the project's own units (Poiseuille, fixed air viscosity): no convergence",
+        kind="scaling",
+        setup=(f"The same Poiseuille start-up in a channel of fixed physical height ({POISEUILLE_HEIGHT_UM:.4g} um) "
+               "refined as the servers refine a physical scene: dt = dx / c with c = sqrt(3) x 331.5 m/s "
+               f"(acoustic scaling), the viscosity of air fixed ({AIR_NU_M2_S:g} m^2/s), so "
+               "tau = 1/2 + 3 nu / (c dx) grows with N; compared at the same t nu / H^2 and the same U."),
+        reference="Analytic, as above.",
+        error_name="relative L2 error of u_x", settings=[], memory_columns=["process"], ref_short="analytic",
+        extra_columns=[("tau", "tau"), ("steps", "steps"), ("order", "observed order")])
+    for n in cells:
+        case = PoiseuilleCase(n, acoustic_tau(n))
+        st = Setting(f"N = {n}", n)
+        st.extra.update(tau=f"{case.tau:.3f}", steps=str(case.steps))
+        out = plan.out / "runs" / knob.key / f"n{n:03d}"
+        scene = poiseuille_scene(case, out, f"Poiseuille start-up, N = {n}, acoustic scaling (air's viscosity)")
+        log = out / "fluid.log"
+        _repeat(plan, st, lambda: (lambda r: (r[0], r[1], {"process": r[2]}))(
+            run_process([str(FLUID), str(scene), "--quiet", "--threads", str(plan.threads)], log, plan.threads)),
+            f"{knob.key} {st.label}", log)
+        st.error = poiseuille_error(out, case)
+        knob.settings.append(st)
+    _orders(knob)
+    magic = 0.5 + math.sqrt(3.0 / 16.0)
+    knob.remarks = lambda k: [
+        "The error stops falling once tau passes the value where half-way bounce-back is exact for BGK "
+        f"(tau = 1/2 + sqrt(3/16) = {magic:.3f}, He et al. 1997): the wall slip relative to U is proportional "
+        "to (16 (tau - 1/2)^2 - 3) / N^2, and with tau - 1/2 proportional to N it tends to a constant (a "
+        "Knudsen-number error, fixed by the physical dx / c and nu). A resolution study of this fluid therefore holds tau "
+        "(diffusive scaling, the row above); refining a physical scene at fixed air viscosity converges "
+        "only to that floor. This row is not on the resolution test's list."]
+    return knob
+
+
+def _orders(knob: Knob) -> None:
+    prev = None
+    for st in knob.settings:
+        if prev is not None and prev.error and st.error and not st.reference and not prev.reference:
+            st.extra["order"] = f"{math.log(prev.error / st.error) / math.log(st.value / prev.value):.2f}"
+        prev = st
+
+
+def _order_remark(knob: Knob, why: str) -> str:
+    orders = [st.extra["order"] for st in knob.settings if "order" in st.extra]
+    return f"Observed orders between successive settings: {', '.join(orders)} ({why})." if orders else ""
+
+
+def knob_coupled_resolution(plan: Plan) -> Knob:
+    levels = [0, 1, 2] if plan.short else [0, 1, 2, 3]
+    dxs = [2.0 * H_PAPER_UM / 2**k for k in levels]
+    dt_base = H_PAPER_UM * 1e-6 / LATTICE_SPEED_M_S  # dt_LB at 0.2561 um
+    sheets = ", ".join(f"{2 * 2**k + 1} x {5 * 2**k + 1}" for k in levels)
+    taus = ", ".join(f"{0.5 + 3 * 0.05 * (COUPLED_REFERENCE_UM / h) / COUPLED_REYNOLDS:.3g}" for h in dxs)
+    a_ts = ", ".join(str(COUPLED_BASE_A_T * 2**k // 2) for k in levels)
+    steps = ", ".join(str(COUPLED_BASE_STEPS * 2**k // 2) for k in levels)
+    t_cmp = (COUPLED_BASE_STEPS // 2 - 1) * 2 * dt_base
+    knob = Knob(
+        key="resolution_coupled", title="Grid resolution: coupled case (a sheet in channel flow)",
+        kind="resolution",
+        setup=("`scenes/coupled_small.toml`'s channel (10.24 x 7.68 x 7.68 um: Blasius inlet, outflow, plate, "
+               "free-slip top, periodic span) with one sheet at 90 deg, the same physical sheet at every dx: "
+               f"CGP spacing dx_CG = dx_LB, the CGPs nested ({sheets} for dx = "
+               f"{', '.join(f'{h:.6g}' for h in dxs)} um) so that the marked CGP stays at the same place, 2e6 "
+               "atoms per CGP at 0.2561 um scaled with dx^2, RCGP stages fixed at 9 (the same C and D); the "
+               f"fluid at Re {COUPLED_REYNOLDS:g} on {COUPLED_REFERENCE_UM:.4g} um (tau = 0.8 at 0.2561 um) and "
+               "U/c = 0.05 at every dx, so with dt = dx / c and the air's viscosity fixed, tau - 1/2 doubles "
+               f"with each halving of dx ({taus}); A_T doubles too ({a_ts}), keeping dt_CG the same fraction "
+               f"of the sheet's stable step (which falls as dx^2). {COUPLED_BASE_RIGID * dt_base * 1e9:.3g} ns "
+               f"of rigid spin-up, then the sheet is free; {COUPLED_BASE_STEPS * dt_base * 1e9:.3g} ns in all "
+               f"({steps} LB steps). One OpenMP thread per process (the serial scheme runs one side at a "
+               "time)."),
+        reference=("The finest grid (no analytic solution). Error: |d(T) - d_ref(T)| / |d_ref(T)| of the marked "
+                   f"CGP's displacement vector d (middle of the top row) at T = {t_cmp * 1e9:.4g} ns (the "
+                   "coarsest grid's last step, the last time every grid writes); also shown: the same over "
+                   "every output time of the free phase "
+                   "(RMS of |d - d_ref| over RMS |d_ref| on the coarsest grid's times)."),
+        error_name="relative error of the marked CGP's displacement at T", settings=[],
+        memory_columns=["fluid", "solid"], ref_short="finest grid",
+        extra_columns=[("grid", "grid"), ("sheet", "CGPs"), ("tau", "tau"), ("a_t", "A_T"),
+                       ("traj", "error over the free phase"), ("order", "observed order")])
+    runs = {}
+    for level in levels:
+        h = 2.0 * H_PAPER_UM / 2**level
+        st = Setting(f"dx = {h:.6g} um", 1.0 / h, reference=(level == levels[-1]))
+        out = plan.out / "runs" / knob.key / f"dx{level}"
+        scene, compared = coupled_resolution_scene(level, out)
+        cfg = tomllib.loads(scene.read_text())
+        g = cfg["grid"]
+        st.extra.update(grid=f"{g['nx']} x {g['ny']} x {g['nz']}",
+                        sheet=f"{cfg['sheet'][0]['nx_cg']} x {cfg['sheet'][0]['ny_cg']}",
+                        tau=f"{0.5 + 3 * 0.05 * (COUPLED_REFERENCE_UM / h) / COUPLED_REYNOLDS:.2f}",
+                        a_t=str(cfg["coupling"]["time_ratio"]))
+        _repeat(plan, st, lambda: run_coupled(scene, out, plan.threads), f"{knob.key} {st.label}",
+                out / "launcher.log")
+        runs[level] = (st, out, compared)
+        knob.settings.append(st)
+    ref_st, ref_out, ref_step = runs[levels[-1]]
+    d_ref, t_ref = marked_displacement(ref_out, ref_step)
+    # The free phase on the coarsest grid's output times (steps rigid..last of level 0).
+    coarse_steps = range(COUPLED_BASE_RIGID // 2, COUPLED_BASE_STEPS // 2)
+    scale_ref = 2**levels[-1]
+    with h5py.File(ref_out / "solid.h5", "r") as f:
+        ref_traj = f["marked_displacement_um"][[s * scale_ref for s in coarse_steps], 0, :]
+    for level in levels[:-1]:
+        st, out, step = runs[level]
+        d, t = marked_displacement(out, step)
+        if abs(t - t_ref) > 1e-6 * t_ref:
+            raise StudyError(f"{knob.key}: {out} compares t = {t} s against the reference's {t_ref} s")
+        st.error = float(np.linalg.norm(d - d_ref) / np.linalg.norm(d_ref))
+        with h5py.File(out / "solid.h5", "r") as f:
+            traj = f["marked_displacement_um"][[s * 2**level for s in coarse_steps], 0, :]
+        st.extra["traj"] = f"{np.sqrt(np.mean(np.sum((traj - ref_traj) ** 2, axis=1)) / np.mean(np.sum(ref_traj ** 2, axis=1))):.3e}"
+    ref_st.extra["traj"] = "reference"
+    _orders(knob)
+    knob.remarks = lambda k: [
+        f"The reference's marked CGP at T: d = ({d_ref[0]:.5f}, {d_ref[1]:.3e}, {d_ref[2]:.1e}) um.",
+        _order_remark(k, "against the finest grid, which carries its own error; the fluid's tau changes with dx, "
+                         "the immersed boundary's kernel width (2 dx) and the sheet's discretisation too")]
+    return knob
+
+
+def knob_time_ratio(plan: Plan) -> Knob:
+    knob = Knob(
+        key="time_ratio", title="A_T = dt_LB / dt_CG (the solid's substeps per LB step)", kind="other",
+        setup=("`scenes/coupled_small.toml` (40 x 30 x 30 cells, dx = 0.2561 um, a 5 x 10 sheet at 90 deg, "
+               "50 rigid + 150 free LB steps, serial scheme) with only `[coupling] time_ratio` changed."),
+        reference=("The largest A_T (no analytic solution). Error: |d(T) - d_ref(T)| / |d_ref(T)| of the marked "
+                   "CGP's displacement at the last step. The fluid's sample at the CGPs is held over an LB "
+                   "interval whatever A_T is, so this row isolates the solid's substepping."),
+        error_name="relative error of the marked CGP's displacement", settings=[],
+        memory_columns=["fluid", "solid"], ref_short="largest A_T",
+        extra_columns=[("dt", "dt_CG / stable step"), ("order", "observed order")])
+    probe_dir = plan.out / "runs" / knob.key / "check"
+    probe = coupled_base_scene(probe_dir, COUPLED_BASE_A_T, "coupled_at_check", "the stable A_T")
+    a_min, stable_text = stable_a_t(probe, probe_dir / "solid_check.log")
+    values = [a_min, 150, 600] if plan.short else [a_min, 75, 150, 300, 600, 1200]
+    ref_value = 2400 if plan.short else 4800
+    values = sorted({v for v in values if v >= a_min}) + [ref_value]
+    ratio = float(re.search(r"stable step ([0-9.eE+-]+)", stable_text).group(1))
+    dt_lb = float(re.search(r"dt_LB = ([0-9.eE+-]+)", stable_text).group(1))
+    runs = []
+    for v in values:
+        st = Setting(f"A_T = {v}", v, reference=(v == ref_value))
+        st.extra["dt"] = f"{dt_lb / v / ratio:.3f}"
+        out = plan.out / "runs" / knob.key / f"a{v:05d}"
+        scene = coupled_base_scene(out, v, f"coupled_at{v}", f"A_T = {v}")
+        _repeat(plan, st, lambda: run_coupled(scene, out, plan.threads), f"{knob.key} {st.label}",
+                out / "launcher.log")
+        runs.append((st, out))
+        knob.settings.append(st)
+    d_ref, _ = marked_displacement(runs[-1][1])
+    for st, out in runs[:-1]:
+        d, _ = marked_displacement(out)
+        st.error = float(np.linalg.norm(d - d_ref) / np.linalg.norm(d_ref))
+    _orders_inverse(knob)
+
+    # One below the stable limit: the coordinator must refuse it.
+    refused = Setting(f"A_T = {a_min - 1}", a_min - 1)
+    out = plan.out / "runs" / knob.key / f"a{a_min - 1:05d}"
+    scene = coupled_base_scene(out, a_min - 1, f"coupled_at{a_min - 1}", f"A_T = {a_min - 1}, below the stable limit")
+    rc, _, _ = run_coupled(scene, out, plan.threads)
+    if rc == 0:
+        raise StudyError(f"{knob.key}: A_T = {a_min - 1} is below the stable limit ({stable_text}) "
+                         f"but the run was not refused ({out})")
+    reason = last_line(out / "fluid.log").split("; the largest")[0]
+    refused.note = f"refused (exit {rc}): {reason}"
+    knob.settings.insert(0, refused)
+    knob.remarks = lambda k: [
+        f"The sheet's stable step caps A_T from below: {stable_text}, so A_T >= {a_min}; "
+        f"A_T = {a_min - 1} is refused at the handshake (the row without a time).",
+        _order_remark(k, "against the largest A_T. Velocity Verlet alone is second order in dt_CG, but the "
+                         "fluid's reaction on a CGP, -g dA with g = 2 rho (U_B - u), depends on the CGP's "
+                         "velocity U_B and is taken with the velocity at the start of each substep "
+                         "(`solid/solid_coupler.hpp`), which is first order")]
+    return knob
+
+
+def _orders_inverse(knob: Knob) -> None:
+    """Orders in 1 / A_T (dt_CG): log(e1/e2) / log(A2/A1)."""
+    prev = None
+    for st in knob.settings:
+        if prev is not None and prev.error and st.error and not st.reference:
+            st.extra["order"] = f"{math.log(prev.error / st.error) / math.log(st.value / prev.value):.2f}"
+        prev = st
+
+
+TRUNCATION_SUBSTEPS = 20000
+
+
+def knob_truncation(plan: Plan) -> Knob:
+    knob = Knob(
+        key="truncation_range", title="RCGP truncation range of the CG kernel", kind="other",
+        setup=("The paper's 5 x 40 sheet (`scenes/sheet_free_vibration.toml`: rcgp, released from a 0.5 um "
+               f"tip deflection) for {TRUNCATION_SUBSTEPS} substeps of the paper's dt_CG, built with "
+               "`[solid] truncation_range` 2 and 3 (the values the construction accepts; range r projects on "
+               "a periodic cell of 2 r + 1 CGPs a side) at several `stages` with the paper's flexural scaling "
+               "(9 stages: the paper's 0.2561 um). The wall time is the whole run (construction, the sheet's "
+               "dense eigenproblem, the substeps)."),
+        reference=("The widest range (3) at the same stage count. Error: RMS over the records of |w_2 - w_3| "
+                   "over RMS |w_3|, w the marked CGP's displacement (all of `solid.h5`'s records, every 100 "
+                   "substeps), i.e. how much the integrated sheet changes with the range. Also shown: f1 of "
+                   "the sheet in vacuum as `solid` prints it."),
+        error_name="relative difference of the marked CGP's trajectory from range 3", settings=[],
+        memory_columns=["process"], extra_columns=[("f", "f1, f2, f3 (Hz)")], rank=False,
+        ref_short="range 3")
+    stage_counts = [1, 5] if plan.short else [1, 3, 5, 9]
+    for stages in stage_counts:
+        group = {}
+        for rng in (2, 3):
+            st = Setting(f"stages {stages}, range {rng}", stages * 10 + rng, reference=(rng == 3))
+            out = plan.out / "runs" / knob.key / f"s{stages}_r{rng}"
+            scene = rcgp_scene(out, stages, rng, "paper")
+            log = out / "solid.log"
+            cmd = [str(SOLID), str(scene), "--substeps", str(TRUNCATION_SUBSTEPS), "--quiet"]
+            rc, _, _ = run_process([str(SOLID), str(scene), "--check"], log, plan.threads)
+            if rc != 0:
+                st.note = f"construction fails (exit {rc}): {last_line(log).split(': ', 1)[-1]}"
+                st.reference = False
+                print(f"  {st.label:<28} {st.note}", flush=True)
+                knob.settings.append(st)
+                continue
+            _repeat(plan, st, lambda: (lambda r: (r[0], r[1], {"process": r[2]}))(
+                run_process(cmd, log, plan.threads)), f"{knob.key} {st.label}", log)
+            f = parse_eigenfrequencies(log.read_text())
+            st.extra["f"] = ", ".join(f"{x:.5g}" for x in f[:3])
+            with h5py.File(out / "solid.h5", "r") as h:
+                group[rng] = h["marked_displacement_um"][:, 0, :].astype(float)
+            knob.settings.append(st)
+        if 2 in group and 3 in group:
+            w2, w3 = group[2], group[3]
+            knob.settings[-2].error = float(np.sqrt(np.mean(np.sum((w2 - w3) ** 2, axis=1))
+                                                    / np.mean(np.sum(w3 ** 2, axis=1))))
+        elif 2 in group:
+            knob.settings[-2].note = "no range 3 to compare with"
+    failed = [st for st in knob.settings if st.note.startswith("construction fails")]
+
+    def cost_line(k: Knob) -> str:
+        pairs = []
+        for stages in stage_counts:
+            r2 = next((s for s in k.settings if s.label == f"stages {stages}, range 2" and s.measurement), None)
+            r3 = next((s for s in k.settings if s.label == f"stages {stages}, range 3" and s.measurement), None)
+            if r2 and r3:
+                pairs.append(f"stages {stages}: {r2.measurement.wall_s:.2f} s and {fmt_mib(r2.measurement.rss_kib['process'])} MiB "
+                             f"against {r3.measurement.wall_s:.2f} s and {fmt_mib(r3.measurement.rss_kib['process'])} MiB")
+        return ("Not ranked: at every stage count range 2 gives the same sheet faster and in less memory "
+                "(range 2 against range 3, " + "; ".join(pairs) + "): range 2 is the front.") if pairs else ""
+
+    knob.remarks = lambda k: [cost_line(k),
+        "The finite sheet takes only the construction's elastic constants and bending rigidities "
+        "(`docs/solid.md` section 3), and moment matching restores exactly those after each truncation, "
+        "so the range leaves the integrated sheet the same to the size of the differences above; what it "
+        "changes is the CG lattice's own dispersion at finite wavelength (`docs/solid.md` section 2), "
+        "which the sheet model does not use. Range 3 costs the construction's time and memory (the "
+        "stage-1 cell holds 1568 atoms instead of 800).",
+        ("Range 3 does not build " + ", ".join(st.label.split(",")[0].replace("stages ", "") for st in failed)
+         + " stages: the construction stops at "
+         + ", ".join(sorted({m.group(0) for st in failed for m in [re.search(r"RCGP stage \d+", st.note)] if m}))
+         + ", where the moment-matched kernel is not positive (K(q) < 0, the row above); so the paper's "
+           "sheet (9 stages) can only be built with range 2.") if failed else ""]
+    return knob
+
+
+def knob_scheme(plan: Plan, schemes: list[tuple[str, dict]]) -> Knob:
+    knob = Knob(
+        key="coupling_scheme", title="Coupling scheme", kind="other",
+        setup=("`scenes/coupled_small.toml` with each scheme the servers offer. Offered now: the serial "
+               "staggered scheme only (the fluid steps, then the solid integrates its A_T substeps with "
+               "that step's force); the study takes a list of schemes, each a set of scene keys, and "
+               "compares them once there are two."),
+        reference=("The most accurate scheme on offer (none to compare with yet: a single scheme has no error "
+                   "of its own here)."),
+        error_name="relative error of the marked CGP's displacement", settings=[],
+        memory_columns=["fluid", "solid"], rank=len(schemes) > 1, ref_short="none (one scheme)")
+    for name, patch in schemes:
+        st = Setting(name, len(knob.settings))
+        out = plan.out / "runs" / knob.key / name
+        scene = coupled_base_scene(out, COUPLED_BASE_A_T, f"coupled_{name}", f"coupling scheme {name}")
+        if patch:
+            cfg = tomllib.loads(scene.read_text())
+            for table, keys in patch.items():
+                cfg.setdefault(table, {}).update(keys)
+            write_scene(scene, cfg, f"error study: coupling scheme {name}")
+        _repeat(plan, st, lambda: run_coupled(scene, out, plan.threads), f"{knob.key} {st.label}",
+                out / "launcher.log")
+        st.note = "the only scheme offered: no reference" if len(schemes) == 1 else ""
+        knob.settings.append(st)
+    return knob
+
+
+def knob_precision() -> Knob:
+    return Knob(
+        key="precision", title="Floating-point precision", kind="not offered",
+        setup="Both servers compute in double precision (64-bit) only; single precision is not offered yet "
+              "(it comes with a later issue). Every row above is double precision.",
+        reference="Not applicable until a second precision exists.",
+        error_name="error", settings=[Setting("double (the only one)", 0, note="not offered: no other precision")],
+        memory_columns=[], rank=False, ref_short="none (one precision)")
+
+
+# Coupling schemes the servers offer: (name, scene keys that select it). Add e.g.
+# ("parallel", {"coupling": {"scheme": "parallel"}}) once the servers take such a key.
+SCHEMES: list[tuple[str, dict]] = [("serial", {})]
+
+
+# ---------------------------------------------------------------------------------------
+# Output: tables, TSV, JSON, figures.
+
+def fmt_mib(kib: int | None) -> str:
+    return "-" if not kib else f"{kib / 1024:.1f}"
+
+
+def knob_table(knob: Knob) -> list[str]:
+    if knob.kind == "not offered":
+        return ["| setting | status |", "| --- | --- |"] + [f"| {st.label} | {st.note} |" for st in knob.settings]
+    head = ["setting", knob.error_name, "wall s"]
+    for c in knob.memory_columns:
+        head.append("peak RSS MiB" if c == "process" else f"peak RSS {c} MiB")
+    head += [h for _, h in knob.extra_columns]
+    head += ["on the front"]
+    rows = ["| " + " | ".join(head) + " |", "|" + " --- |" * len(head)]
+    for st in knob.settings:
+        m = st.measurement
+        if st.reference:
+            err = "reference"
+        elif st.error is not None:
+            err = f"{st.error:.3e}"
+        else:
+            err = st.note or "-"
+        cells = [st.label, err, f"{m.wall_s:.2f}" if m else "-"]
+        for c in knob.memory_columns:
+            cells.append(fmt_mib(m.rss_kib.get(c)) if m else "-")
+        cells += [st.extra.get(k, "") for k, _ in knob.extra_columns]
+        cells.append(("yes" if st.front else "") if knob.rank else "-")
+        rows.append("| " + " | ".join(cells) + " |")
+    return rows
+
+
+def write_tsv(knobs: list[Knob], path: Path) -> None:
+    lines = ["knob\tkind\tsetting\tvalue\terror\twall_s\tpeak_rss_mib\treference\tfront\tnote"]
+    for k in knobs:
+        for st in k.settings:
+            m = st.measurement
+            rss = max(m.rss_kib.values()) / 1024 if m and m.rss_kib else float("nan")
+            lines.append("\t".join([k.key, k.kind.replace(" ", "_"), st.label, f"{st.value:.9g}",
+                                    "nan" if st.error is None else f"{st.error:.9e}",
+                                    "nan" if not m else f"{m.wall_s:.4f}", f"{rss:.2f}",
+                                    "1" if st.reference else "0", "1" if st.front else "0",
+                                    st.note.replace("\t", " ")]))
+    path.write_text("\n".join(lines) + "\n")
+
+
+def write_json(knobs: list[Knob], meta: dict, path: Path) -> None:
+    data = {"meta": meta, "knobs": []}
+    for k in knobs:
+        data["knobs"].append({"key": k.key, "title": k.title, "kind": k.kind, "settings": [
+            {"label": st.label, "value": st.value, "error": st.error, "reference": st.reference,
+             "front": st.front, "note": st.note, "extra": st.extra,
+             "walls_s": st.measurement.walls_s if st.measurement else [],
+             "rss_kib": st.measurement.rss_kib if st.measurement else {}} for st in k.settings]})
+    path.write_text(json.dumps(data, indent=1) + "\n")
+
+
+def plot_knob(knob: Knob, path: Path) -> bool:
+    pts = [st for st in knob.settings if st.error is not None and st.error > 0 and st.measurement]
+    if len(pts) < 2:
+        return False
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(6.4, 4.6), dpi=110)
+    x = [st.measurement.wall_s for st in pts]
+    y = [st.error for st in pts]
+    ax.plot(x, y, "o-", color="0.55", lw=1, label="settings (in knob order)")
+    front = sorted((st for st in pts if st.front), key=lambda s: s.measurement.wall_s)
+    if front:
+        ax.plot([s.measurement.wall_s for s in front], [s.error for s in front], "s", ms=9, mfc="none",
+                mec="C3", mew=1.6, label="best error-for-time front")
+    for st in pts:
+        ax.annotate(st.label, (st.measurement.wall_s, st.error), textcoords="offset points", xytext=(5, 4),
+                    fontsize=8)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    from matplotlib.ticker import FuncFormatter, NullFormatter
+    plain = FuncFormatter(lambda v, _: f"{v:g}")
+    for axis, values in ((ax.xaxis, x), (ax.yaxis, y)):
+        axis.set_major_formatter(plain)
+        # Within a decade the minor ticks carry the only labels; across decades they clutter.
+        axis.set_minor_formatter(plain if max(values) / min(values) < 10 else NullFormatter())
+    ax.tick_params(axis="both", which="both", labelsize=7)
+    ax.set_xlabel("wall time, s (median)")
+    ax.set_ylabel(knob.error_name)
+    ax.set_title(knob.title, fontsize=9)
+    ax.grid(True, which="both", lw=0.3, alpha=0.6)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path)
+    plt.close(fig)
+    return True
+
+
+def machine_text() -> str:
+    cpu = "unknown CPU"
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    mem = ""
+    try:
+        kb = int(re.search(r"MemTotal:\s+(\d+)", Path("/proc/meminfo").read_text()).group(1))
+        mem = f", {kb / 1024**2:.0f} GiB memory"
+    except (OSError, AttributeError):
+        pass
+    return f"{cpu}, {os.cpu_count()} cores{mem}, {platform.system()} {platform.release()}"
+
+
+def load_text() -> str:
+    try:
+        return " ".join(Path("/proc/loadavg").read_text().split()[:3])
+    except OSError:
+        return "?"
+
+
+def write_markdown(knobs: list[Knob], meta: dict, path: Path, figures: Path, figure_prefix: str) -> None:
+    lines = [
+        "# Error against run time",
+        "",
+        f"Command: `{meta['command']}` ({meta['elapsed_s'] / 60:.1f} min here; `--short` is the quick version "
+        "that the test `ErrorStudyShortRuns` runs). Every number below is written by that command "
+        "(`launch/error_study.py`, which also holds each case's definition); nothing is typed in.",
+        "",
+        f"- Date: {meta['date']}",
+        f"- Machine: {meta['machine']}; load average {meta['load_start']} at the start, {meta['load_end']} at "
+        f"the end (the machine is shared with other work: wall times are noisy)",
+        f"- Build: `build/` ({meta['build_type']}); every process on {meta['threads']} OpenMP thread(s) "
+        "(`--threads`): with more threads than idle cores OpenMP's barriers, not the arithmetic, set the "
+        "time of small grids",
+        f"- Wall time: the median of {meta['repeats']} runs of the whole command (process start-up, RCGP "
+        "construction and the LCM handshake included: what a user waits for); the full runs' times are in "
+        "`results.json` of the output folder",
+        "- Peak memory: the largest resident set (VmHWM / ru_maxrss). A process alone: `os.wait4`'s "
+        "ru_maxrss. A coupled run: VmHWM of the fluid and of the solid process, read from `/proc` every 20 ms "
+        "while they run (their pids from `OUTPUT/fluid.pid`, `OUTPUT/solid.pid`)",
+        "- On the front: no other setting of the same knob is both faster and more accurate (a reference "
+        "setting has no error and is not ranked)",
+        f"- Outputs of the runs: `{meta['out']}` (scenes, logs, HDF5, `results.tsv`, `results.json`)",
+        "",
+        "| knob | settings | reference | best error | its wall time | on the front |",
+        "| --- | --- | --- | --- | --- | --- |",
+    ]
+    for k in knobs:
+        errs = [st for st in k.settings if st.error is not None]
+        best = min(errs, key=lambda s: s.error) if errs else None
+        lines.append(f"| [{k.title}](#{_anchor(k)}) | {len(k.settings)} | "
+                     f"{k.ref_short} | "
+                     f"{f'{best.error:.3e} ({best.label})' if best else '-'} | "
+                     f"{f'{best.measurement.wall_s:.2f} s' if best and best.measurement else '-'} | "
+                     f"{', '.join(st.label for st in k.settings if st.front) or '-'} |")
+    lines.append("")
+    for i, k in enumerate(knobs, 1):
+        lines += [f"## {i}. {k.title}", "", f"<a id=\"{_anchor(k)}\"></a>", "", k.setup, "",
+                  f"Reference: {k.reference}", ""]
+        lines += knob_table(k)
+        lines.append("")
+        if k.remarks:
+            lines += [r for r in k.remarks(k) if r]
+        spread = spread_remark(k)
+        if spread:
+            lines.append(spread)
+        if k.remarks or spread:
+            lines.append("")
+        png = figures / f"{k.key}.png"
+        if png.exists():
+            lines += [f"![{k.title}]({figure_prefix}{k.key}.png)", ""]
+    path.write_text("\n".join(lines))
+
+
+def spread_remark(k: Knob) -> str:
+    """How far apart the repeats of one setting are, against how far apart the settings are."""
+    timed = [st for st in k.settings if st.measurement and len(st.measurement.walls_s) > 1]
+    if len(timed) < 2:
+        return ""
+    spreads = [max(st.measurement.walls_s) - min(st.measurement.walls_s) for st in timed]
+    medians = [st.measurement.wall_s for st in timed]
+    worst = max(range(len(timed)), key=lambda i: spreads[i] / medians[i])
+    text = (f"Wall time between repeats of one setting: spread (largest - smallest) {statistics.median(spreads):.2f} s "
+            f"in the median, at most {100 * spreads[worst] / medians[worst]:.0f} % of the median "
+            f"({timed[worst].label}); the settings' medians span {min(medians):.2f} to {max(medians):.2f} s.")
+    ranked = [i for i, st in enumerate(timed) if not st.reference and st.error is not None]
+    if k.rank and len(ranked) > 1 and (max(medians[i] for i in ranked) - min(medians[i] for i in ranked)
+                                       < max(spreads[i] for i in ranked)):
+        text += (" The ranked settings differ in time by less than the largest spread between their repeats "
+                 "(start-up dominates), so the time order on this row's front is within the noise.")
+    return text
+
+
+def _anchor(k: Knob) -> str:
+    return "knob-" + k.key.replace("_", "-")
+
+
+# ---------------------------------------------------------------------------------------
+
+def build_type() -> str:
+    try:
+        m = re.search(r"^CMAKE_BUILD_TYPE:\w+=(.*)$", (ROOT / "build" / "CMakeCache.txt").read_text(), re.M)
+        return m.group(1) or "default flags" if m else "?"
+    except OSError:
+        return "?"
+
+
+KNOBS = ["resolution_fluid", "resolution_fluid_acoustic", "resolution_coupled", "time_ratio",
+         "truncation_range", "coupling_scheme", "precision"]
+
+
+def main(argv: list[str]) -> int:
+    ap = argparse.ArgumentParser(description="error against run time, one row per accuracy knob (DESIGN 6)")
+    ap.add_argument("--short", action="store_true", help="fewer and cheaper settings, 1 repeat (about 2 min)")
+    ap.add_argument("--out", type=Path, default=ROOT / "out" / "error-study", help="output folder")
+    ap.add_argument("--docs", action="store_true", help="also write docs/ with --short")
+    ap.add_argument("--repeats", type=int, help="runs per setting (default 3, 1 with --short)")
+    ap.add_argument("--threads", type=int, default=1, help="OpenMP threads per process (default 1)")
+    ap.add_argument("--only", help="comma-separated knobs (" + ", ".join(KNOBS) + ")")
+    args = ap.parse_args(argv)
+    repeats = args.repeats if args.repeats is not None else (1 if args.short else 3)
+    if repeats < 1 or args.threads < 1:
+        ap.error("--repeats and --threads must be at least 1")
+    only = KNOBS if not args.only else [k.strip() for k in args.only.split(",")]
+    for k in only:
+        if k not in KNOBS:
+            ap.error(f"--only {k}: unknown knob (allowed: {', '.join(KNOBS)})")
+    for exe in (FLUID, SOLID):
+        if not os.access(exe, os.X_OK):
+            print(f"error_study: {exe} missing: build first (launch/build.sh)", file=sys.stderr)
+            return 2
+    out = args.out.resolve()
+    if out.exists():
+        shutil.rmtree(out / "runs", ignore_errors=True)
+        shutil.rmtree(out / "figures", ignore_errors=True)
+    out.mkdir(parents=True, exist_ok=True)
+    plan = Plan(args.short, repeats, args.threads, out)
+    command = "bash launch/error-study.sh" + (" --short" if args.short else "")
+    meta = {"command": command, "date": datetime.datetime.now().astimezone().strftime("%Y-%m-%d %H:%M %Z"),
+            "machine": machine_text(), "load_start": load_text(), "threads": args.threads, "repeats": repeats,
+            "build_type": build_type(), "short": args.short,
+            "out": os.path.relpath(out, ROOT) if out.is_relative_to(ROOT) else str(out)}
+    t0 = time.perf_counter()
+    knobs: list[Knob] = []
+    try:
+        for key in only:
+            print(f"{key}:", flush=True)
+            if key == "resolution_fluid":
+                knobs.append(knob_fluid_resolution(plan))
+            elif key == "resolution_fluid_acoustic":
+                if args.short:
+                    print("  (full study only)", flush=True)
+                    continue
+                knobs.append(knob_fluid_acoustic(plan))
+            elif key == "resolution_coupled":
+                knobs.append(knob_coupled_resolution(plan))
+            elif key == "time_ratio":
+                knobs.append(knob_time_ratio(plan))
+            elif key == "truncation_range":
+                knobs.append(knob_truncation(plan))
+            elif key == "coupling_scheme":
+                knobs.append(knob_scheme(plan, SCHEMES))
+            elif key == "precision":
+                knobs.append(knob_precision())
+            for st in knobs[-1].settings if knobs else []:
+                if st.error is not None:
+                    print(f"    {st.label:<26} error {st.error:.3e}", flush=True)
+    except StudyError as e:
+        print(f"error_study: {e}", file=sys.stderr)
+        return 1
+    except (OSError, KeyError, ValueError) as e:
+        print(f"error_study: {type(e).__name__}: {e}", file=sys.stderr)
+        return 1
+    for k in knobs:
+        if k.rank:
+            pareto(k.settings)
+    meta["load_end"] = load_text()
+    meta["elapsed_s"] = time.perf_counter() - t0
+    figures = out / "figures"
+    for k in knobs:
+        plot_knob(k, figures / f"{k.key}.png")
+    write_tsv(knobs, out / "results.tsv")
+    write_json(knobs, meta, out / "results.json")
+    write_markdown(knobs, meta, out / "error-vs-runtime.md", figures, "figures/")
+    print(f"error_study: {len(knobs)} knobs in {meta['elapsed_s']:.0f} s; tables in {out / 'error-vs-runtime.md'}")
+    if not args.short or args.docs:
+        DOC_FIGURES.mkdir(parents=True, exist_ok=True)
+        for old in DOC_FIGURES.glob("*.png"):
+            old.unlink()
+        for png in figures.glob("*.png"):
+            shutil.copy2(png, DOC_FIGURES / png.name)
+        write_markdown(knobs, meta, DOC, DOC_FIGURES, "figures/error-vs-runtime/")
+        print(f"error_study: wrote {DOC.relative_to(ROOT)} and {DOC_FIGURES.relative_to(ROOT)}/")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
