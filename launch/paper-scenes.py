@@ -9,7 +9,7 @@ Single graphene: angle of attack 0, 30, 45, 60, 90 deg at Re 40, and Re 1, 10, 2
 then 15000 free for a single sheet, 30000 or 60000 for a pair) and as a reduced preset
 (half the resolution, the same physical box and Mach number, the same physical times, except
 that a pair's free phase is cut to the single sheet's 6.7 us: two sheets cost twice the solid
-time, and the paper's 13.4 or 26.8 us would take a quarter of an hour; runs in a few minutes). The sheet: 5 x 40 CGPs of 2e6 carbon atoms, W 1.2 um x H 8.8 um
+time, and the paper's 13.4 or 26.8 us after release are two or four times as many steps). The sheet: 5 x 40 CGPs of 2e6 carbon atoms, W 1.2 um x H 8.8 um
 (CGP spacing 0.24 x 0.22 um, graphene's areal density), clamped on the plate, its base
 (middle of the bottom row) a quarter of the channel downstream of the inlet and mid-span
 (the paper's Fig. 4 shows the layout but gives no coordinates: a choice, see
