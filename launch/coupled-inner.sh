@@ -34,12 +34,12 @@ if [ -n "${COSIM_EXTRA_CMD:-}" ]; then
 fi
 
 "$root/build/fluid/fluid" "$scene" --output "$output" --channel-prefix "$prefix" $quiet \
-  ${COSIM_FLUID_RESTART:+--restart "$COSIM_FLUID_RESTART"} \
+  ${COSIM_FLUID_RESTART:+--restart "$COSIM_FLUID_RESTART"} ${COSIM_TIME_RATIO:+--time-ratio "$COSIM_TIME_RATIO"} \
   >"$output/fluid.log" 2>&1 &
 fluid=$!
 echo $fluid >"$output/fluid.pid"
 ${COSIM_SOLID_CMD:-$root/build/solid/solid} "$scene" --output "$output" --channel-prefix "$prefix" $quiet \
-  ${COSIM_SOLID_RESTART:+--restart "$COSIM_SOLID_RESTART"} \
+  ${COSIM_SOLID_RESTART:+--restart "$COSIM_SOLID_RESTART"} ${COSIM_TIME_RATIO:+--time-ratio "$COSIM_TIME_RATIO"} \
   >"$output/solid.log" 2>&1 &
 solid=$!
 echo $solid >"$output/solid.pid"
