@@ -184,7 +184,10 @@ class CoupledFluid {
           protocol::Trip t;
           t.sentinel = "flow_health";
           t.step = now;
-          t.diagnosis = "watchdog flow_health: unhealthy flow after step " + std::to_string(now) + ": " + problem;
+          // health_problem names the step first ("step N: cell (...): ..."): said once here.
+          const std::string prefix = "step " + std::to_string(now) + ": ";
+          t.diagnosis = "watchdog flow_health at step " + std::to_string(now) + ": unhealthy flow at " +
+                        (problem.rfind(prefix, 0) == 0 ? problem.substr(prefix.size()) : problem);
           return trip(t, nullptr, now, limits);
         }
         if (monitor) {

@@ -77,5 +77,8 @@ for n in fluid solid; do
   s=$(cat "$output/$n.exit")
   if [ "$s" != 0 ]; then echo "run-coupled: $n exited $s: $(grep -v '^\s*$' "$output/$n.log" | tail -1)" >&2; fi
 done
+# The first failure's status, but a 4 (its peer stopped with an error) gives way to the
+# peer's own 1, 2 or 3: the peer that published stop_t may end after the one it told.
+if [ $s_first -eq 4 ] && [ $s_other -ge 1 ] && [ $s_other -le 3 ]; then exit $s_other; fi
 if [ $s_first -ne 0 ]; then exit $s_first; fi
 exit $s_other

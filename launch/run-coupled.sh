@@ -34,7 +34,8 @@
 # prefix. --log records every channel of the run with lcm-logger into OUTPUT/traffic.lcmlog.
 # When one process dies, the other is given COSIM_SURVIVOR_GRACE_S seconds (default 45) to
 # notice and stop by itself (it writes its output and the reason), then it is killed. The
-# exit status is the first failure's; OUTPUT/fluid.exit and OUTPUT/solid.exit hold each
+# exit status is the first failure's (a 4, "the peer stopped with an error", gives way to
+# that peer's own 1, 2 or 3); OUTPUT/fluid.exit and OUTPUT/solid.exit hold each
 # process's own status, OUTPUT/fluid.log and OUTPUT/solid.log their output.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
