@@ -226,6 +226,7 @@ class CoupledFluid {
                   compute_s_ * per, wait_s_ * per, publish_s_ * per,
                   compute_s_ > 0 ? double(s_.params.shape.cells()) * double(s_.steps) / compute_s_ * 1e-6 : 0.0);
     out_ << line;
+    out_ << "fluid: watchdog margins: " << markers_.margins() << "\n";
     return kOk;
   }
 
@@ -652,6 +653,7 @@ class CoupledFluid {
   }
 
   int end(const Ending& e) {
+    if (markers_.has_reference()) out_ << "fluid: watchdog margins: " << markers_.margins() << "\n";
     out_.flush();
     last_reason_ = e.reason;
     return e.code;

@@ -4,9 +4,10 @@
 //                    [--threads N] [--quiet] [--check]
 //
 // Exit status: 0 the run finished; 1 an output or system error; 2 the scene file or the
-// command line is invalid (one line on stderr); 3 the flow became unhealthy (NaN, rho <= 0
-// or Mach above run.mach_limit): one line on stderr naming the step, cell and quantity,
-// and nothing is written for that step.
+// command line is invalid (one line on stderr); 3 the flow became unhealthy (NaN, rho <= 0,
+// rho outside [watchdog] rho_min and rho_max, or Mach above run.mach_limit; checked every
+// run.monitor_every and watchdog.health_every steps): one line on stderr naming the step,
+// cell and quantity, and nothing is written for that step.
 //
 // Initial state: rho = 1 everywhere with u = 0 (run.initial = "rest"), or with the inlet
 // profile of the first inlet face extended through the whole domain (run.initial =

@@ -19,6 +19,7 @@ std::optional<Trip> EnergyWatch::check(std::int64_t step, double energy, double 
   const double w = st_.work + work, w_abs = st_.work_abs + std::abs(work);
   const double unexplained = energy - st_.energy0 - w;
   const double scale = std::max(st_.energy_max, floor_) + w_abs;
+  if (std::isfinite(unexplained / scale)) max_ratio_ = std::max(max_ratio_, unexplained / scale);
   if (!std::isfinite(energy) || !std::isfinite(work) || unexplained > growth_ * scale) {
     Trip t;
     t.sentinel = "energy_growth";

@@ -38,11 +38,14 @@ class EnergyWatch {
     double energy0 = 0.0, work = 0.0, work_abs = 0.0, energy_max = 0.0;
   };
   State state() const { return st_; }
+  /// The largest R / (energy scale) seen so far (how close a healthy run came to `growth`).
+  double max_ratio() const { return max_ratio_; }
   void restore(const State& s) { st_ = s; }
 
  private:
   double growth_, floor_;
   State st_;
+  double max_ratio_ = 0.0;
 };
 
 }  // namespace cosim::protocol

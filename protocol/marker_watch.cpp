@@ -1,5 +1,6 @@
 #include "protocol/marker_watch.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -52,6 +53,7 @@ std::optional<Trip> MarkerWatch::check_positions(std::int64_t step, const std::v
   // cgp_speed: the mean position moved |dX| in one LB step, i.e. at |dX| c.
   for (std::size_t l = 0; l < n; ++l) {
     const double d = distance(x[l], last_[l]);
+    if (d > max_speed_) max_speed_ = d;
     if (!(d <= s_.max_cgp_speed)) {
       Trip t;
       t.sentinel = "cgp_speed";
@@ -73,6 +75,8 @@ std::optional<Trip> MarkerWatch::check_positions(std::int64_t step, const std::v
     if (k < 0) continue;
     const double d = distance(x[l], x[static_cast<std::size_t>(k)]);
     const double ratio = d / distance_[l];
+    min_ratio_ = std::min(min_ratio_, ratio);
+    max_ratio_ = std::max(max_ratio_, ratio);
     if (!(ratio >= s_.spacing_ratio_min && ratio <= s_.spacing_ratio_max)) {
       Trip t;
       t.sentinel = "marker_spacing";
@@ -99,6 +103,11 @@ std::optional<Trip> MarkerWatch::check_samples(std::int64_t step, const std::vec
                               (l < last_.size() ? " at " + at(last_[l]) : std::string());
     const bool finite = std::isfinite(rho[l]) && std::isfinite(u[l][0]) && std::isfinite(u[l][1]) &&
                         std::isfinite(u[l][2]);
+    if (finite) {
+      min_rho_ = std::min(min_rho_, rho[l]);
+      max_rho_ = std::max(max_rho_, rho[l]);
+      max_mach_ = std::max(max_mach_, std::hypot(u[l][0], u[l][1], u[l][2]) * std::sqrt(3.0));
+    }
     if (!finite || !(rho[l] >= s_.rho_min && rho[l] <= s_.rho_max)) {
       Trip t;
       t.sentinel = "marker_density";
@@ -124,6 +133,15 @@ std::optional<Trip> MarkerWatch::check_samples(std::int64_t step, const std::vec
     }
   }
   return std::nullopt;
+}
+
+std::string MarkerWatch::margins() const {
+  return "CGP speed max " + fmt("%.3g", max_speed_) + " c (limit " + fmt("%g", s_.max_cgp_speed) +
+         "), marker spacing ratio [" + fmt("%.4g", min_ratio_) + ", " + fmt("%.4g", max_ratio_) + "] (limits [" +
+         fmt("%g", s_.spacing_ratio_min) + ", " + fmt("%g", s_.spacing_ratio_max) + "]), marker rho [" +
+         fmt("%.5g", min_rho_) + ", " + fmt("%.5g", max_rho_) + "] (limits [" + fmt("%g", s_.rho_min) + ", " +
+         fmt("%g", s_.rho_max) + "]), marker Mach max " + fmt("%.3g", max_mach_) + " (limit " +
+         fmt("%g", mach_limit_) + ")";
 }
 
 MarkerWatch::Reference MarkerWatch::reference() const {

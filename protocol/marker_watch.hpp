@@ -43,6 +43,11 @@ class MarkerWatch {
     std::vector<double> last_positions;  ///< 3 per marker
   };
   bool has_reference() const { return !neighbour_.empty(); }
+
+  /// The extremes the sentinels saw so far (how close a healthy run came to each limit),
+  /// one line: "CGP speed max ... c (limit ...), marker spacing ratio [..., ...] (limits ...),
+  /// marker rho [..., ...] (limits ...), marker Mach max ... (limit ...)".
+  std::string margins() const;
   Reference reference() const;
   /// @throws std::invalid_argument when the sizes do not agree
   void restore(const Reference& r);
@@ -54,6 +59,9 @@ class MarkerWatch {
   std::vector<std::int64_t> neighbour_;
   std::vector<double> distance_;
   std::vector<Vec3> last_;
+  // The extremes seen (margins()).
+  double max_speed_ = 0.0, min_ratio_ = 1.0, max_ratio_ = 1.0;
+  mutable double min_rho_ = 1.0, max_rho_ = 1.0, max_mach_ = 0.0;
 };
 
 }  // namespace cosim::protocol

@@ -976,6 +976,11 @@ class CoupledSolid {
                                 snapshots_->xdmf_path().string()
                           : std::string())
            << "\n";
+      if (energy_watch_ && coupler_)
+        out_ << "solid: watchdog margins: CGP speed max " << fmt("%.3g", coupler_->max_speed_lb())
+             << " c after a substep (limit " << fmt("%g", s_.watchdog.max_cgp_speed)
+             << "), unexplained energy max " << fmt("%.3g", energy_watch_->max_ratio())
+             << " of the energy scale (limit " << fmt("%g", s_.watchdog.energy_growth) << ")\n";
       if (timed_steps_ > 0)
         out_ << "solid: per LB step: compute " << fmt("%.4g", 1e3 * compute_s_ / double(timed_steps_))
              << " ms (substeps, publishing, recording), waiting " << fmt("%.4g", 1e3 * wait_s_ / double(timed_steps_))

@@ -90,6 +90,7 @@ IntervalResult SolidCoupler::advance(const FluidSample& sample, bool rigid) {
       Eigen::Index fastest = 0;
       const double v2 = model_.velocities().colwise().squaredNorm().maxCoeff(&fastest);
       const double speed = b_v * std::sqrt(v2);
+      if (speed > max_speed_lb_) max_speed_lb_ = speed;
       if (!(speed <= speed_limit_lb_)) {
         IntervalResult::Overspeed o;
         o.substep = k + 1;

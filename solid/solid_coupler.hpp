@@ -72,6 +72,8 @@ class SolidCoupler {
   /// The watchdog's limit on a CGP's speed, c (watchdog.max_cgp_speed; a displacement of
   /// speed / A_T dx per substep), checked after every substep; +infinity: none.
   void set_speed_limit(double speed_lb) { speed_limit_lb_ = speed_lb; }
+  /// The largest CGP speed after a substep so far, c (checked only with a speed limit).
+  double max_speed_lb() const { return max_speed_lb_; }
 
   /// The CGP positions in lattice units (what the first SOLID_STATE carries).
   Eigen::Matrix3Xd positions_lb() const;
@@ -85,6 +87,7 @@ class SolidCoupler {
   Eigen::Vector3d origin_;
   Eigen::Matrix3Xd force_au_;
   double speed_limit_lb_ = std::numeric_limits<double>::infinity();
+  double max_speed_lb_ = 0.0;
 };
 
 /// dA_l of every CGP of the config's sheets (its cell, h_w h_h), in dx^2 of `units`.
