@@ -155,7 +155,9 @@ class CoupledFluid {
       solid_seq_.advance();
       // The watchdog on the markers (DESIGN 6): how far each moved, how far apart they are.
       // The fluid at `step` is not touched yet: it is kept, if healthy, as the checkpoint.
+      const Clock::time_point w0 = Clock::now();
       if (const auto t = markers_.check_positions(step, x)) return trip(*t, &solver, step, limits);
+      watch_s_ += std::chrono::duration<double>(Clock::now() - w0).count();
       // Eqs. 21-24 and 25-26: spread J_l at X_l, collide with the forcing, stream.
       ib.spread(solver, x, j);
       solver.step();
@@ -166,19 +168,25 @@ class CoupledFluid {
         ib.sample(solver, x, samples);
         // rho_l over the kernel's weight in the fluid: the density the kernel sees, also at
         // a marker on the wall (half the kernel outside).
+        const Clock::time_point w1 = Clock::now();
         for (std::size_t l = 0; l < n; ++l) {
           const double w = ib.kernel_weight(x[l]);
           sample_rho[l] = w > 0.0 ? samples[l].rho / w : samples[l].rho;
           sample_u[l] = samples[l].u;
         }
         if (const auto t = markers_.check_samples(now, sample_rho, sample_u)) return trip(*t, nullptr, now, limits);
+        watch_s_ += std::chrono::duration<double>(Clock::now() - w1).count();
       }
       // The whole-grid health check: before every write, and every watchdog.health_every steps.
       const bool monitor = now % s_.monitor_every == 0 || last;
       const bool snapshot = snapshots.due(now, last);
       const bool periodic = !last && c_.checkpoint_every > 0 && now % c_.checkpoint_every == 0;
       if (monitor || snapshot || periodic || now % s_.watchdog.health_every == 0) {
+        const Clock::time_point w2 = Clock::now();
         const FlowSummary sum = summarize(solver);
+        // The checks the monitor, a snapshot or a checkpoint would not have made are the
+        // watchdog's cost.
+        if (!(monitor || snapshot || periodic)) watch_s_ += std::chrono::duration<double>(Clock::now() - w2).count();
         const std::string problem = health_problem(sum, limits);
         if (!problem.empty()) {
           protocol::Trip t;
@@ -225,6 +233,12 @@ class CoupledFluid {
                   "%.4g ms (for solid_state_t), publishing %.4g ms; %.1f MLUPS while computing\n",
                   compute_s_ * per, wait_s_ * per, publish_s_ * per,
                   compute_s_ > 0 ? double(s_.params.shape.cells()) * double(s_.steps) / compute_s_ * 1e-6 : 0.0);
+    out_ << line;
+    std::snprintf(line, sizeof line,
+                  "fluid: watchdog: %.4g ms per LB step, %.2g %% of the compute (the markers, the samples "
+                  "and the whole-grid check every %lld steps)\n",
+                  watch_s_ * per, compute_s_ > 0 ? 100.0 * watch_s_ / compute_s_ : 0.0,
+                  static_cast<long long>(s_.watchdog.health_every));
     out_ << line;
     out_ << "fluid: watchdog margins: " << markers_.margins() << "\n";
     return kOk;
@@ -689,6 +703,7 @@ class CoupledFluid {
   std::int64_t fluid_seq_ = 0;
   std::int64_t resends_asked_ = 0, resends_answered_ = 0;
   double compute_s_ = 0.0, wait_s_ = 0.0, publish_s_ = 0.0;  ///< per-step timing (DESIGN 7)
+  double watch_s_ = 0.0;  ///< the watchdog's share of compute_s_
   double bulk_u_ = 0.0;  ///< U_b of the latest health check (Eq. 34), lattice units
   double mass0_ = 0.0;   ///< the fluid's mass at step 0 (for the drift)
   std::vector<FlowSummary> rows_;  ///< monitor.h5's rows so far (for checkpoints)
