@@ -387,6 +387,10 @@ def write_doc(results, doc, figs, command, short, total_wall):
                  'jumps from 0 to 24 eps / sigma where two CGPs come within sigma (solid/lj_contact.hpp), '
                  'a kick proportional to dt_CG; each retry halves dt_CG and the speed at the trip, but '
                  'the speed stays above the limit (the reasons below), and the run ends stopped.')
+    if by.get('flutter_30deg', {}).get('margins'):
+        L.append('- **The paper\'s scene stays far from every limit**: the margins of `flutter_30deg` '
+                 '(the extremes each sentinel saw, printed at the end of the run): ' +
+                 '; '.join('`%s`' % m.split('watchdog margins: ', 1)[1] for m in by['flutter_30deg']['margins']) + '.')
     costs = [(r['name'], r['watchdog_cost']) for r in results if r.get('watchdog_cost')]
     if costs:
         L.append('- **The watchdog\'s cost**, timed by the coordinator in each run that finished (the '
@@ -405,8 +409,6 @@ def write_doc(results, doc, figs, command, short, total_wall):
             L.append('- %s' % t)
         if r['retries']:
             L.append('')
-        if r['tripped'] and r['retries']:
-            L.append('Sentinels tripped, attempt by attempt: %s.\n' % ', '.join(r['tripped']))
         if r.get('reason'):
             L.append('Reason: `%s`\n' % r['reason'].replace('`', "'"))
         for m in r['margins']:
@@ -415,7 +417,11 @@ def write_doc(results, doc, figs, command, short, total_wall):
             L.append('')
         if r['violations']:
             L.append('**Violations**: %s\n' % '; '.join(r['violations']))
-    open(doc, 'w').write('\n'.join(L) + '\n')
+    # Paths inside this checkout, relative to it; the failed attempts' folders are not kept.
+    text = '\n'.join(L) + '\n'
+    text = re.sub(r'; the failed attempt\'s logs are in [^\n`]*', '', text)
+    text = text.replace(ROOT + '/', '')
+    open(doc, 'w').write(text)
 
 
 def main():
@@ -424,6 +430,8 @@ def main():
     ap.add_argument('--output', help='folder for the runs (default out/stability or out/stability_short)')
     ap.add_argument('--doc', help='the report (default docs/stability.md, or OUTPUT/stability.md with --short)')
     ap.add_argument('--cases', help='comma-separated case names (default: all of the version)')
+    ap.add_argument('--report-only', action='store_true',
+                    help='write the report and figures again from OUTPUT/summary.json of the last run, running nothing')
     a = ap.parse_args()
     out = os.path.abspath(a.output or os.path.join(ROOT, 'out', 'stability_short' if a.short else 'stability'))
     doc = os.path.abspath(a.doc or (os.path.join(out, 'stability.md') if a.short else
@@ -439,6 +447,18 @@ def main():
         if not os.access(os.path.join(ROOT, 'build', exe), os.X_OK):
             print('stability-matrix: build/%s is missing: build first (bash launch/build.sh)' % exe, file=sys.stderr)
             return 2
+    command = 'bash launch/stability-matrix.sh' + (' --short' if a.short else '')
+    fig_dir = os.path.join(os.path.dirname(doc), 'figures')
+    prefix = 'stability_short_' if a.short else 'stability_'
+    if a.report_only:
+        summary = os.path.join(out, 'summary.json')
+        if not os.path.isfile(summary):
+            print('stability-matrix: --report-only: %s: no such file (run the matrix first)' % summary, file=sys.stderr)
+            return 2
+        data = json.load(open(summary))
+        write_doc(data['cases'], doc, figures(data['cases'], fig_dir, prefix), command, a.short, data['wall_s'])
+        print('stability-matrix: %s written again from %s' % (doc, summary))
+        return 1 if any(r['violations'] for r in data['cases']) else 0
     os.makedirs(out, exist_ok=True)
     cache = os.path.join(out, 'rcgp_cache')
     limit_s = 600 if a.short else 3600
@@ -458,11 +478,8 @@ def main():
             ('step %s, %s: %s' % (r.get('step'), r.get('cause'), r.get('place'))) if r.get('outcome') == 'stopped' else '',
             ('; VIOLATION: ' + '; '.join(r['violations'])) if r['violations'] else '', wall), flush=True)
     total = time.time() - start
-    json.dump(results, open(os.path.join(out, 'summary.json'), 'w'), indent=1)
-    fig_dir = os.path.join(os.path.dirname(doc), 'figures')
-    figs = figures(results, fig_dir, 'stability_short_' if a.short else 'stability_')
-    command = 'bash launch/stability-matrix.sh' + (' --short' if a.short else '')
-    write_doc(results, doc, figs, command, a.short, total)
+    json.dump({'wall_s': total, 'cases': results}, open(os.path.join(out, 'summary.json'), 'w'), indent=1)
+    write_doc(results, doc, figures(results, fig_dir, prefix), command, a.short, total)
     bad = [r['name'] for r in results if r['violations']]
     print('stability-matrix: %d cases in %.0f s, %d violation(s)%s; %s, %s' % (
         len(results), total, len(bad), (': ' + ', '.join(bad)) if bad else '', doc,

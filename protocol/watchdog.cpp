@@ -7,9 +7,9 @@
 #include "protocol/text.hpp"
 
 // Why the ranges of [watchdog] are what they are:
-//  - health_every >= 1 LB step: the whole-grid pass costs about a third of an LB step (one
-//    read of the populations against the step's read and write), so every 10 steps adds a
-//    few per cent.
+//  - health_every >= 1 LB step: the whole-grid pass reads the populations once, against the
+//    step's read and write; every 10 steps the coordinator's whole watchdog measured under 1 %
+//    of the compute (docs/stability.md).
 //  - 0 < rho_min < 1 < rho_max: rho_0 = 1 must be healthy; rho <= 0 is unphysical.
 //  - max_cgp_speed in (0, 1]: the lattice carries no information faster than c = dx/dt_LB;
 //    a sheet faster than that has left the immersed boundary's reach in one step.
