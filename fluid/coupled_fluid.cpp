@@ -32,9 +32,11 @@
 #include "protocol/handshake.hpp"
 #include "protocol/hello_lcm.hpp"
 #include "protocol/message_checks.hpp"
+#include "protocol/marker_watch.hpp"
 #include "protocol/step_sequencer.hpp"
 #include "protocol/text.hpp"
 #include "protocol/units.hpp"
+#include "protocol/watchdog.hpp"
 
 namespace cosim::fluid {
 
@@ -68,7 +70,8 @@ class CoupledFluid {
         foreign_(o.token, [this](const std::string& line) { out_ << "fluid: " << line << "\n"; }),
         rejections_([this](const std::string& line) { out_ << "fluid: " << line << "\n"; }),
         solid_seq_(0),
-        watch_(ms(c_.peer_timeout_s), ms(c_.resend_after_s)) {
+        watch_(ms(c_.peer_timeout_s), ms(c_.resend_after_s)),
+        markers_(s.watchdog, s.mach_limit, c_.time_ratio) {
     protocol::UnitInputs in;
     in.dx_m = s.dx_um * 1e-6;
     in.time_ratio = c_.time_ratio;
@@ -111,7 +114,7 @@ class CoupledFluid {
     FluidSolver solver(s_.params);
     initialize_flow(solver, s_);
     const ImmersedBoundary ib(solver);
-    const HealthLimits limits{s_.mach_limit};
+    const HealthLimits limits{s_.mach_limit, 0.0, s_.watchdog.rho_min, s_.watchdog.rho_max};
     std::filesystem::create_directories(s_.output_dir);
     const double dt_us = units_.dt_lb_s() * 1e6;
     MonitorLog log((std::filesystem::path(s_.output_dir) / "monitor.h5").string(), dt_us);
@@ -132,11 +135,14 @@ class CoupledFluid {
       rows_.push_back(first);
       if (snapshots.due(0, false)) snapshots.write(solver, false);
     }
+    first_step_ = first_step;
     const double mass0 = mass0_;
 
     const auto n = static_cast<std::size_t>(num_cgps_);
     std::vector<Vec3> x(n), j(n);
     std::vector<MarkerSample> samples(n);
+    std::vector<double> sample_rho(n);
+    std::vector<Vec3> sample_u(n);
     const Clock::time_point start = Clock::now();
     Clock::time_point last_progress = start;
     for (std::int64_t step = first_step; step < s_.steps; ++step) {
@@ -145,6 +151,8 @@ class CoupledFluid {
         // A clean abort (the solid lost or stopped with an error): the state at `step` is
         // whole, so it is kept for a restart (DESIGN 2.4).
         if (e->code == kPeerLost && step > first_step) e->reason += checkpoint(solver, step, e->reason);
+        // The solid's watchdog tripped on a sentinel that a smaller dt_CG may cure.
+        if (peer_code_ == kUnhealthy && protocol::dt_curable(e->reason)) announce_retry(step, c_.time_ratio, 0);
         return end(*e);
       }
       const Clock::time_point t1 = Clock::now();
@@ -158,44 +166,72 @@ class CoupledFluid {
       inbox_.erase(inbox_.begin(), inbox_.upper_bound(step));
       solid_seq_.advance();
       states_refused_ = 0;
+      // The watchdog on the markers (DESIGN 6): how far each moved, how far apart they are.
+      // The fluid at `step` is not touched yet: it is kept, if healthy, as the checkpoint.
+      const Clock::time_point w0 = Clock::now();
+      if (const auto t = markers_.check_positions(step, x)) return trip(*t, &solver, step, limits);
+      watch_s_ += std::chrono::duration<double>(Clock::now() - w0).count();
       // Eqs. 21-24 and 25-26: spread J_l at X_l, collide with the forcing, stream.
       ib.spread(solver, x, j);
       solver.step();
-      const bool last = step + 1 == s_.steps;
-      if ((step + 1) % s_.monitor_every == 0 || last) {
-        const FlowSummary sum = summarize(solver);
-        const std::string problem = health_problem(sum, limits);
-        if (!problem.empty())
-          return stop_and_end({kUnhealthy, "unhealthy flow after step " + std::to_string(step + 1) + ": " + problem}, step + 1);
-        log.append(sum);
-        rows_.push_back(sum);
-        bulk_u_ = sum.momentum[0] / sum.mass;
-        out_ << format_summary(sum, dt_us, mass0) << "\n";
-        out_.flush();
-      }
-      if (snapshots.due(step + 1, last)) {
-        // Only a healthy state is written: check it if the monitor did not just now.
-        if ((step + 1) % s_.monitor_every != 0 && !last) {
-          const std::string problem = health_problem(summarize(solver), limits);
-          if (!problem.empty())
-            return stop_and_end({kUnhealthy, "unhealthy flow after step " + std::to_string(step + 1) + ": " + problem}, step + 1);
-        }
-        snapshots.write(solver, last);
-      }
+      const std::int64_t now = step + 1;
+      const bool last = now == s_.steps;
       if (!last) {
-        ib.sample(solver, x, samples);  // Eq. 17 at X_l
+        // Eq. 17 at X_l, and the watchdog on the samples before anything of `now` is written.
+        ib.sample(solver, x, samples);
+        // rho_l over the kernel's weight in the fluid: the density the kernel sees, also at
+        // a marker on the wall (half the kernel outside).
+        const Clock::time_point w1 = Clock::now();
+        for (std::size_t l = 0; l < n; ++l) {
+          const double w = ib.kernel_weight(x[l]);
+          sample_rho[l] = w > 0.0 ? samples[l].rho / w : samples[l].rho;
+          sample_u[l] = samples[l].u;
+        }
+        if (const auto t = markers_.check_samples(now, sample_rho, sample_u)) return trip(*t, nullptr, now, limits);
+        watch_s_ += std::chrono::duration<double>(Clock::now() - w1).count();
+      }
+      // The whole-grid health check: before every write, and every watchdog.health_every steps.
+      const bool monitor = now % s_.monitor_every == 0 || last;
+      const bool snapshot = snapshots.due(now, last);
+      const bool periodic = !last && c_.checkpoint_every > 0 && now % c_.checkpoint_every == 0;
+      if (monitor || snapshot || periodic || now % s_.watchdog.health_every == 0) {
+        const Clock::time_point w2 = Clock::now();
+        const FlowSummary sum = summarize(solver);
+        // The checks the monitor, a snapshot or a checkpoint would not have made are the
+        // watchdog's cost.
+        if (!(monitor || snapshot || periodic)) watch_s_ += std::chrono::duration<double>(Clock::now() - w2).count();
+        const std::string problem = health_problem(sum, limits);
+        if (!problem.empty()) {
+          protocol::Trip t;
+          t.sentinel = "flow_health";
+          t.step = now;
+          // health_problem names the step first ("step N: cell (...): ..."): said once here.
+          const std::string prefix = "step " + std::to_string(now) + ": ";
+          t.diagnosis = "watchdog flow_health at step " + std::to_string(now) + ": unhealthy flow at " +
+                        (problem.rfind(prefix, 0) == 0 ? problem.substr(prefix.size()) : problem);
+          return trip(t, nullptr, now, limits);
+        }
+        if (monitor) {
+          log.append(sum);
+          rows_.push_back(sum);
+          bulk_u_ = sum.momentum[0] / sum.mass;
+          out_ << format_summary(sum, dt_us, mass0) << "\n";
+          out_.flush();
+        }
+      }
+      if (snapshot) snapshots.write(solver, last);
+      if (!last) {
         const Clock::time_point t2 = Clock::now();
         compute_s_ += std::chrono::duration<double>(t2 - t1).count();
-        publish_fluid_state(step + 1, samples);
+        publish_fluid_state(now, samples);
         publish_s_ += std::chrono::duration<double>(Clock::now() - t2).count();
-        if (c_.checkpoint_every > 0 && (step + 1) % c_.checkpoint_every == 0)
-          checkpoint(solver, step + 1, "");
+        if (periodic) checkpoint(solver, now, "");
       } else {
         compute_s_ += std::chrono::duration<double>(Clock::now() - t1).count();
       }
       if (!o_.quiet && Clock::now() - last_progress > std::chrono::seconds(2)) {
         last_progress = Clock::now();
-        std::fprintf(stderr, "fluid: step %lld/%lld\n", static_cast<long long>(step + 1),
+        std::fprintf(stderr, "fluid: step %lld/%lld\n", static_cast<long long>(now),
                      static_cast<long long>(s_.steps));
       }
     }
@@ -211,11 +247,53 @@ class CoupledFluid {
                   compute_s_ * per, wait_s_ * per, publish_s_ * per,
                   compute_s_ > 0 ? double(s_.params.shape.cells()) * double(s_.steps) / compute_s_ * 1e-6 : 0.0);
     out_ << line;
+    std::snprintf(line, sizeof line,
+                  "fluid: watchdog: %.4g ms per LB step, %.2g %% of the compute (the markers, the samples "
+                  "and the whole-grid check every %lld steps)\n",
+                  watch_s_ * per, compute_s_ > 0 ? 100.0 * watch_s_ / compute_s_ : 0.0,
+                  static_cast<long long>(s_.watchdog.health_every));
+    out_ << line;
+    out_ << "fluid: watchdog margins: " << markers_.margins() << "\n";
     return kOk;
   }
 
  private:
   std::string url() const { return o_.lcm_url.empty() ? c_.lcm_url : o_.lcm_url; }
+
+  // ---- the stability watchdog (DESIGN 6; protocol/watchdog.hpp) ----
+
+  /// A tripped sentinel: the diagnosis, a checkpoint of the fluid at `step` when `solver`
+  /// is given and that state is healthy (else the latest periodic one stands), the retry
+  /// advice for the launcher, and stop_t(3) to the solid. Nothing of the tripped state is
+  /// written.
+  int trip(const protocol::Trip& t, const FluidSolver* solver, std::int64_t step, const HealthLimits& limits) {
+    std::string reason = t.diagnosis;
+    if (solver != nullptr && step >= 1 && step > first_step_) {
+      const std::string problem = health_problem(summarize(*solver), limits);
+      if (problem.empty()) reason += checkpoint(*solver, step, t.diagnosis);
+      else reason += "; no checkpoint of step " + std::to_string(step) + ": " + problem;
+    }
+    if (t.dt_cure) announce_retry(step, c_.time_ratio, 0);
+    return stop_and_end({kUnhealthy, reason}, step);
+  }
+
+  /// The line the launcher reads to run again with a larger A_T ([watchdog] retry): the new
+  /// A_T (`to`, or `from` times retry_factor), the step before which its checkpoint must be,
+  /// and the number of retries allowed.
+  void announce_retry(std::int64_t before, int from, int to) {
+    const protocol::WatchdogSettings& w = s_.watchdog;
+    if (!w.retry) return;
+    const long long next = to > 0 ? to : static_cast<long long>(from) * w.retry_factor;
+    if (next > 1000000) {
+      out_ << "fluid: watchdog: no retry: A_T = " << next << " would exceed 1000000\n";
+      return;
+    }
+    out_ << "fluid: watchdog retry: time_ratio = " << next << " ("
+         << (to > 0 ? "the smallest stable A_T" : "A_T " + std::to_string(from) + " x " + std::to_string(w.retry_factor))
+         << "), from the newest checkpoint before step " << before << ", at most " << w.retry_max
+         << " retries ([watchdog] retry)\n";
+    out_.flush();
+  }
 
   protocol::Hello fluid_hello() const {
     protocol::Hello h;
@@ -253,6 +331,13 @@ class CoupledFluid {
       w.attr("num_cgps", static_cast<std::int64_t>(num_cgps_));
       w.attr("bulk_velocity_lb", bulk_u_);
       w.attr("mass0", mass0_);
+      w.attr("time_ratio", static_cast<std::int64_t>(c_.time_ratio));
+      if (markers_.has_reference()) {
+        const protocol::MarkerWatch::Reference ref = markers_.reference();
+        w.put("watchdog_neighbour", ref.neighbour);
+        w.put("watchdog_distance", ref.distance);
+        w.put("watchdog_last_positions", ref.last_positions);
+      }
       w.text("scene_hash", protocol::scene_hash_of_file(s_.path));
       w.text("reason", reason.empty() ? "every coupling.checkpoint_every steps" : reason);
       const PopulationField& f = solver.state();
@@ -290,6 +375,19 @@ class CoupledFluid {
     fluid_seq_ = r.int64_attr("fluid_seq");
     bulk_u_ = r.double_attr("bulk_velocity_lb");
     mass0_ = r.double_attr("mass0");
+    // The in-flight solid_state_t(step) was computed with the checkpoint's A_T; a retry may
+    // run another (the fluid's state does not depend on it).
+    restart_ratio_ = r.has("time_ratio") ? static_cast<int>(r.int64_attr("time_ratio")) : c_.time_ratio;
+    if (r.has("watchdog_neighbour")) {
+      protocol::MarkerWatch::Reference ref;
+      ref.neighbour = r.int64s("watchdog_neighbour");
+      ref.distance = r.doubles("watchdog_distance");
+      ref.last_positions = r.doubles("watchdog_last_positions");
+      if (std::ssize(ref.neighbour) != num_cgps_)
+        throw std::runtime_error("watchdog_neighbour has " + std::to_string(ref.neighbour.size()) +
+                                 " markers, the solid announced " + std::to_string(num_cgps_));
+      markers_.restore(ref);
+    }
     rows_ = get_rows(r);
     for (const FlowSummary& row : rows_) log.append(row);
     snapshots.adopt_up_to(step);
@@ -385,14 +483,39 @@ class CoupledFluid {
       net_.publish(ch_.welcome, *welcome_);
       if (!r.accepted) std::this_thread::sleep_for(std::chrono::milliseconds(20));
     }
-    if (!r.accepted) return Ending{kBadInput, r.reason};
+    if (!r.accepted) {
+      if (r.stable_time_ratio > 0) announce_retry(0, c_.time_ratio, r.stable_time_ratio);
+      return Ending{kBadInput, r.reason};
+    }
     num_cgps_ = solid_hello_->num_cgps;
     time_ratio_ = r.time_ratio;
     out_ << "fluid: handshake accepted: solid model " << solid_hello_->model << ", "
          << num_cgps_ << " CGPs, A_T = " << r.time_ratio << ", " << s_.steps
          << " LB steps (" << c_.rigid_steps << " rigid)" << std::endl;
+    added_mass_check(r.time_ratio);
     watch_.heard(Clock::now());
     return std::nullopt;
+  }
+
+  /// The added-mass check at start-up (protocol/watchdog.hpp): one line with the lightest
+  /// CGP's numbers, a warning when the substeps cannot resolve the fluid's reaction on it.
+  void added_mass_check(int time_ratio) {
+    const double m = solid_hello_->light_cgp_mass_kg, a = solid_hello_->light_cgp_area_m2;
+    if (!(m > 0.0 && a > 0.0)) {
+      out_ << "fluid: added mass: the solid does not report its CGPs' mass (no check)\n";
+      return;
+    }
+    const protocol::AddedMass am =
+        protocol::added_mass(m, a, units_.air_density_kg_m3(), units_.dx_m(), time_ratio);
+    const std::string warning = protocol::added_mass_warning(am, s_.watchdog.relaxation_substeps_min, time_ratio);
+    if (!warning.empty())
+      out_ << "fluid: " << warning << "\n";
+    else
+      out_ << "fluid: added mass: the lightest CGP has m / (rho_air dA dx) = " << protocol::fmt("%.4g", am.mass_ratio)
+           << "; the fluid's reaction relaxes it in " << protocol::fmt("%.4g", am.relaxation_substeps)
+           << " substeps (watchdog.relaxation_substeps_min = " << protocol::fmt("%g", s_.watchdog.relaxation_substeps_min)
+           << ")\n";
+    out_.flush();
   }
 
   std::optional<Ending> wait_for_solid_state(std::int64_t step) {
@@ -438,7 +561,9 @@ class CoupledFluid {
       return bad(kBadInput, "num_cgps = " + std::to_string(m.num_cgps) + ", expected " +
                                 std::to_string(num_cgps_));
     const std::int64_t dynamic_from = std::max<std::int64_t>(c_.rigid_steps, 1);
-    const int substeps = step < dynamic_from ? 0 : c_.time_ratio;
+    // The first message of a restart was computed with the checkpoint's A_T.
+    const int ratio = step == first_step_ && first_step_ > 0 ? restart_ratio_ : c_.time_ratio;
+    const int substeps = step < dynamic_from ? 0 : ratio;
     if (m.substeps != substeps)
       return bad(kBadInput, "substeps = " + std::to_string(m.substeps) + ", expected " +
                                 std::to_string(substeps));
@@ -620,6 +745,7 @@ class CoupledFluid {
       return;
     }
     if (stop_) return;
+    peer_code_ = m.exit_code;
     stop_ = Ending{m.exit_code == 0 ? kOk : kPeerLost,
                    "the solid stopped at step " + std::to_string(m.step) + " with exit code " +
                        std::to_string(m.exit_code) + ": " + protocol::one_line(m.reason)};
@@ -650,6 +776,7 @@ class CoupledFluid {
     // A run that stops after the handshake still reports what it received and refused.
     if (e.code != kOk && welcome_ && welcome_->accepted)
       out_ << "fluid: coupled run stopped; " << counters() << "\n";
+    if (markers_.has_reference()) out_ << "fluid: watchdog margins: " << markers_.margins() << "\n";
     out_.flush();
     last_reason_ = e.reason;
     return e.code;
@@ -673,6 +800,7 @@ class CoupledFluid {
   std::map<std::string, std::int64_t> undecodable_;
   protocol::StepSequencer solid_seq_;
   protocol::PeerWatch watch_;
+  protocol::MarkerWatch markers_;  ///< the watchdog's per-step sentinels (DESIGN 6)
   protocol::UnitConverter units_;
   std::optional<cosimlcm::hello_t> solid_hello_;
   std::optional<cosimlcm::welcome_t> welcome_;
@@ -686,9 +814,13 @@ class CoupledFluid {
   std::map<std::int64_t, cosimlcm::solid_state_t> inbox_;
   std::deque<cosimlcm::fluid_state_t> sent_;
   std::int32_t num_cgps_ = 0;
+  std::int64_t first_step_ = 0;  ///< 0, or the step of --restart
+  int restart_ratio_ = 0;        ///< the A_T of the --restart checkpoint
+  int peer_code_ = 0;            ///< the exit code of the solid's stop_t
   std::int64_t fluid_seq_ = 0;
   std::int64_t resends_asked_ = 0, resends_answered_ = 0;
   double compute_s_ = 0.0, wait_s_ = 0.0, publish_s_ = 0.0;  ///< per-step timing (DESIGN 7)
+  double watch_s_ = 0.0;  ///< the watchdog's share of compute_s_
   double bulk_u_ = 0.0;  ///< U_b of the latest health check (Eq. 34), lattice units
   double mass0_ = 0.0;   ///< the fluid's mass at step 0 (for the drift)
   std::vector<FlowSummary> rows_;  ///< monitor.h5's rows so far (for checkpoints)

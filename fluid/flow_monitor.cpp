@@ -209,6 +209,14 @@ std::string health_problem(const FlowSummary& s, const HealthLimits& limits) {
     std::snprintf(buf, sizeof buf, "rho = %.4g <= %g", s.rho_min, limits.rho_floor);
     return cell_prefix(s, s.rho_min_cell) + buf;
   }
+  if (s.rho_min_cell.x >= 0 && s.rho_min < limits.rho_min) {
+    std::snprintf(buf, sizeof buf, "rho = %.4g below watchdog.rho_min = %g", s.rho_min, limits.rho_min);
+    return cell_prefix(s, s.rho_min_cell) + buf;
+  }
+  if (s.rho_max_cell.x >= 0 && s.rho_max > limits.rho_max) {
+    std::snprintf(buf, sizeof buf, "rho = %.4g above watchdog.rho_max = %g", s.rho_max, limits.rho_max);
+    return cell_prefix(s, s.rho_max_cell) + buf;
+  }
   if (s.max_mach_cell.x >= 0 && s.max_mach > limits.mach_limit) {
     std::snprintf(buf, sizeof buf, "Mach %.3g above the limit %g", s.max_mach, limits.mach_limit);
     return cell_prefix(s, s.max_mach_cell) + buf;

@@ -3,6 +3,7 @@
 
 #include <array>
 #include <cstdint>
+#include <limits>
 #include <string>
 
 #include "fluid/fluid_solver.hpp"
@@ -40,11 +41,17 @@ FlowSummary summarize(const FluidSolver& solver);
 struct HealthLimits {
   double mach_limit = 0.3;  ///< BGK loses accuracy and stability as Mach approaches 1
   double rho_floor = 0.0;   ///< rho <= rho_floor is unphysical
+  /// The watchdog's density bounds ([watchdog] rho_min, rho_max; protocol/watchdog.hpp):
+  /// rho below rho_min or above rho_max is unhealthy. The defaults check nothing.
+  double rho_min = 0.0;
+  double rho_max = std::numeric_limits<double>::infinity();
 };
 
 /// Empty if healthy, else one line naming the step, the cell and the quantity, checked in
 /// this order: a non-finite value ("step 1200: cell (14, 3, 7): u_x is NaN"), the density
-/// floor ("... rho = -0.02 <= 0"), the Mach limit ("... Mach 0.41 above the limit 0.3").
+/// floor ("... rho = -0.02 <= 0"), the density bounds ("... rho = 0.42 below
+/// watchdog.rho_min = 0.5", "... above watchdog.rho_max = 1.5"), the Mach limit ("... Mach
+/// 0.41 above the limit 0.3").
 std::string health_problem(const FlowSummary& s, const HealthLimits& limits);
 
 }  // namespace cosim::fluid

@@ -118,6 +118,15 @@ class ImmersedBoundary {
     return sum;
   }
 
+  /// sum_x D(x - X) over the fluid nodes the kernel reaches: 1 in the bulk, less where the
+  /// kernel crosses a wall, so that rho_l / weight is the mean density the kernel sees
+  /// (rho_l of sample() is Eq. 17's partial sum there).
+  double kernel_weight(const Vec3& X) const {
+    double w = 0.0;
+    for_each_node(X, [&](int, int, int, double D) { w += D; });
+    return w;
+  }
+
   /// Eq. 21: the impulse J of one marker onto the nodes, sink(x, y, z, D J).
   template <class Sink>
   void spread(const Vec3& X, const Vec3& J, Sink&& sink) const {

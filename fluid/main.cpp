@@ -4,9 +4,10 @@
 //                    [--threads N] [--quiet] [--check]
 //
 // Exit status: 0 the run finished; 1 an output or system error; 2 the scene file or the
-// command line is invalid (one line on stderr); 3 the flow became unhealthy (NaN, rho <= 0
-// or Mach above run.mach_limit): one line on stderr naming the step, cell and quantity,
-// and nothing is written for that step.
+// command line is invalid (one line on stderr); 3 the flow became unhealthy (NaN, rho <= 0,
+// rho outside [watchdog] rho_min and rho_max, or Mach above run.mach_limit; checked every
+// run.monitor_every and watchdog.health_every steps): one line on stderr naming the step,
+// cell and quantity, and nothing is written for that step.
 //
 // Initial state: rho = 1 everywhere with u = 0 (run.initial = "rest"), or with the inlet
 // profile of the first inlet face extended through the whole domain (run.initial =
@@ -170,7 +171,7 @@ int run(const FluidScene& s, bool quiet) {
   FluidSolver solver(s.params);
   initialize_flow(solver, s);
 
-  const HealthLimits limits{s.mach_limit};
+  const HealthLimits limits{s.mach_limit, 0.0, s.watchdog.rho_min, s.watchdog.rho_max};
   Progress progress(!quiet, s.steps, dt_us, s.params.shape.cells());
   // Health before every write: an unhealthy state is diagnosed and nothing is written.
   const auto healthy_summary = [&]() -> std::optional<FlowSummary> {
@@ -201,7 +202,8 @@ int run(const FluidScene& s, bool quiet) {
     const bool last = step == s.steps;
     const bool monitor = step % s.monitor_every == 0 || last;
     const bool snapshot = snapshots.due(step, last);
-    if (monitor || snapshot) {
+    const bool health = step % s.watchdog.health_every == 0;  // the watchdog's cadence
+    if (monitor || snapshot || health) {
       const std::optional<FlowSummary> sum = healthy_summary();
       if (!sum) return kExitUnhealthy;
       if (monitor) {
@@ -230,7 +232,7 @@ int main_impl(int argc, char** argv) {
       "3 unhealthy flow (NaN, rho <= 0, Mach above run.mach_limit).",
       "fluid"};
   std::string scene_path;
-  std::int64_t steps = 0, monitor_every = 0, fields_every = 0;
+  std::int64_t steps = 0, monitor_every = 0, fields_every = 0, time_ratio = 0;
   int threads = 0;
   std::string output;
   bool quiet = false, check = false;
@@ -253,6 +255,10 @@ int main_impl(int argc, char** argv) {
   app.add_option("--channel-prefix", channel_prefix,
                  "coupled scenes: LCM channel prefix (overrides coupling.channel_prefix)");
   app.add_option("--lcm-url", lcm_url, "coupled scenes: LCM URL (overrides coupling.lcm_url)");
+  CLI::Option* o_time_ratio = app.add_option(
+      "--time-ratio", time_ratio,
+      "coupled scenes: A_T, substeps per LB step (overrides coupling.time_ratio; the "
+      "launcher's watchdog retry)");
   std::string restart;
   app.add_option("--restart", restart,
                  "coupled scenes: continue from this checkpoint (OUTPUT/checkpoints/fluid_N.h5); "
@@ -281,6 +287,7 @@ int main_impl(int argc, char** argv) {
     if (o_fields->count()) ov.fields_every = fields_every;
     if (o_threads->count()) ov.threads = threads;
     if (o_output->count()) ov.output_dir = output;
+    if (o_time_ratio->count()) ov.time_ratio = time_ratio;
     apply_overrides(scene, ov);
   } catch (const SceneError& e) {
     std::fprintf(stderr, "%s\n", e.what());

@@ -19,6 +19,7 @@
 
 #include "fluid/d3q19.hpp"
 #include "fluid/grid_layout.hpp"
+#include "protocol/watchdog.hpp"
 
 // Why the limits of SceneLimits are what they are:
 //  - tau > 1/2: nu = (tau - 1/2)/3 (Eq. 13) must be positive; at or below 1/2 BGK has zero
@@ -59,6 +60,12 @@ struct Section {
   std::vector<const char*> keys;
 };
 
+std::vector<const char*> watchdog_key_names() {
+  std::vector<const char*> names;
+  for (const auto& [name, type] : protocol::watchdog_keys()) names.push_back(name);
+  return names;
+}
+
 const std::vector<Section>& schema() {
   static const std::vector<Section> s = {
       {"scene", {"name", "description"}},
@@ -75,6 +82,8 @@ const std::vector<Section>& schema() {
        {"time_ratio", "rigid_steps", "handshake_timeout_s", "peer_timeout_s", "resend_after_s",
         "checkpoint_every",
         "lcm_url", "channel_prefix"}},
+      // The stability watchdog (protocol/watchdog.hpp): the same table in both servers.
+      {"watchdog", watchdog_key_names()},
   };
   return s;
 }
@@ -448,6 +457,31 @@ void load_coupling(const Reader& r, FluidScene& s) {
   s.coupling = c;
 }
 
+/// [watchdog] (protocol/watchdog.hpp): every key through the table both servers share.
+void load_watchdog(const Reader& r, FluidScene& s) {
+  const toml::table* sec = r.section("watchdog");
+  if (!sec) return;
+  for (const auto& [key, type] : protocol::watchdog_keys()) {
+    const toml::node* n = r.node("watchdog", key);
+    if (!n) continue;
+    const std::string dotted = Reader::dotted("watchdog", key);
+    double v = 0.0;
+    if (type == protocol::WatchdogKeyType::Boolean) {
+      const auto* b = n->as_boolean();
+      if (!b) r.bad(*n, dotted, std::string("must be true or false, not ") + type_name(*n));
+      v = b->get() ? 1.0 : 0.0;
+    } else if (type == protocol::WatchdogKeyType::Integer) {
+      v = double(*r.integer("watchdog", key));
+    } else {
+      v = *r.number("watchdog", key);
+    }
+    const std::string why = protocol::set_watchdog_value(s.watchdog, key, v);
+    if (!why.empty()) r.bad(*n, dotted, why);
+  }
+  const std::string why = protocol::watchdog_consistency_problem(s.watchdog);
+  if (!why.empty()) r.fail(r.section_line("watchdog"), why);
+}
+
 void load_run(const Reader& r, FluidScene& s) {
   if (!r.section("run")) r.missing("[run]", "the section with steps is required");
   if (const auto m = r.number("run", "mach_limit")) {
@@ -761,6 +795,7 @@ FluidScene load_scene(const std::string& path) {
   load_fluid(r, s);
   load_output_and_initial(r, s);
   load_coupling(r, s);
+  load_watchdog(r, s);
 
   // What the solver itself would refuse; the checks above should have caught all of it.
   const std::string err = BoundaryConditions::check(s.params.faces);
@@ -796,6 +831,15 @@ void apply_overrides(FluidScene& s, const SceneOverrides& o) {
   if (o.output_dir) {
     if (o.output_dir->empty()) fail("--output", "\"\"", "must not be empty");
     s.output_dir = *o.output_dir;
+  }
+  if (o.time_ratio) {
+    if (!s.coupling)
+      fail("--time-ratio", std::to_string(*o.time_ratio),
+           "only for a coupled scene (one with a [coupling] section)");
+    if (*o.time_ratio < 1 || *o.time_ratio > 1000000)
+      fail("--time-ratio", std::to_string(*o.time_ratio),
+           "must be an integer from 1 to 1000000 (A_T = dt_LB / dt_CG)");
+    s.coupling->time_ratio = int(*o.time_ratio);
   }
 }
 

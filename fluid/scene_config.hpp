@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "fluid/fluid_solver.hpp"
+#include "protocol/watchdog.hpp"
 
 namespace cosim::fluid {
 
@@ -83,6 +84,9 @@ struct FluidScene {
   int threads = 0;  ///< 0: OpenMP's default (OMP_NUM_THREADS or all cores)
   /// Present in a coupled scene: the fluid then runs with a solid process over LCM.
   std::optional<CouplingSettings> coupling;
+  /// [watchdog] (protocol/watchdog.hpp; defaults when absent): a fluid-only run uses
+  /// health_every and the density bounds, a coupled run every sentinel.
+  protocol::WatchdogSettings watchdog;
 };
 
 /// Reads and validates a scene file. Unknown keys or sections, wrong types, values out of
@@ -94,6 +98,8 @@ FluidScene load_scene(const std::string& path);
 /// same rules as in the file and reported as "command line: --steps = 0: ...".
 struct SceneOverrides {
   std::optional<std::int64_t> steps, monitor_every, fields_every;
+  /// [coupling] time_ratio of a coupled scene (the launcher's retry with a larger A_T).
+  std::optional<std::int64_t> time_ratio;
   std::optional<std::string> output_dir;
   std::optional<int> threads;
 };

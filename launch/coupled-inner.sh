@@ -34,12 +34,12 @@ if [ -n "${COSIM_EXTRA_CMD:-}" ]; then
 fi
 
 "$root/build/fluid/fluid" "$scene" --output "$output" --channel-prefix "$prefix" $quiet \
-  ${COSIM_FLUID_RESTART:+--restart "$COSIM_FLUID_RESTART"} \
+  ${COSIM_FLUID_RESTART:+--restart "$COSIM_FLUID_RESTART"} ${COSIM_TIME_RATIO:+--time-ratio "$COSIM_TIME_RATIO"} \
   >"$output/fluid.log" 2>&1 &
 fluid=$!
 echo $fluid >"$output/fluid.pid"
 ${COSIM_SOLID_CMD:-$root/build/solid/solid} "$scene" --output "$output" --channel-prefix "$prefix" $quiet \
-  ${COSIM_SOLID_RESTART:+--restart "$COSIM_SOLID_RESTART"} \
+  ${COSIM_SOLID_RESTART:+--restart "$COSIM_SOLID_RESTART"} ${COSIM_TIME_RATIO:+--time-ratio "$COSIM_TIME_RATIO"} \
   >"$output/solid.log" 2>&1 &
 solid=$!
 echo $solid >"$output/solid.pid"
@@ -77,5 +77,8 @@ for n in fluid solid; do
   s=$(cat "$output/$n.exit")
   if [ "$s" != 0 ]; then echo "run-coupled: $n exited $s: $(grep -v '^\s*$' "$output/$n.log" | tail -1)" >&2; fi
 done
+# The first failure's status, but a 4 (its peer stopped with an error) gives way to the
+# peer's own 1, 2 or 3: the peer that published stop_t may end after the one it told.
+if [ $s_first -eq 4 ] && [ $s_other -ge 1 ] && [ $s_other -le 3 ]; then exit $s_other; fi
 if [ $s_first -ne 0 ]; then exit $s_first; fi
 exit $s_other

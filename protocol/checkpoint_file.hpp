@@ -151,6 +151,12 @@ class CheckpointReader {
     read_attr(name, H5T_NATIVE_DOUBLE, &v);
     return v;
   }
+  /// Whether the file holds an attribute or an array of this name (a key that older
+  /// checkpoints lack).
+  bool has(const std::string& name) const {
+    const H5Quiet quiet;
+    return H5Aexists(file_.get(), name.c_str()) > 0 || H5Lexists(file_.get(), name.c_str(), H5P_DEFAULT) > 0;
+  }
 
  private:
   std::size_t length(const std::string& name) const {

@@ -42,7 +42,7 @@ std::string hex16(std::uint64_t v) {
   return s;
 }
 
-HandshakeResult refuse(const std::string& why) { return {false, "handshake refused: " + why, 0}; }
+HandshakeResult refuse(const std::string& why) { return {false, "handshake refused: " + why, 0, 0}; }
 
 constexpr std::uint64_t kFnvOffsetBasis = 0xcbf29ce484222325ULL;
 constexpr std::uint64_t kFnvPrime = 0x100000001b3ULL;
@@ -152,10 +152,12 @@ HandshakeResult check_handshake(const Hello& fluid, const Hello& solid,
   // 9. Stability of the solid's integrator.
   if (solid.dt_cg_s > solid.stable_dt_cg_s) {
     const double stable_ratio = std::ceil(dt_lb / solid.stable_dt_cg_s);
-    return refuse("dt_CG = " + num(solid.dt_cg_s) + " s (A_T = " + std::to_string(a_t) +
+    HandshakeResult r = refuse("dt_CG = " + num(solid.dt_cg_s) + " s (A_T = " + std::to_string(a_t) +
                   ") is above the solid's stable step " + num(solid.stable_dt_cg_s) +
                   " s; the largest stable A_T-compatible dt_CG is dt_LB / ceil(dt_LB / stable) = " +
                   num(dt_lb / stable_ratio) + " s (A_T = " + num(stable_ratio) + ")");
+    if (stable_ratio < static_cast<double>(INT_MAX)) r.stable_time_ratio = static_cast<int>(stable_ratio);
+    return r;
   }
 
   // 10. Something to couple.
@@ -163,7 +165,13 @@ HandshakeResult check_handshake(const Hello& fluid, const Hello& solid,
     return refuse("the solid announced num_cgps = " + std::to_string(solid.num_cgps) +
                   "; a coupled run needs at least one CGP");
 
-  return {true, "", a_t};
+  // 11. The added-mass fields: both reported or neither.
+  const double m = solid.light_cgp_mass_kg, a = solid.light_cgp_area_m2;
+  if (!(std::isfinite(m) && std::isfinite(a) && ((m == 0.0 && a == 0.0) || (m > 0.0 && a > 0.0))))
+    return refuse("the solid announced light_cgp_mass_kg = " + num(m) + " and light_cgp_area_m2 = " +
+                  num(a) + "; both must be positive finite numbers, or both 0 (not reported)");
+
+  return {true, "", a_t, 0};
 }
 
 std::uint64_t fnv1a_64(std::string_view bytes) {

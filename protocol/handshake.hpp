@@ -29,6 +29,10 @@ struct Hello {
   double dt_cg_s = 0.0;              ///< the solid's substep
   double stable_dt_cg_s = 0.0;       ///< the solid model's stable substep (2 / omega_max)
   int num_cgps = 0;                  ///< CGPs (markers) the solid will exchange
+  /// The CGP with the smallest mass per area: its mass and surface element dA (Eq. 19), for
+  /// the added-mass check (protocol/watchdog.hpp); 0 and 0: not reported.
+  double light_cgp_mass_kg = 0.0;
+  double light_cgp_area_m2 = 0.0;
 };
 
 /// The coordinator's verdict.
@@ -36,6 +40,9 @@ struct HandshakeResult {
   bool accepted = false;
   std::string reason;  ///< empty when accepted; otherwise one line naming the mismatch
   int time_ratio = 0;  ///< A_T = dt_LB / dt_CG when accepted, 0 otherwise
+  /// Refused for a dt_CG above the solid's stable step (check 9): the smallest stable A_T,
+  /// ceil(dt_LB / stable); 0 otherwise.
+  int stable_time_ratio = 0;
 };
 
 /// Relative tolerance for the unit fields, and for A_T being a whole number.
@@ -59,7 +66,8 @@ inline constexpr double kTimeRatioRelTolerance = 1e-9;
 ///  8. `solid.time_ratio == A_T`;
 ///  9. `solid.dt_cg_s <= solid.stable_dt_cg_s`; the refusal gives the largest stable
 ///     A_T-compatible dt_CG, dt_LB / ceil(dt_LB / stable), and its A_T;
-/// 10. `solid.num_cgps >= 1`.
+/// 10. `solid.num_cgps >= 1`;
+/// 11. `light_cgp_mass_kg` and `light_cgp_area_m2` finite, both 0 (not reported) or both > 0.
 ///
 /// @pre  none: any field values are allowed (bad ones are refused, never thrown).
 /// @post `accepted` == reason.empty(); if accepted, `time_ratio` = A_T >= 1, else 0.

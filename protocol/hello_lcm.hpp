@@ -23,6 +23,8 @@ inline Hello from_lcm(const cosimlcm::hello_t& m) {
   h.dt_cg_s = m.dt_cg_s;
   h.stable_dt_cg_s = m.stable_dt_cg_s;
   h.num_cgps = m.num_cgps;
+  h.light_cgp_mass_kg = m.light_cgp_mass_kg;
+  h.light_cgp_area_m2 = m.light_cgp_area_m2;
   return h;
 }
 
@@ -41,6 +43,8 @@ inline cosimlcm::hello_t to_lcm(const Hello& h) {
   m.dt_cg_s = h.dt_cg_s;
   m.stable_dt_cg_s = h.stable_dt_cg_s;
   m.num_cgps = h.num_cgps;
+  m.light_cgp_mass_kg = h.light_cgp_mass_kg;
+  m.light_cgp_area_m2 = h.light_cgp_area_m2;
   return m;
 }
 

@@ -18,6 +18,7 @@
 #include <string>
 #include <system_error>
 #include <thread>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -32,6 +33,7 @@
 #include "cosimlcm/welcome_t.hpp"
 #include "protocol/channels.hpp"
 #include "protocol/checkpoint_file.hpp"
+#include "protocol/energy_watch.hpp"
 #include "protocol/handshake.hpp"
 #include "protocol/hdf5_handle.hpp"
 #include "protocol/hdf5_quiet.hpp"
@@ -151,6 +153,7 @@ class CoupledSolid {
       // Step 0: the initial positions, zero impulses (section 5).
       publish_state(0, 0, coupler_->positions_lb(), Eigen::Matrix3Xd::Zero(3, n_));
       record(0, nullptr);
+      energy_watch_->check(0, sheet_energy_J(), 0.0);  // the reference E(0)
       if (const auto e = snapshot(0)) return finish(*e);
     }
     first_step_ = last_step_;
@@ -205,7 +208,34 @@ class CoupledSolid {
                         " CGPs; a coupled run exchanges 1 to 2^31 - 1 markers (int32 num_cgps)"};
     coupler_ = std::make_unique<SolidCoupler>(*model_, units_, marker_areas_lb(s_.config.sheets, units_),
                                               kOriginLb);
+    // The watchdog (DESIGN 6; protocol/watchdog.hpp): a CGP's speed after every substep, the
+    // energy after every interval. The energy floor: the sheets at 1e-6 c.
+    coupler_->set_speed_limit(s_.watchdog.max_cgp_speed);
+    const double mass_kg = model_->masses().sum() * PhysicalConstants::electron_mass_kg;
+    const double c = units_.dx_m() / units_.dt_lb_s();
+    energy_watch_.emplace(s_.watchdog.energy_growth, 0.5 * mass_kg * c * c * 1e-12);
     return std::nullopt;
+  }
+
+  /// The CGP with the smallest mass per area, for hello_t's added-mass fields (kg, m^2);
+  /// 0, 0 for a model without dynamics (nothing the fluid could accelerate).
+  std::pair<double, double> light_cgp() const {
+    if (!std::isfinite(model_->stable_time_step())) return {0.0, 0.0};
+    const std::vector<double> area = marker_areas_lb(s_.config.sheets, units_);
+    double best_m = 0.0, best_a = 0.0;
+    for (Eigen::Index l = 0; l < n_; ++l) {
+      const double m = model_->masses()[l] * PhysicalConstants::electron_mass_kg;
+      const double a = area[static_cast<std::size_t>(l)] * units_.dx_m() * units_.dx_m();
+      if (best_a == 0.0 || m / a < best_m / best_a) best_m = m, best_a = a;
+    }
+    return {best_m, best_a};
+  }
+
+  /// The fastest CGP and its speed in c, for a diagnosis.
+  std::string fastest_cgp() const {
+    Eigen::Index l = 0;
+    const double v2 = model_->velocities().colwise().squaredNorm().maxCoeff(&l);
+    return "fastest " + describe_cgp(s_.config, l) + " at " + fmt("%.4g", units_.velocity_ratio() * std::sqrt(v2)) + " c";
   }
 
   /// The model's stable substep in seconds; a model without dynamics (rigid: +infinity)
@@ -309,6 +339,7 @@ class CoupledSolid {
     h.dt_cg_s = units_.dt_cg_s();
     h.stable_dt_cg_s = stable_dt_cg_s();
     h.num_cgps = static_cast<std::int32_t>(n_);
+    std::tie(h.light_cgp_mass_kg, h.light_cgp_area_m2) = light_cgp();
     return h;
   }
 
@@ -447,6 +478,7 @@ class CoupledSolid {
     IntervalResult r;
     try {
       r = coupler_->advance(sample, rigid);
+      if (r.overspeed) return overspeed(m.step, *r.overspeed);
     } catch (const std::exception& e) {
       if (const std::string bad = non_finite_state(); !bad.empty())
         return Ending{exit_code::unhealthy, "non-finite solid state in the interval of step " +
@@ -460,6 +492,9 @@ class CoupledSolid {
     if (!bad.empty())
       return Ending{exit_code::unhealthy, "non-finite solid state after the interval of step " +
                                               std::to_string(m.step) + ": " + bad, true};
+    // The energy sentinel, before anything of this interval is published or recorded.
+    if (const auto trip = energy_watch_->check(m.step, sheet_energy_J(), joule_from_hartree(r.fluid_work_au)))
+      return Ending{exit_code::unhealthy, trip->diagnosis + "; " + fastest_cgp(), true};
     total_substeps_ += r.substeps;
     publish_state(m.step, r.substeps, r.position_lb, r.impulse_lb);
     record(m.step, &r, m.bulk_velocity_lb);
@@ -473,6 +508,29 @@ class CoupledSolid {
       }
     }
     return std::nullopt;
+  }
+
+  /// Kinetic + elastic (+ contact) energy of the sheets, J.
+  double sheet_energy_J() const {
+    const SolidObservables o = model_->observables();
+    return joule_from_hartree(o.kinetic_energy_au + o.elastic_energy_au);
+  }
+
+  /// The watchdog's cgp_speed sentinel tripped within the interval of `step` (DESIGN 6).
+  Ending overspeed(std::int64_t step, const IntervalResult::Overspeed& o) const {
+    const int a_t = c_.time_ratio;
+    return Ending{exit_code::unhealthy,
+                  "watchdog cgp_speed at step " + std::to_string(step) + " (substep " + std::to_string(o.substep) +
+                      " of " + std::to_string(a_t) + "): " + describe_cgp(s_.config, o.cgp) + " moves at " +
+                      fmt("%.4g", o.speed_lb) + " c (" + fmt("%.4g", o.speed_lb / a_t) +
+                      " dx per substep), above watchdog.max_cgp_speed = " + fmt("%.4g", s_.watchdog.max_cgp_speed) +
+                      " c; dt_CG / T = " + fmt("%.3g", o.dt_over_relaxation) +
+                      " for the fluid's reaction on it (T = m / (2 rho dA c), Eqs. 18-20; explicit substeps "
+                      "diverge above 2" +
+                      (o.dt_over_relaxation > 2.0 ? ": the cause" : ": not the cause; an elastic or contact force the "
+                                                                    "substeps do not resolve") +
+                      "); a smaller dt_CG may cure it",
+                  true};
   }
 
   // ---- coupled checkpoints (DESIGN 2.4; protocol/README.md section 10) ----
@@ -507,6 +565,13 @@ class CoupledSolid {
     w.attr("solid_seq", solid_seq_);
     w.attr("total_substeps", total_substeps_);
     w.attr("num_cgps", static_cast<std::int64_t>(n_));
+    w.attr("time_ratio", static_cast<std::int64_t>(c_.time_ratio));
+    const protocol::EnergyWatch::State ew = energy_watch_->state();
+    w.attr("watchdog_energy_started", static_cast<std::int64_t>(ew.started ? 1 : 0));
+    w.attr("watchdog_energy0_J", ew.energy0);
+    w.attr("watchdog_work_J", ew.work);
+    w.attr("watchdog_work_abs_J", ew.work_abs);
+    w.attr("watchdog_energy_max_J", ew.energy_max);
     w.text("scene_hash", protocol::scene_hash_of_file(s_.path));
     w.text("reason", reason.empty() ? "every coupling.checkpoint_every steps" : reason);
     const SolidState st = model_->state();
@@ -559,6 +624,32 @@ class CoupledSolid {
     for (const auto& [name, column] : series_columns()) *column = r.doubles(std::string("series_") + name);
     solid_seq_ = r.int64_attr("solid_seq");
     total_substeps_ = r.int64_attr("total_substeps");
+    // A restart with another A_T (the launcher's watchdog retry): the state does not depend
+    // on it, the substep count does (solid_time_s = substeps x dt_CG is physical time); the
+    // in-flight solid_state_t keeps the substeps it was computed with, and the coordinator
+    // accepts them for its step (its checkpoint holds the old A_T too).
+    if (r.has("time_ratio")) {
+      const std::int64_t old_ratio = r.int64_attr("time_ratio");
+      if (old_ratio < 1 || total_substeps_ % old_ratio != 0)
+        throw std::runtime_error("time_ratio = " + std::to_string(old_ratio) + " does not divide total_substeps = " +
+                                 std::to_string(total_substeps_));
+      if (old_ratio != c_.time_ratio) {
+        out_ << "solid: the checkpoint ran A_T = " << old_ratio << ", this run A_T = " << c_.time_ratio
+             << ": " << total_substeps_ / old_ratio << " dynamic LB steps so far\n";
+        total_substeps_ = total_substeps_ / old_ratio * c_.time_ratio;
+      }
+    }
+    if (r.has("watchdog_energy_started")) {
+      protocol::EnergyWatch::State ew;
+      ew.started = r.int64_attr("watchdog_energy_started") != 0;
+      ew.energy0 = r.double_attr("watchdog_energy0_J");
+      ew.work = r.double_attr("watchdog_work_J");
+      ew.work_abs = r.double_attr("watchdog_work_abs_J");
+      ew.energy_max = r.double_attr("watchdog_energy_max_J");
+      energy_watch_->restore(ew);
+    } else {
+      energy_watch_->check(step, sheet_energy_J(), 0.0);  // an older checkpoint: E here is E(0)
+    }
     seq_ = protocol::StepSequencer(step + 1);
     if (snapshots_)
       for (std::int64_t k = 0; k <= step; ++k)
@@ -950,6 +1041,11 @@ class CoupledSolid {
                                 snapshots_->xdmf_path().string()
                           : std::string())
            << "\n";
+      if (energy_watch_ && coupler_)
+        out_ << "solid: watchdog margins: CGP speed max " << fmt("%.3g", coupler_->max_speed_lb())
+             << " c after a substep (limit " << fmt("%g", s_.watchdog.max_cgp_speed)
+             << "), unexplained energy max " << fmt("%.3g", energy_watch_->max_ratio())
+             << " of the energy scale (limit " << fmt("%g", s_.watchdog.energy_growth) << ")\n";
       if (timed_steps_ > 0)
         out_ << "solid: per LB step: compute " << fmt("%.4g", 1e3 * compute_s_ / double(timed_steps_))
              << " ms (substeps, publishing, recording), waiting " << fmt("%.4g", 1e3 * wait_s_ / double(timed_steps_))
@@ -977,6 +1073,7 @@ class CoupledSolid {
 
   std::unique_ptr<SolidModel> model_;
   std::unique_ptr<SolidCoupler> coupler_;
+  std::optional<protocol::EnergyWatch> energy_watch_;  ///< the watchdog's energy sentinel
   Eigen::Index n_ = 0;
 
   std::unique_ptr<lcm::LCM> own_bus_;

@@ -505,7 +505,7 @@ int main_impl(int argc, char** argv) {
       "non-finite state, 4 (coupled) the fluid was lost or stopped with an error.",
       "solid"};
   std::string scene_path, output, token, channel_prefix, lcm_url;
-  std::int64_t substeps = 0;
+  std::int64_t substeps = 0, time_ratio = 0;
   bool quiet = false, check = false;
   app.add_option("scene", scene_path, "solid scene file (TOML), e.g. scenes/sheet_free_vibration.toml")
       ->required();
@@ -516,6 +516,9 @@ int main_impl(int argc, char** argv) {
   CLI::Option* o_prefix = app.add_option("--channel-prefix", channel_prefix,
                                          "coupled: LCM channel prefix (coupling.channel_prefix)");
   CLI::Option* o_url = app.add_option("--lcm-url", lcm_url, "coupled: LCM URL (coupling.lcm_url)");
+  CLI::Option* o_time_ratio = app.add_option(
+      "--time-ratio", time_ratio,
+      "coupled: A_T, substeps per LB step (coupling.time_ratio; the launcher's watchdog retry)");
   std::string restart;
   app.add_option("--restart", restart,
                  "coupled: continue from this checkpoint (OUTPUT/checkpoints/solid_N.h5); the "
@@ -546,6 +549,7 @@ int main_impl(int argc, char** argv) {
     if (o_output->count()) ov.output_dir = output;
     if (o_prefix->count()) ov.channel_prefix = channel_prefix;
     if (o_url->count()) ov.lcm_url = lcm_url;
+    if (o_time_ratio->count()) ov.time_ratio = time_ratio;
     apply_overrides(scene, ov);
     if (o_token->count() && !scene.coupled())
       throw SolidSceneError("command line: --token: only for a coupled scene (one with a "

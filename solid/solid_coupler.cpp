@@ -74,6 +74,8 @@ IntervalResult SolidCoupler::advance(const FluidSample& sample, bool rigid) {
         force_au_(c, l) = -g_da / b_f;                                  // on the CGP (Eq. 20)
       }
     }
+    // The fluid's work at the velocities the forces were computed from (before the substep).
+    r.fluid_work_au += force_au_.cwiseProduct(model_.velocities()).sum() * dt_au;
     model_.substep(dt_au, force_au_);
     const Eigen::Vector3d received_au = force_au_.rowwise().sum() * dt_au;
     for (int c = 0; c < 3; ++c) r.received_impulse_lb[c] += units_.momentum_lb_from_au(received_au[c]);
@@ -83,6 +85,27 @@ IntervalResult SolidCoupler::advance(const FluidSample& sample, bool rigid) {
       for (int c = 0; c < 3; ++c)
         r.impulse_lb(c, l) -= b_f * force_au_(c, l) / a_t;
     position_sum += (k + 1 < a_t ? 1.0 : 0.5) * model_.positions();
+    // The watchdog (DESIGN 6): stop within the interval, before the state can overflow.
+    if (std::isfinite(speed_limit_lb_)) {
+      Eigen::Index fastest = 0;
+      const double v2 = model_.velocities().colwise().squaredNorm().maxCoeff(&fastest);
+      const double speed = b_v * std::sqrt(v2);
+      if (speed > max_speed_lb_) max_speed_lb_ = speed;
+      if (!(speed <= speed_limit_lb_)) {
+        IntervalResult::Overspeed o;
+        o.substep = k + 1;
+        o.cgp = fastest;
+        o.speed_lb = speed;
+        // T / dt_LB = m / (2 rho rho_air dA dx) in physical units; dt_CG = dt_LB / A_T.
+        const double m_kg = model_.masses()[fastest] * protocol::PhysicalConstants::electron_mass_kg;
+        const double da_m2 = area_[static_cast<std::size_t>(fastest)] * units_.dx_m() * units_.dx_m();
+        const double t_lb = m_kg / (2.0 * sample.rho_lb[fastest] * units_.air_density_kg_m3() * da_m2 * units_.dx_m());
+        o.dt_over_relaxation = 1.0 / (t_lb * a_t);
+        r.overspeed = o;
+        r.substeps = k + 1;
+        return r;
+      }
+    }
   }
   r.position_lb.resize(3, n);
   for (Eigen::Index l = 0; l < n; ++l)

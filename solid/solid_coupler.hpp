@@ -4,6 +4,8 @@
 // and the sum of the impulses handed to the fluid (Eq. 24).
 #pragma once
 
+#include <limits>
+#include <optional>
 #include <vector>
 
 #include <Eigen/Core>
@@ -32,6 +34,23 @@ struct IntervalResult {
   /// other side: it must equal -sum_l J_l), lattice momentum units.
   Eigen::Vector3d received_impulse_lb = Eigen::Vector3d::Zero();
   int substeps = 0;
+  /// The work of the fluid's forces on the CGPs over the interval, hartree: the sum over the
+  /// substeps of F(v_k) . v_k dt_CG, each force at the velocity it was computed from (the
+  /// power of the force law; protocol/energy_watch.hpp says why not F . dx).
+  double fluid_work_au = 0.0;
+  /// A CGP faster than the speed limit (SolidCoupler::set_speed_limit) after a substep: the
+  /// interval stopped there (the watchdog's cgp_speed sentinel, DESIGN 6); position_lb and
+  /// impulse_lb are then not filled.
+  struct Overspeed {
+    int substep = 0;       ///< 1 .. A_T: after which substep
+    Eigen::Index cgp = 0;  ///< the fastest CGP
+    double speed_lb = 0.0;  ///< its speed, c
+    /// dt_CG over the relaxation time T = m / (2 rho dA c) of the fluid's reaction on it
+    /// (Eqs. 18-20): the force held over a substep is explicit Euler for the drag, which
+    /// diverges above 2.
+    double dt_over_relaxation = 0.0;
+  };
+  std::optional<Overspeed> overspeed;
 };
 
 /// Where the solid's frame sits on the lattice: X_lb = X_bohr / dx + origin_lb. With the
@@ -50,6 +69,12 @@ class SolidCoupler {
   /// Throws std::invalid_argument for a sample of the wrong size or a non-finite value.
   IntervalResult advance(const FluidSample& sample, bool rigid);
 
+  /// The watchdog's limit on a CGP's speed, c (watchdog.max_cgp_speed; a displacement of
+  /// speed / A_T dx per substep), checked after every substep; +infinity: none.
+  void set_speed_limit(double speed_lb) { speed_limit_lb_ = speed_lb; }
+  /// The largest CGP speed after a substep so far, c (checked only with a speed limit).
+  double max_speed_lb() const { return max_speed_lb_; }
+
   /// The CGP positions in lattice units (what the first SOLID_STATE carries).
   Eigen::Matrix3Xd positions_lb() const;
   /// Total momentum of the free (non-clamped) CGPs, lattice units.
@@ -61,6 +86,8 @@ class SolidCoupler {
   std::vector<double> area_;
   Eigen::Vector3d origin_;
   Eigen::Matrix3Xd force_au_;
+  double speed_limit_lb_ = std::numeric_limits<double>::infinity();
+  double max_speed_lb_ = 0.0;
 };
 
 /// dA_l of every CGP of the config's sheets (its cell, h_w h_h), in dx^2 of `units`.

@@ -72,6 +72,12 @@ struct Section {
   std::vector<const char*> fluid_keys = {};
 };
 
+std::vector<const char*> watchdog_key_names() {
+  std::vector<const char*> names;
+  for (const auto& [name, type] : protocol::watchdog_keys()) names.push_back(name);
+  return names;
+}
+
 const std::vector<Section>& schema() {
   static const std::vector<Section> s = {
       {"scene", false, {"name", "description"}},
@@ -99,6 +105,9 @@ const std::vector<Section>& schema() {
         "checkpoint_every",
         "lcm_url", "channel_prefix"},
        Use::Coupled},
+      // The stability watchdog (protocol/watchdog.hpp): the same table in both servers,
+      // each validating every key.
+      {"watchdog", false, watchdog_key_names(), Use::Coupled},
   };
   return s;
 }
@@ -663,6 +672,27 @@ void load_coupling(const Reader& r, SolidScene& s) {
   s.coupling = c;
 }
 
+/// [watchdog] (protocol/watchdog.hpp): every key through the table both servers share.
+void load_watchdog(const Reader& r, SolidScene& s) {
+  const Scope sec = r.section("watchdog");
+  if (!sec.table) return;
+  for (const auto& [key, type] : protocol::watchdog_keys()) {
+    const toml::node* n = sec.node(key);
+    if (!n) continue;
+    double v = 0.0;
+    if (type == protocol::WatchdogKeyType::Boolean)
+      v = *r.boolean(sec, key) ? 1.0 : 0.0;
+    else if (type == protocol::WatchdogKeyType::Integer)
+      v = double(*r.integer(sec, key));
+    else
+      v = *r.number(sec, key);
+    const std::string why = protocol::set_watchdog_value(s.watchdog, key, v);
+    if (!why.empty()) r.bad(*n, sec.key(key), why);
+  }
+  const std::string why = protocol::watchdog_consistency_problem(s.watchdog);
+  if (!why.empty()) r.fail(sec.line, why);
+}
+
 void load_run(const Reader& r, SolidScene& s) {
   const Scope sec = r.section("run");
   if (!sec.table)
@@ -789,6 +819,7 @@ SolidScene load_solid_scene(const std::string& path) {
   if (coupled) {
     load_grid(r, s);
     load_coupling(r, s);
+    load_watchdog(r, s);
     s.dt_s = protocol::UnitConverter(s.unit_inputs()).dt_cg_s();  // dt_CG = dt_LB / A_T
     s.dt_is_default = true;
     s.substeps = 0;
@@ -852,6 +883,14 @@ void apply_overrides(SolidScene& s, const SolidSceneOverrides& o) {
     if (const std::string why = lcm_url_problem(*o.lcm_url); !why.empty())
       fail("--lcm-url", quoted(*o.lcm_url), why);
     s.coupling->lcm_url = *o.lcm_url;
+  }
+  if (o.time_ratio) {
+    if (!s.coupled()) fail("--time-ratio", std::to_string(*o.time_ratio), only_coupled);
+    if (*o.time_ratio < 1 || *o.time_ratio > CouplingSettings::time_ratio_max)
+      fail("--time-ratio", std::to_string(*o.time_ratio),
+           "must be an integer from 1 to 1000000 (A_T = dt_LB / dt_CG: CGP substeps per LB step)");
+    s.coupling->time_ratio = static_cast<int>(*o.time_ratio);
+    s.dt_s = protocol::UnitConverter(s.unit_inputs()).dt_cg_s();  // dt_CG = dt_LB / A_T
   }
 }
 

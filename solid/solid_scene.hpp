@@ -13,6 +13,7 @@
 #include <string_view>
 
 #include "protocol/units.hpp"
+#include "protocol/watchdog.hpp"
 #include "solid/solid_config.hpp"
 
 namespace cosim::solid {
@@ -103,6 +104,9 @@ struct SolidScene {
   std::optional<CouplingSettings> coupling;
   /// [grid] dx_um (coupled scenes): dx_LB = dx_CG, metres.
   double dx_m = 0.2561e-6;
+  /// [watchdog] (coupled scenes; protocol/watchdog.hpp): the solid uses max_cgp_speed (per
+  /// substep) and energy_growth; every key is validated.
+  protocol::WatchdogSettings watchdog;
 
   bool coupled() const { return coupling.has_value(); }
   /// The unit inputs both servers announce in hello_t: dx from [grid] dx_um, A_T from
@@ -122,7 +126,7 @@ struct SolidScene {
 SolidScene load_solid_scene(const std::string& path);
 
 /// Command-line overrides of [run] substeps (standalone), [output] directory, and
-/// [coupling] channel_prefix and lcm_url (coupled); validated with the rules of the file and
+/// [coupling] channel_prefix, lcm_url and time_ratio (coupled); validated with the rules of the file and
 /// reported as "command line: --substeps = 0: ...". An override for the other kind of
 /// scene is refused the same way.
 struct SolidSceneOverrides {
@@ -130,6 +134,8 @@ struct SolidSceneOverrides {
   std::optional<std::string> output_dir;
   std::optional<std::string> channel_prefix;
   std::optional<std::string> lcm_url;
+  /// [coupling] time_ratio (coupled): the launcher's retry with a larger A_T.
+  std::optional<std::int64_t> time_ratio;
 };
 void apply_overrides(SolidScene& scene, const SolidSceneOverrides& overrides);
 

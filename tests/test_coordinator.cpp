@@ -159,6 +159,8 @@ TEST(Coordinator, HandshakeRejectsMismatch) {
     expect_refused(check_handshake(fluid, s, kToken),
                    {"stable", "dt_LB / ceil(dt_LB / stable)",
                     "(A_T = " + std::to_string(stable_ratio) + ")"});
+    // The watchdog's retry takes the smallest stable A_T from the verdict.
+    EXPECT_EQ(check_handshake(fluid, s, kToken).stable_time_ratio, stable_ratio);
     const UnitConverter suggested(UnitInputs{.time_ratio = stable_ratio});
     s.dt_cg_s = suggested.dt_cg_s();
     s.time_ratio = suggested.inputs().time_ratio;
@@ -173,6 +175,22 @@ TEST(Coordinator, HandshakeRejectsMismatch) {
     Hello s = solid;
     s.num_cgps = 0;
     expect_refused(check_handshake(fluid, s, kToken), {"num_cgps = 0"});
+  }
+
+  // The added-mass fields (section 12): both 0 (not reported) or both positive and finite.
+  {
+    Hello s = solid;
+    s.light_cgp_mass_kg = 3.989e-20;
+    s.light_cgp_area_m2 = 5.28e-14;
+    EXPECT_TRUE(check_handshake(fluid, s, kToken).accepted);
+    s.light_cgp_area_m2 = 0.0;
+    expect_refused(check_handshake(fluid, s, kToken),
+                   {"light_cgp_mass_kg = 3.989e-20 and light_cgp_area_m2 = 0", "both 0 (not reported)"});
+    s.light_cgp_mass_kg = 0.0;
+    EXPECT_TRUE(check_handshake(fluid, s, kToken).accepted);
+    s.light_cgp_mass_kg = -1.0;
+    s.light_cgp_area_m2 = 1.0;
+    expect_refused(check_handshake(fluid, s, kToken), {"light_cgp_mass_kg = -1"});
   }
 }
 

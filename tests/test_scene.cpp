@@ -86,6 +86,11 @@ const std::vector<BadCase> kBadCases = {
      {"coupling.lcm_url = \"udpm://239.255.76.67:7667?ttl=1\": must be a udpm:// URL with ttl=0"}},
     {"solid_without_coupling.toml",
      {"[sheet]: a solid section needs a [coupling] section"}},
+    {"watchdog_rho_bounds.toml",
+     {":36: watchdog.rho_min = 1.2: must be in (0, 1): the lowest healthy density"}},
+    {"watchdog_unknown_key.toml",
+     {":36: watchdog.max_cgp_sped = 0.3: unknown key in [watchdog]; allowed: health_every, rho_min,",
+      "did you mean \"max_cgp_speed\""}},
 };
 
 TEST(Scene, BadSceneFilesAreRejected) {

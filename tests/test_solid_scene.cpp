@@ -112,6 +112,10 @@ const std::vector<BadCase>& bad_cases() {
        {":5: coupling.rigid_step = 100: unknown key in [coupling]; allowed: time_ratio, "
         "rigid_steps,",
         "did you mean \"rigid_steps\""}},
+      {"coupling_watchdog_float_factor.toml",
+       {":7: watchdog.retry_factor = 1.5: must be an integer, not a floating-point number"}},
+      {"coupling_watchdog_energy_growth.toml",
+       {":7: watchdog.energy_growth = -1: must be > 0: the largest unexplained energy"}},
       {"coupling_time_ratio_zero.toml",
        {":5: coupling.time_ratio = 0: must be an integer from 1 to 1000000"}},
       {"coupling_perturbation.toml",
@@ -119,7 +123,7 @@ const std::vector<BadCase>& bad_cases() {
       {"coupling_grid_dx_zero.toml", {":4: grid.dx_um = 0: must be > 0"}},
       {"coupling_unknown_section.toml",
        {":2: [fluids]: unknown section; allowed: [scene], [solid], [contact], [[sheet]], "
-        "[output], [grid], [coupling]; the fluid's [fluid],",
+        "[output], [grid], [coupling], [watchdog]; the fluid's [fluid],",
         "did you mean \"fluid\""}},
       {"coupling_output_unknown_key.toml",
        {":8: output.fields_evry = 10: unknown key in [output]; allowed: directory, "

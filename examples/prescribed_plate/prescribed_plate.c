@@ -403,6 +403,8 @@ static int publish_hello(Plate *p, const char *hash, double dx_m, double rho_air
   m.dt_cg_s = p->dt_cg_s;
   m.stable_dt_cg_s = DBL_MAX; /* no dynamics, no stability limit (section 3) */
   m.num_cgps = p->n;
+  m.light_cgp_mass_kg = 0.0; /* prescribed motion: no inertia for the fluid to move (section 6) */
+  m.light_cgp_area_m2 = 0.0;
   return cosimlcm_hello_t_publish(p->lcm, p->ch_hello, &m) == 0;
 }
 

@@ -169,7 +169,9 @@ std::vector<Field> layout(MsgType t) {
               {'I', "time_ratio"},
               {'D', "dt_cg_s"},
               {'D', "stable_dt_cg_s"},
-              {'I', "num_cgps"}};
+              {'I', "num_cgps"},
+              {'D', "light_cgp_mass_kg"},
+              {'D', "light_cgp_area_m2"}};
     case MsgType::welcome:
       return {{'S', "token"},       {'B', "accepted"},    {'S', "reason"},
               {'L', "total_steps"}, {'L', "rigid_steps"}, {'I', "time_ratio"}};
