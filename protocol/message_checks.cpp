@@ -260,6 +260,16 @@ std::optional<Rejection> check(const cosimlcm::hello_t& m, const Expectation& e)
     return reject(RejectCategory::Count, type,
                   "num_cgps = " + std::to_string(m.num_cgps) +
                       "; allowed: 0 or more (the fluid sends 0)");
+  // The added-mass figures of the solid's lightest CGP (protocol/README.md section 12).
+  const std::pair<const char*, double> light[] = {{"light_cgp_mass_kg", m.light_cgp_mass_kg},
+                                                  {"light_cgp_area_m2", m.light_cgp_area_m2}};
+  for (const auto& [field, value] : light) {
+    if (auto r = finite(type, field, value)) return r;
+    if (!(value >= 0.0))
+      return reject(RejectCategory::Range, type,
+                    std::string(field) + " = " + num(value) +
+                        "; allowed: a number >= 0 (0: not reported; the fluid sends 0)");
+  }
   return std::nullopt;
 }
 
@@ -363,6 +373,8 @@ std::optional<std::string> check_encoding(const cosimlcm::hello_t*, const void* 
   b.f64("dt_cg_s");
   b.f64("stable_dt_cg_s");
   b.i32("num_cgps");
+  b.f64("light_cgp_mass_kg");
+  b.f64("light_cgp_area_m2");
   b.end();
   return b.problem();
 }
