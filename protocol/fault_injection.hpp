@@ -7,7 +7,8 @@
 // The setting is a comma-separated list of key=value (the servers' --faults option or the
 // environment variable COSIM_FAULTS):
 //
-//   drop=P, duplicate=P, reorder=P, delay=P   probabilities in [0, 0.5], default 0
+//   drop=P, duplicate=P, reorder=P, delay=P   probabilities in [0, 0.5], default 0, with a
+//                                             sum of at most 1 (one draw per message)
 //   delay_ms=T                                how long a delayed message is held, (0, 10000]
 //   seed=S                                    the random stream (unsigned integer), default 1
 //
@@ -93,6 +94,11 @@ inline FaultSettings parse_fault_settings(std::string_view spec, const std::stri
                                   "; allowed: a probability in [0, 0.5]");
     *target = v;
   }
+  // One draw decides each message's fate: the bands must fit in [0, 1].
+  if (s.drop + s.duplicate + s.reorder + s.delay > 1.0)
+    throw std::invalid_argument(origin + ": drop + duplicate + reorder + delay = " +
+                                std::to_string(s.drop + s.duplicate + s.reorder + s.delay) +
+                                "; allowed: at most 1");
   return s;
 }
 
