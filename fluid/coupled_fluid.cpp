@@ -344,7 +344,7 @@ class CoupledFluid {
       w.put("populations", f.q(0), std::size_t(D3Q19::Q) * f.layout().stride());
       put_rows(w, rows_);
       w.commit();
-      prune_checkpoints(dir, "fluid_", 3);
+      protocol::prune_checkpoints(dir, "fluid_", 3);
     } catch (const std::exception& x) {
       if (reason.empty()) throw;
       return "; no checkpoint: " + std::string(x.what());
@@ -438,18 +438,6 @@ class CoupledFluid {
       s.has_nan = c[12] != 0;
     }
     return rows;
-  }
-
-  /// Keeps the newest `keep` files PREFIX*.h5 of `dir` (by name: the step is zero-padded).
-  static void prune_checkpoints(const std::filesystem::path& dir, const std::string& prefix,
-                                std::size_t keep) {
-    std::vector<std::filesystem::path> files;
-    for (const auto& e : std::filesystem::directory_iterator(dir)) {
-      const std::string name = e.path().filename().string();
-      if (name.rfind(prefix, 0) == 0 && e.path().extension() == ".h5") files.push_back(e.path());
-    }
-    std::sort(files.begin(), files.end());
-    for (std::size_t k = 0; k + keep < files.size(); ++k) std::filesystem::remove(files[k]);
   }
 
   std::optional<Ending> handshake() {

@@ -322,10 +322,7 @@ int main_impl(int argc, char** argv) {
     co.quiet = quiet;
     co.restart = restart;
     try {
-      if (o_faults->count())
-        co.faults = protocol::parse_fault_settings(faults, "--faults");
-      else if (const char* env = std::getenv("COSIM_FAULTS"))
-        co.faults = protocol::parse_fault_settings(env, "COSIM_FAULTS");
+      co.faults = protocol::fault_settings_from(o_faults->count() ? &faults : nullptr);
     } catch (const std::invalid_argument& e) {
       std::fprintf(stderr, "fluid: %s\n", e.what());
       return kExitBadInput;

@@ -10,6 +10,7 @@
 
 #include <hdf5.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
@@ -27,6 +28,18 @@ inline std::string checkpoint_name(const std::string& side, std::int64_t step) {
   char name[64];
   std::snprintf(name, sizeof name, "%s_%08lld.h5", side.c_str(), static_cast<long long>(step));
   return name;
+}
+
+/// Keeps the newest `keep` files PREFIX*.h5 of `dir` (by name: the step is zero-padded).
+inline void prune_checkpoints(const std::filesystem::path& dir, const std::string& prefix,
+                              std::size_t keep) {
+  std::vector<std::filesystem::path> files;
+  for (const auto& e : std::filesystem::directory_iterator(dir)) {
+    const std::string name = e.path().filename().string();
+    if (name.rfind(prefix, 0) == 0 && e.path().extension() == ".h5") files.push_back(e.path());
+  }
+  std::sort(files.begin(), files.end());
+  for (std::size_t k = 0; k + keep < files.size(); ++k) std::filesystem::remove(files[k]);
 }
 
 /// Writes a checkpoint file: put() the arrays, attr() the scalars, then commit().

@@ -102,6 +102,14 @@ inline FaultSettings parse_fault_settings(std::string_view spec, const std::stri
   return s;
 }
 
+/// The servers' setting: `cli` (the --faults value) when given, else the environment's
+/// COSIM_FAULTS, else none. Throws std::invalid_argument as parse_fault_settings.
+inline FaultSettings fault_settings_from(const std::string* cli) {
+  if (cli != nullptr) return parse_fault_settings(*cli, "--faults");
+  if (const char* env = std::getenv("COSIM_FAULTS")) return parse_fault_settings(env, "COSIM_FAULTS");
+  return {};
+}
+
 /// Publishes through an lcm::LCM, injecting the faults of `settings`. With no fault set it
 /// publishes at once and draws nothing.
 class FaultyTransport {

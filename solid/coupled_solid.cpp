@@ -587,12 +587,7 @@ class CoupledSolid {
     w.put("series_step", series_.step);
     for (const auto& [name, column] : series_columns()) w.put(std::string("series_") + name, *column);
     w.commit();
-    std::vector<fs::path> files;
-    for (const auto& e : fs::directory_iterator(dir))
-      if (e.path().filename().string().rfind("solid_", 0) == 0 && e.path().extension() == ".h5")
-        files.push_back(e.path());
-    std::sort(files.begin(), files.end());
-    for (std::size_t k = 0; k + 3 < files.size(); ++k) fs::remove(files[k]);
+    protocol::prune_checkpoints(dir, "solid_", 3);
     return file.string();
   }
 

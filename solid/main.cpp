@@ -572,10 +572,7 @@ int main_impl(int argc, char** argv) {
     co.check_only = check;
     co.restart = restart;
     try {
-      if (o_faults->count())
-        co.faults = protocol::parse_fault_settings(faults, "--faults");
-      else if (const char* env = std::getenv("COSIM_FAULTS"))
-        co.faults = protocol::parse_fault_settings(env, "COSIM_FAULTS");
+      co.faults = protocol::fault_settings_from(o_faults->count() ? &faults : nullptr);
     } catch (const std::invalid_argument& e) {
       std::fflush(stdout);
       std::fprintf(stderr, "solid: %s\n", e.what());
