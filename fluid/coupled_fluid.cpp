@@ -97,7 +97,9 @@ class CoupledFluid {
     // (an unreadable file is reported by restore(), after the handshake).
     if (!o_.restart.empty()) {
       try {
-        solid_seq_ = protocol::StepSequencer(protocol::CheckpointReader(o_.restart).int64_attr("step"));
+        const protocol::CheckpointReader r(o_.restart);
+        solid_seq_ = protocol::StepSequencer(c_.scheme.implicit_scheme() ? r.int64_attr("solid_seq_awaited")
+                                                                          : r.int64_attr("step"));
       } catch (const std::exception&) {
       }
     }
@@ -141,16 +143,16 @@ class CoupledFluid {
     const auto n = static_cast<std::size_t>(num_cgps_);
     std::vector<Vec3> x(n), j(n);
     std::vector<MarkerSample> samples(n);
-    std::vector<double> sample_rho(n);
-    std::vector<Vec3> sample_u(n);
     const Clock::time_point start = Clock::now();
+    if (c_.scheme.implicit_scheme()) return step_all_implicit(solver, ib, log, snapshots, limits, first_step, start);
     Clock::time_point last_progress = start;
     for (std::int64_t step = first_step; step < s_.steps; ++step) {
       const Clock::time_point t0 = Clock::now();
+      awaited_step_ = step;
       if (auto e = wait_for_solid_state(step)) {
         // A clean abort (the solid lost or stopped with an error): the state at `step` is
         // whole, so it is kept for a restart (DESIGN 2.4).
-        if (e->code == kPeerLost && step > first_step) e->reason += checkpoint(solver, step, e->reason);
+        if (e->code == kPeerLost && step > first_step) e->reason += checkpoint(solver.state(), step, e->reason);
         // The solid's watchdog tripped on a sentinel that a smaller dt_CG may cure.
         if (peer_code_ == kUnhealthy && protocol::dt_curable(e->reason)) announce_retry(step, c_.time_ratio, 0);
         return end(*e);
@@ -176,56 +178,16 @@ class CoupledFluid {
       solver.step();
       const std::int64_t now = step + 1;
       const bool last = now == s_.steps;
-      if (!last) {
-        // Eq. 17 at X_l, and the watchdog on the samples before anything of `now` is written.
-        ib.sample(solver, x, samples);
-        // rho_l over the kernel's weight in the fluid: the density the kernel sees, also at
-        // a marker on the wall (half the kernel outside).
-        const Clock::time_point w1 = Clock::now();
-        for (std::size_t l = 0; l < n; ++l) {
-          const double w = ib.kernel_weight(x[l]);
-          sample_rho[l] = w > 0.0 ? samples[l].rho / w : samples[l].rho;
-          sample_u[l] = samples[l].u;
-        }
-        if (const auto t = markers_.check_samples(now, sample_rho, sample_u)) return trip(*t, nullptr, now, limits);
-        watch_s_ += std::chrono::duration<double>(Clock::now() - w1).count();
-      }
-      // The whole-grid health check: before every write, and every watchdog.health_every steps.
-      const bool monitor = now % s_.monitor_every == 0 || last;
-      const bool snapshot = snapshots.due(now, last);
+      if (!last)
+        if (auto code = sample_markers(solver, ib, now, x, samples, limits)) return *code;
       const bool periodic = !last && c_.checkpoint_every > 0 && now % c_.checkpoint_every == 0;
-      if (monitor || snapshot || periodic || now % s_.watchdog.health_every == 0) {
-        const Clock::time_point w2 = Clock::now();
-        const FlowSummary sum = summarize(solver);
-        // The checks the monitor, a snapshot or a checkpoint would not have made are the
-        // watchdog's cost.
-        if (!(monitor || snapshot || periodic)) watch_s_ += std::chrono::duration<double>(Clock::now() - w2).count();
-        const std::string problem = health_problem(sum, limits);
-        if (!problem.empty()) {
-          protocol::Trip t;
-          t.sentinel = "flow_health";
-          t.step = now;
-          // health_problem names the step first ("step N: cell (...): ..."): said once here.
-          const std::string prefix = "step " + std::to_string(now) + ": ";
-          t.diagnosis = "watchdog flow_health at step " + std::to_string(now) + ": unhealthy flow at " +
-                        (problem.rfind(prefix, 0) == 0 ? problem.substr(prefix.size()) : problem);
-          return trip(t, nullptr, now, limits);
-        }
-        if (monitor) {
-          log.append(sum);
-          rows_.push_back(sum);
-          bulk_u_ = sum.momentum[0] / sum.mass;
-          out_ << format_summary(sum, dt_us, mass0) << "\n";
-          out_.flush();
-        }
-      }
-      if (snapshot) snapshots.write(solver, last);
+      if (auto code = step_outputs(solver, now, last, periodic, log, snapshots, limits, dt_us, mass0)) return *code;
       if (!last) {
         const Clock::time_point t2 = Clock::now();
         compute_s_ += std::chrono::duration<double>(t2 - t1).count();
         publish_fluid_state(now, samples);
         publish_s_ += std::chrono::duration<double>(Clock::now() - t2).count();
-        if (periodic) checkpoint(solver, now, "");
+        if (periodic) checkpoint(solver.state(), now, "");
       } else {
         compute_s_ += std::chrono::duration<double>(Clock::now() - t1).count();
       }
@@ -235,6 +197,11 @@ class CoupledFluid {
                      static_cast<long long>(s_.steps));
       }
     }
+    return finish_run(start);
+  }
+
+  /// The end of a run that completed: stop_t(0) and the summary lines.
+  int finish_run(Clock::time_point start) {
     publish_stop(s_.steps, kOk, "");
     const double wall = std::chrono::duration<double>(Clock::now() - start).count();
     out_ << "fluid: coupled run done, " << s_.steps << " LB steps in " << wall << " s; "
@@ -254,7 +221,163 @@ class CoupledFluid {
                   static_cast<long long>(s_.watchdog.health_every));
     out_ << line;
     out_ << "fluid: watchdog margins: " << markers_.margins() << "\n";
+    if (c_.scheme.implicit_scheme())
+      out_ << "fluid: implicit scheme: " << redone_steps_ << " LB steps computed again for sub-iterations, "
+           << protocol::fmt("%.3g", double(s_.steps + redone_steps_) / double(s_.steps)) << " fluid steps per LB step\n";
     return kOk;
+  }
+
+  /// Eq. 17 at X_l and the watchdog on the samples, before anything of `now` is written or
+  /// published; the exit code of a trip.
+  std::optional<int> sample_markers(const FluidSolver& solver, const ImmersedBoundary& ib, std::int64_t now,
+                                    const std::vector<Vec3>& x, std::vector<MarkerSample>& samples,
+                                    const HealthLimits& limits) {
+    const std::size_t n = x.size();
+    ib.sample(solver, x, samples);
+    // rho_l over the kernel's weight in the fluid: the density the kernel sees, also at a
+    // marker on the wall (half the kernel outside).
+    const Clock::time_point w1 = Clock::now();
+    std::vector<double> sample_rho(n);
+    std::vector<Vec3> sample_u(n);
+    for (std::size_t l = 0; l < n; ++l) {
+      const double w = ib.kernel_weight(x[l]);
+      sample_rho[l] = w > 0.0 ? samples[l].rho / w : samples[l].rho;
+      sample_u[l] = samples[l].u;
+    }
+    if (const auto t = markers_.check_samples(now, sample_rho, sample_u)) return trip(*t, nullptr, now, limits);
+    watch_s_ += std::chrono::duration<double>(Clock::now() - w1).count();
+    return std::nullopt;
+  }
+
+  /// The whole-grid health check (before every write, and every watchdog.health_every
+  /// steps), the monitor row and the snapshot of step `now`; the exit code of a trip.
+  std::optional<int> step_outputs(const FluidSolver& solver, std::int64_t now, bool last, bool periodic,
+                                  MonitorLog& log, Snapshots& snapshots, const HealthLimits& limits, double dt_us,
+                                  double mass0) {
+    const bool monitor = now % s_.monitor_every == 0 || last;
+    const bool snapshot = snapshots.due(now, last);
+    if (monitor || snapshot || periodic || now % s_.watchdog.health_every == 0) {
+      const Clock::time_point w2 = Clock::now();
+      const FlowSummary sum = summarize(solver);
+      // The checks the monitor, a snapshot or a checkpoint would not have made are the
+      // watchdog's cost.
+      if (!(monitor || snapshot || periodic)) watch_s_ += std::chrono::duration<double>(Clock::now() - w2).count();
+      const std::string problem = health_problem(sum, limits);
+      if (!problem.empty()) {
+        protocol::Trip t;
+        t.sentinel = "flow_health";
+        t.step = now;
+        // health_problem names the step first ("step N: cell (...): ..."): said once here.
+        const std::string prefix = "step " + std::to_string(now) + ": ";
+        t.diagnosis = "watchdog flow_health at step " + std::to_string(now) + ": unhealthy flow at " +
+                      (problem.rfind(prefix, 0) == 0 ? problem.substr(prefix.size()) : problem);
+        return trip(t, nullptr, now, limits);
+      }
+      if (monitor) {
+        log.append(sum);
+        rows_.push_back(sum);
+        bulk_u_ = sum.momentum[0] / sum.mass;
+        out_ << format_summary(sum, dt_us, mass0) << "\n";
+        out_.flush();
+      }
+    }
+    if (snapshot) snapshots.write(solver, last);
+    return std::nullopt;
+  }
+
+  /// The LB steps of the implicit scheme (protocol/README.md 13): solid_state_t(n, k) is
+  /// stepped from the committed state of step n (kept while the step is iterated);
+  /// solid_state_t(n + 1, 0) accepts the last iterate of step n, whose outputs are then
+  /// written; solid_state_t(N, 0) accepts the last step.
+  int step_all_implicit(FluidSolver& solver, const ImmersedBoundary& ib, MonitorLog& log, Snapshots& snapshots,
+                        const HealthLimits& limits, std::int64_t first_step, Clock::time_point start) {
+    const double dt_us = units_.dt_lb_s() * 1e6;
+    const auto n = static_cast<std::size_t>(num_cgps_);
+    std::vector<Vec3> x(n), j(n);
+    std::vector<MarkerSample> samples(n);
+    const std::int64_t dynamic_from = std::max<std::int64_t>(c_.rigid_steps, 1);
+    PopulationField backup;               // the committed state of `step` while it is iterated
+    bool have_backup = false;
+    protocol::MarkerWatch::Reference marker_ref;
+    std::int64_t step = first_step;       // the committed step
+    int iteration = -1;                   // the iterate of `step` the solver holds; -1: none
+    commit_ = {step, fluid_seq_, solid_seq_.expected_step()};
+    Clock::time_point last_progress = start;
+    for (;;) {
+      const Clock::time_point t0 = Clock::now();
+      awaited_step_ = step;
+      if (auto e = wait_for_solid_state(solid_seq_.expected_step())) {
+        if (e->code == kPeerLost && step > first_step)
+          // The committed state: kept while the step is iterated, else what the solver holds
+          // (a rigid step stepped once is not committed yet either: no checkpoint then).
+          e->reason += iteration < 0 || have_backup ? checkpoint(have_backup ? backup : solver.state(), step, e->reason)
+                                                     : "; no checkpoint (the spin-up step was not accepted yet)";
+        if (peer_code_ == kUnhealthy && protocol::dt_curable(e->reason)) announce_retry(step, c_.time_ratio, 0);
+        return end(*e);
+      }
+      const Clock::time_point t1 = Clock::now();
+      wait_s_ += std::chrono::duration<double>(t1 - t0).count();
+      const std::int64_t key = solid_seq_.expected_step();
+      const cosimlcm::solid_state_t m = inbox_.at(key);
+      inbox_.erase(inbox_.begin(), inbox_.upper_bound(key));
+      solid_seq_.advance();
+      states_refused_ = 0;
+      if (iteration >= 0 && m.step == step + 1 && m.iteration == 0) {
+        // The solid accepted the iterate the solver holds: step + 1 is committed.
+        ++step;
+        iteration = -1;
+        have_backup = false;
+        const bool last = step == s_.steps;
+        const bool periodic = !last && c_.checkpoint_every > 0 && step % c_.checkpoint_every == 0;
+        if (auto code = step_outputs(solver, step, last, periodic, log, snapshots, limits, dt_us, mass0_)) return *code;
+        commit_ = {step, fluid_seq_, m.seq};
+        if (last) {
+          if (auto e = check_solid_state(m, step)) return end(*e);
+          break;
+        }
+        if (periodic) checkpoint(solver.state(), step, "");
+      }
+      if (m.step != step || m.iteration != iteration + 1) {
+        const std::string why = "solid_state_t of step " + std::to_string(m.step) + ", iteration " +
+                                std::to_string(m.iteration) + ": expected step " + std::to_string(step) +
+                                ", iteration " + std::to_string(iteration + 1) +
+                                (iteration >= 0 ? " or step " + std::to_string(step + 1) + ", iteration 0" : std::string()) +
+                                " (the implicit scheme's order, protocol/README.md 13)";
+        return stop_and_end({kBadInput, why}, step);
+      }
+      if (auto e = check_solid_state(m, step)) return end(*e);
+      for (std::size_t l = 0; l < n; ++l) {
+        x[l] = {m.position_lb[l][0], m.position_lb[l][1], m.position_lb[l][2]};
+        j[l] = {m.impulse_lb[l][0], m.impulse_lb[l][1], m.impulse_lb[l][2]};
+      }
+      // The spin-up is not iterated: the state of a rigid step need not be kept.
+      if (m.iteration == 0 && step >= dynamic_from) {
+        solver.copy_state(backup);
+        have_backup = true;
+        if (markers_.has_reference()) marker_ref = markers_.reference();
+      } else if (m.iteration > 0) {
+        solver.restore_state(backup, step);
+        if (markers_.has_reference()) markers_.restore(marker_ref);
+        ++redone_steps_;
+      }
+      iteration = m.iteration;
+      const Clock::time_point w0 = Clock::now();
+      if (const auto t = markers_.check_positions(step, x)) return trip(*t, &solver, step, limits);
+      watch_s_ += std::chrono::duration<double>(Clock::now() - w0).count();
+      ib.spread(solver, x, j);  // Eqs. 21-24 and 25-26
+      solver.step();
+      if (auto code = sample_markers(solver, ib, step + 1, x, samples, limits)) return *code;
+      const Clock::time_point t2 = Clock::now();
+      compute_s_ += std::chrono::duration<double>(t2 - t1).count();
+      publish_fluid_state(step + 1, samples, iteration);
+      publish_s_ += std::chrono::duration<double>(Clock::now() - t2).count();
+      if (!o_.quiet && Clock::now() - last_progress > std::chrono::seconds(2)) {
+        last_progress = Clock::now();
+        std::fprintf(stderr, "fluid: step %lld/%lld (iteration %d)\n", static_cast<long long>(step + 1),
+                     static_cast<long long>(s_.steps), iteration);
+      }
+    }
+    return finish_run(start);
   }
 
  private:
@@ -270,7 +393,7 @@ class CoupledFluid {
     std::string reason = t.diagnosis;
     if (solver != nullptr && step >= 1 && step > first_step_) {
       const std::string problem = health_problem(summarize(*solver), limits);
-      if (problem.empty()) reason += checkpoint(*solver, step, t.diagnosis);
+      if (problem.empty()) reason += checkpoint(solver->state(), step, t.diagnosis);
       else reason += "; no checkpoint of step " + std::to_string(step) + ": " + problem;
     }
     if (t.dt_cure) announce_retry(step, c_.time_ratio, 0);
@@ -319,7 +442,7 @@ class CoupledFluid {
   /// published, solid_state_t(step) not yet applied) and keeps the newest three. Returns
   /// what to add to an abort's reason: where the checkpoint went, or why it could not be
   /// written (for periodic checkpoints a failure throws: an output error ends the run).
-  std::string checkpoint(const FluidSolver& solver, std::int64_t step, const std::string& reason) {
+  std::string checkpoint(const PopulationField& f, std::int64_t step, const std::string& reason) {
     namespace fs = std::filesystem;
     const fs::path dir = fs::path(s_.output_dir) / "checkpoints";
     const fs::path file = dir / protocol::checkpoint_name("fluid", step);
@@ -327,7 +450,11 @@ class CoupledFluid {
       fs::create_directories(dir);
       protocol::CheckpointWriter w(file);
       w.attr("step", step);
-      w.attr("fluid_seq", fluid_seq_);
+      // The implicit scheme: the counters as of the step's commit (an abort may come while
+      // the step is iterated), and the solid's seq that begins the step.
+      const bool implicit = c_.scheme.implicit_scheme();
+      w.attr("fluid_seq", implicit ? commit_.fluid_seq : fluid_seq_);
+      if (implicit) w.attr("solid_seq_awaited", commit_.solid_seq);
       w.attr("num_cgps", static_cast<std::int64_t>(num_cgps_));
       w.attr("bulk_velocity_lb", bulk_u_);
       w.attr("mass0", mass0_);
@@ -340,7 +467,6 @@ class CoupledFluid {
       }
       w.text("scene_hash", protocol::scene_hash_of_file(s_.path));
       w.text("reason", reason.empty() ? "every coupling.checkpoint_every steps" : reason);
-      const PopulationField& f = solver.state();
       w.put("populations", f.q(0), std::size_t(D3Q19::Q) * f.layout().stride());
       put_rows(w, rows_);
       w.commit();
@@ -394,8 +520,9 @@ class CoupledFluid {
     // The solid republishes its solid_state_t(step) once the handshake is done; it may have
     // arrived while this checkpoint was read (classified by the sequencer of step 0): offer
     // what the inbox holds to the sequencer of the restart.
-    solid_seq_ = protocol::StepSequencer(step);
-    inbox_.erase(inbox_.begin(), inbox_.lower_bound(step));
+    const std::int64_t key = c_.scheme.implicit_scheme() ? r.int64_attr("solid_seq_awaited") : step;
+    solid_seq_ = protocol::StepSequencer(key);
+    inbox_.erase(inbox_.begin(), inbox_.lower_bound(key));
     for (const auto& [k, m] : inbox_) solid_seq_.offer(k, m.seq);
     return step;
   }
@@ -506,6 +633,23 @@ class CoupledFluid {
     out_.flush();
   }
 
+  /// Asks the solid to publish the awaited solid_state_t again: the step (serial); the
+  /// implicit scheme awaits the next seq, of step n (another iterate) or n + 1, and asks for
+  /// both (the solid republishes what it keeps of each; copies had are dropped by seq).
+  void request_resend(std::int64_t key) {
+    const bool implicit = c_.scheme.implicit_scheme();
+    for (std::int64_t step : {implicit ? awaited_step_ : key, awaited_step_ + 1}) {
+      cosimlcm::resend_t r{};
+      r.token = o_.token;
+      r.step = step;
+      r.what = "solid_state";
+      net_.publish(ch_.resend, r);
+      ++resends_asked_;
+      if (!implicit) break;
+    }
+  }
+
+  /// Waits for the awaited solid_state_t: `step` (serial) or the solid's seq (implicit).
   std::optional<Ending> wait_for_solid_state(std::int64_t step) {
     while (!inbox_.count(step)) {
       if (stop_) return stop_;
@@ -516,20 +660,14 @@ class CoupledFluid {
       switch (watch_.poll(Clock::now())) {
         case protocol::PeerWatch::Action::Wait:
           break;
-        case protocol::PeerWatch::Action::Resend: {
-          cosimlcm::resend_t r{};
-          r.token = o_.token;
-          r.step = step;
-          r.what = "solid_state";
-          net_.publish(ch_.resend, r);
-          ++resends_asked_;
+        case protocol::PeerWatch::Action::Resend:
+          request_resend(step);
           break;
-        }
         case protocol::PeerWatch::Action::GiveUp: {
           const std::string why = "the solid was silent for " +
                                   std::to_string(c_.peer_timeout_s) +
                                   " s while the fluid waited for solid_state_t of step " +
-                                  std::to_string(step);
+                                  std::to_string(awaited_step_);
           publish_stop(step, kPeerLost, why);
           return Ending{kPeerLost, why};
         }
@@ -551,11 +689,13 @@ class CoupledFluid {
     const std::int64_t dynamic_from = std::max<std::int64_t>(c_.rigid_steps, 1);
     // The first message of a restart was computed with the checkpoint's A_T.
     const int ratio = step == first_step_ && first_step_ > 0 ? restart_ratio_ : c_.time_ratio;
-    const int substeps = step < dynamic_from ? 0 : ratio;
+    // The implicit scheme's last message, solid_state_t(N, 0), takes no substeps.
+    const bool closing = step == s_.steps;
+    const int substeps = step < dynamic_from || closing ? 0 : ratio;
     if (m.substeps != substeps)
       return bad(kBadInput, "substeps = " + std::to_string(m.substeps) + ", expected " +
                                 std::to_string(substeps));
-    const double t = double(std::max<std::int64_t>(0, step - dynamic_from + 1)) * units_.dt_lb_s();
+    const double t = double(std::max<std::int64_t>(0, step - dynamic_from + (closing ? 0 : 1))) * units_.dt_lb_s();
     if (std::abs(m.solid_time_s - t) > 1e-9 * std::max(t, units_.dt_lb_s()))
       return bad(kBadInput, "solid_time_s = " + std::to_string(m.solid_time_s) + ", expected " +
                                 std::to_string(t));
@@ -595,11 +735,12 @@ class CoupledFluid {
     return Ending{kBadInput, why};
   }
 
-  void publish_fluid_state(std::int64_t step, const std::vector<MarkerSample>& samples) {
+  void publish_fluid_state(std::int64_t step, const std::vector<MarkerSample>& samples, int iteration = 0) {
     cosimlcm::fluid_state_t m{};
     m.token = o_.token;
     m.seq = fluid_seq_++;
     m.step = step;
+    m.iteration = iteration;
     m.bulk_velocity_lb = bulk_u_;
     m.num_cgps = num_cgps_;
     m.rho_lb.resize(samples.size());
@@ -648,9 +789,13 @@ class CoupledFluid {
     e.token = o_.token;
     e.num_cgps = num_cgps_;
     e.lowest_step = 0;
-    e.highest_step = std::min<std::int64_t>(solid_seq_.expected_step() + protocol::kStepWindow,
-                                            s_.steps - 1);
+    const bool implicit = c_.scheme.implicit_scheme();
+    // The implicit scheme also sends solid_state_t(N, 0) (N = run.steps) to accept the last step.
+    e.highest_step = std::min<std::int64_t>((implicit ? awaited_step_ + 1 : solid_seq_.expected_step()) +
+                                                protocol::kStepWindow,
+                                            s_.steps - (implicit ? 0 : 1));
     e.time_ratio = time_ratio_;
+    e.max_iterations = c_.scheme.iterations_allowed();
     return e;
   }
 
@@ -677,10 +822,11 @@ class CoupledFluid {
       return;
     }
     watch_.heard(Clock::now());
-    switch (solid_seq_.offer(m.step, m.seq)) {
+    const std::int64_t key = key_of(m);
+    switch (solid_seq_.offer(key, m.seq)) {
       case protocol::StepSequencer::Verdict::Accept:
       case protocol::StepSequencer::Verdict::Early:
-        if (m.step < s_.steps + 1 && inbox_.size() < 8) inbox_.emplace(m.step, std::move(m));
+        if (m.step < s_.steps + 1 && inbox_.size() < 8) inbox_.emplace(key, std::move(m));
         break;
       default:
         break;
@@ -693,19 +839,20 @@ class CoupledFluid {
   void refuse_state(const std::string& channel, const cosimlcm::solid_state_t& m,
                     const protocol::Rejection& r) {
     rejections_.add(channel, r);
-    if (!welcome_ || !welcome_->accepted || m.step != solid_seq_.expected_step() ||
+    if (!welcome_ || !welcome_->accepted || key_of(m) != solid_seq_.expected_step() ||
         solid_seq_.expected_received() || refused_state_)
       return;
     if (++states_refused_ >= protocol::kRejectedCopiesLimit) {
       refused_state_.emplace(m, r);
       return;
     }
-    cosimlcm::resend_t q{};
-    q.token = o_.token;
-    q.step = m.step;
-    q.what = "solid_state";
-    net_.publish(ch_.resend, q);
-    ++resends_asked_;
+    request_resend(m.step);
+  }
+
+  /// What the sequencer orders solid_state_t by: the step (serial), the solid's seq
+  /// (implicit: several messages per step, consecutive seq in lock-step).
+  std::int64_t key_of(const cosimlcm::solid_state_t& m) const {
+    return c_.scheme.implicit_scheme() ? m.seq : m.step;
   }
 
   void on_resend(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
@@ -806,6 +953,13 @@ class CoupledFluid {
   int restart_ratio_ = 0;        ///< the A_T of the --restart checkpoint
   int peer_code_ = 0;            ///< the exit code of the solid's stop_t
   std::int64_t fluid_seq_ = 0;
+  /// The implicit scheme: the committed step with the counters a checkpoint of it keeps
+  /// (the fluid's next seq, the solid's seq that begins the step's iterations).
+  struct Commit {
+    std::int64_t step = 0, fluid_seq = 0, solid_seq = 0;
+  } commit_;
+  std::int64_t awaited_step_ = 0;  ///< implicit: the committed step (the solid sends it or the next)
+  std::int64_t redone_steps_ = 0;  ///< implicit: fluid steps taken again from a kept state
   std::int64_t resends_asked_ = 0, resends_answered_ = 0;
   double compute_s_ = 0.0, wait_s_ = 0.0, publish_s_ = 0.0;  ///< per-step timing (DESIGN 7)
   double watch_s_ = 0.0;  ///< the watchdog's share of compute_s_

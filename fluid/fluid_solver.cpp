@@ -1,5 +1,7 @@
 #include "fluid/fluid_solver.hpp"
 
+#include <algorithm>
+#include <stdexcept>
 #include <utility>
 
 #include "fluid/bgk_guo.hpp"
@@ -54,6 +56,20 @@ void FluidSolver::step() {
   std::swap(f_, g_);
   bc_.fill_ghosts(f_);
   ++steps_;
+}
+
+void FluidSolver::copy_state(PopulationField& to) const {
+  if (to.layout().stride() != layout_.stride()) to = PopulationField(layout_);
+  const std::size_t size = std::size_t(D3Q19::Q) * layout_.stride();
+  std::copy(f_.q(0), f_.q(0) + size, to.q(0));
+}
+
+void FluidSolver::restore_state(const PopulationField& from, std::int64_t steps) {
+  if (from.layout().stride() != layout_.stride())
+    throw std::invalid_argument("FluidSolver::restore_state: a population field of another layout");
+  const std::size_t size = std::size_t(D3Q19::Q) * layout_.stride();
+  std::copy(from.q(0), from.q(0) + size, f_.q(0));
+  steps_ = steps;
 }
 
 void FluidSolver::apply_local_forces() {

@@ -76,6 +76,13 @@ class FluidSolver {
   /// A restart from a checkpoint (DESIGN 2.4): the step count the restored state is at.
   void set_step_count(std::int64_t steps) { steps_ = steps; }
 
+  /// Keeps the state (populations with their ghosts) in `to`, for the implicit coupling
+  /// scheme's sub-iterations; `to` gets this solver's layout.
+  void copy_state(PopulationField& to) const;
+  /// Back to a state kept by copy_state(), at step count `steps`.
+  /// @throws std::invalid_argument for a field of another layout
+  void restore_state(const PopulationField& from, std::int64_t steps);
+
  private:
   void apply_local_forces();
 

@@ -80,7 +80,7 @@ const std::vector<Section>& schema() {
       {"output", {"directory", "fields_every", "planes_every", "planes_y", "sheets_every"}},
       {"coupling",
        {"time_ratio", "rigid_steps", "handshake_timeout_s", "peer_timeout_s", "resend_after_s",
-        "checkpoint_every",
+        "checkpoint_every", "scheme", "max_iterations", "tolerance", "relaxation",
         "lcm_url", "channel_prefix"}},
       // The stability watchdog (protocol/watchdog.hpp): the same table in both servers.
       {"watchdog", watchdog_key_names()},
@@ -405,6 +405,40 @@ void load_grid(const Reader& r, FluidScene& s) {
                "); reduce nx, ny, nz");
 }
 
+/// [coupling] scheme, max_iterations, tolerance, relaxation (protocol/coupling_scheme.hpp);
+/// the solid's parser checks the same limits.
+void load_scheme(const Reader& r, protocol::SchemeSettings& out) {
+  using protocol::ImplicitSettings;
+  if (const auto i = r.choice("coupling", "scheme", {"serial", "implicit"}))
+    out.scheme = *i == 1 ? protocol::CouplingScheme::Implicit : protocol::CouplingScheme::Serial;
+  ImplicitSettings& m = out.implicit;
+  if (const auto v = r.integer("coupling", "max_iterations")) {
+    if (*v < 1 || *v > ImplicitSettings::max_iterations_max)
+      r.bad(*r.node("coupling", "max_iterations"), "coupling.max_iterations",
+            "must be an integer from 1 to " + std::to_string(ImplicitSettings::max_iterations_max) +
+                " (sub-iterations per LB step of the implicit scheme)");
+    m.max_iterations = int(*v);
+  }
+  if (const auto v = r.number("coupling", "tolerance")) {
+    if (!(*v >= ImplicitSettings::tolerance_min && *v < 1.0))
+      r.bad(*r.node("coupling", "tolerance"), "coupling.tolerance",
+            "must be a number in [1e-14, 1) (the implicit scheme's relative residual of the impulses)");
+    m.tolerance = *v;
+  }
+  if (const auto v = r.number("coupling", "relaxation")) {
+    if (!(*v > 0.0 && *v <= 1.0))
+      r.bad(*r.node("coupling", "relaxation"), "coupling.relaxation",
+            "must be a number in (0, 1] (the implicit scheme's first relaxation factor; leave it out for the "
+            "added-mass estimate)");
+    m.relaxation = *v;
+  }
+  if (out.scheme != protocol::CouplingScheme::Implicit)
+    for (const char* key : {"max_iterations", "tolerance", "relaxation"})
+      if (const toml::node* n = r.node("coupling", key))
+        r.bad(*n, std::string("coupling.") + key, "belongs to coupling.scheme = \"implicit\"; this scene's scheme is "
+                                                   "\"serial\"");
+}
+
 void load_coupling(const Reader& r, FluidScene& s) {
   if (!r.section("coupling")) return;
   CouplingSettings c;
@@ -425,6 +459,7 @@ void load_coupling(const Reader& r, FluidScene& s) {
             "must be an integer >= 0 (LB steps between coupled checkpoints; 0: none)");
     c.checkpoint_every = *v;
   }
+  load_scheme(r, c.scheme);
   for (auto [key, target] : {std::pair{"handshake_timeout_s", &c.handshake_timeout_s},
                              std::pair{"peer_timeout_s", &c.peer_timeout_s},
                              std::pair{"resend_after_s", &c.resend_after_s}}) {

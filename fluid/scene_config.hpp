@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "fluid/fluid_solver.hpp"
+#include "protocol/coupling_scheme.hpp"
 #include "protocol/watchdog.hpp"
 
 namespace cosim::fluid {
@@ -54,6 +55,8 @@ struct CouplingSettings {
   /// Coupled checkpoints (DESIGN 2.4) every this many LB steps into OUTPUT/checkpoints/;
   /// 0: none (a clean abort still writes one).
   std::int64_t checkpoint_every = 0;
+  /// serial (the paper's) or implicit sub-iterations (protocol/coupling_scheme.hpp).
+  protocol::SchemeSettings scheme;
 };
 
 /// A validated fluid-only scene: the solver's parameters plus what the run needs.

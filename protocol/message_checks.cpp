@@ -3,6 +3,7 @@
 #include <array>
 #include <charconv>
 #include <climits>
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -74,6 +75,14 @@ std::optional<Rejection> seq_ok(const char* type, std::int64_t seq) {
   if (seq >= 0) return std::nullopt;
   return reject(RejectCategory::Range, type,
                 "seq = " + std::to_string(seq) + "; allowed: 0 or more (the sender's counter)");
+}
+
+std::optional<Rejection> iteration_ok(const char* type, std::int32_t iteration, const Expectation& e) {
+  if (iteration >= 0 && iteration < std::max(e.max_iterations, 1)) return std::nullopt;
+  return reject(RejectCategory::Range, type,
+                "iteration = " + std::to_string(iteration) + "; allowed: 0 to " +
+                    std::to_string(std::max(e.max_iterations, 1) - 1) +
+                    " (coupling.max_iterations - 1; 0 in the serial scheme)");
 }
 
 std::optional<Rejection> step_ok(const char* type, std::int64_t step, const Expectation& e) {
@@ -298,6 +307,7 @@ std::optional<Rejection> check(const cosimlcm::solid_state_t& m, const Expectati
   if (auto r = token(type, m.token, e)) return r;
   if (auto r = seq_ok(type, m.seq)) return r;
   if (auto r = step_ok(type, m.step, e)) return r;
+  if (auto r = iteration_ok(type, m.iteration, e)) return r;
   if (auto r = count_ok(type, m.num_cgps, e)) return r;
   if (auto r = rows3(type, "position_lb", m.position_lb, m.num_cgps)) return r;
   if (auto r = rows3(type, "impulse_lb", m.impulse_lb, m.num_cgps)) return r;
@@ -317,6 +327,7 @@ std::optional<Rejection> check(const cosimlcm::fluid_state_t& m, const Expectati
   if (auto r = token(type, m.token, e)) return r;
   if (auto r = seq_ok(type, m.seq)) return r;
   if (auto r = step_ok(type, m.step, e)) return r;
+  if (auto r = iteration_ok(type, m.iteration, e)) return r;
   if (auto r = count_ok(type, m.num_cgps, e)) return r;
   if (m.rho_lb.size() != static_cast<std::size_t>(m.num_cgps))
     return reject(RejectCategory::Count, type,
@@ -400,6 +411,7 @@ std::optional<std::string> check_encoding(const cosimlcm::solid_state_t*, const 
   b.string("token");
   b.i64("seq");
   b.i64("step");
+  b.i32("iteration");
   b.i32("substeps");
   b.f64("solid_time_s");
   b.count_and_arrays(6);  // position_lb[n][3], impulse_lb[n][3]
@@ -414,6 +426,7 @@ std::optional<std::string> check_encoding(const cosimlcm::fluid_state_t*, const 
   b.string("token");
   b.i64("seq");
   b.i64("step");
+  b.i32("iteration");
   b.f64("bulk_velocity_lb");
   b.count_and_arrays(4);  // rho_lb[n], velocity_lb[n][3]
   b.end();

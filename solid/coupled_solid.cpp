@@ -41,6 +41,7 @@
 #include "protocol/step_sequencer.hpp"
 #include "protocol/text.hpp"
 #include "protocol/units.hpp"
+#include "solid/aitken_relaxation.hpp"
 #include "solid/model_registry.hpp"
 #include "solid/sheet_snapshots.hpp"
 #include "solid/sheet_spec.hpp"
@@ -116,7 +117,11 @@ class CoupledSolid {
       : s_(scene), c_(*scene.coupling), o_(options), out_(out), err_(err),
         ch_(c_.channel_prefix), units_(scene.unit_inputs()),
         watch_(peer_timeout_ms(c_), resend_after_ms(c_)),
-        rejections_([this](const std::string& line) { out_ << "solid: " << line << "\n"; }) {}
+        rejections_([this](const std::string& line) { out_ << "solid: " << line << "\n"; }) {
+    // The implicit scheme sends several messages per step: both sides then wait for the
+    // peer's next sequence number (consecutive in lock-step) instead of the next step.
+    if (implicit_) seq_ = protocol::StepSequencer(0);
+  }
 
   CoupledSolid(const CoupledSolid&) = delete;
   CoupledSolid& operator=(const CoupledSolid&) = delete;
@@ -164,7 +169,7 @@ class CoupledSolid {
       const Clock::time_point t1 = Clock::now();
       const cosimlcm::fluid_state_t m = std::move(*pending_);
       pending_.reset();
-      if (const auto e = interval(m)) return finish(*e);
+      if (const auto e = on_fluid_state(m)) return finish(*e);
       wait_s_ += std::chrono::duration<double>(t1 - t0).count();
       compute_s_ += std::chrono::duration<double>(Clock::now() - t1).count();
       ++timed_steps_;
@@ -211,6 +216,7 @@ class CoupledSolid {
     // The watchdog (DESIGN 6; protocol/watchdog.hpp): a CGP's speed after every substep, the
     // energy after every interval. The energy floor: the sheets at 1e-6 c.
     coupler_->set_speed_limit(s_.watchdog.max_cgp_speed);
+    coupler_->set_held(held_cgps());
     const double mass_kg = model_->masses().sum() * PhysicalConstants::electron_mass_kg;
     const double c = units_.dx_m() / units_.dt_lb_s();
     energy_watch_.emplace(s_.watchdog.energy_growth, 0.5 * mass_kg * c * c * 1e-12);
@@ -410,7 +416,7 @@ class CoupledSolid {
           return Ending{exit_code::peer_lost,
                         "the fluid was silent for " + fmt("%g", c_.peer_timeout_s) +
                             " s (peer_timeout_s) while the solid waited for fluid_state_t of step " +
-                            std::to_string(seq_.expected_step()) + " on " + ch_.fluid_state + " (" +
+                            std::to_string(last_step_ + 1) + " on " + ch_.fluid_state + " (" +
                             std::to_string(watch_.resends_since_heard()) + " resend_t sent)",
                         true};
       }
@@ -425,7 +431,7 @@ class CoupledSolid {
     const auto malformed = [&](const std::string& what) {
       return Ending{exit_code::bad_input, where + what, true};
     };
-    if (m.step >= total_steps_)
+    if (m.step >= total_steps_ + (implicit_ ? 1 : 0))
       return malformed("the run has total_steps = " + std::to_string(total_steps_) +
                        " (welcome_t); the last fluid_state_t is for step " +
                        std::to_string(total_steps_ - 1));
@@ -459,6 +465,165 @@ class CoupledSolid {
           return unhealthy("velocity_lb[" + std::to_string(c) + "] = " +
                            fmt("%g", m.velocity_lb[l][c]) + " is not finite");
     }
+    return std::nullopt;
+  }
+
+  /// What fluid_state_t(m) asks for: the serial scheme's interval; in the implicit scheme the
+  /// answer to the current iterate (another iterate, or its acceptance), then the next step.
+  std::optional<Ending> on_fluid_state(const cosimlcm::fluid_state_t& m) {
+    if (!implicit_) return interval(m);
+    if (const auto e = check_fluid_state(m)) return e;
+    if (iterate_) {
+      bool again = false;
+      if (const auto e = answer_iterate(m, again)) return e;
+      if (again) return std::nullopt;
+    }
+    if (m.step == total_steps_) {
+      // The last step accepted: solid_state_t(N, 0), zero impulses, closes the run (the
+      // fluid commits its last step on it and answers with stop_t).
+      publish_state(m.step, 0, coupler_->positions_lb(), Eigen::Matrix3Xd::Zero(3, n_));
+      return std::nullopt;
+    }
+    if (m.step < rigid_steps_) return interval(m);  // the spin-up: nothing to iterate
+    return begin_iterate(m);
+  }
+
+  // ---- the implicit scheme (protocol/README.md 13) ----
+
+  /// The sub-iterations of one step: the state at its start, the fluid sample that drives
+  /// the current iterate, that iterate's interval, and what a checkpoint of the step keeps.
+  struct Iterate {
+    std::int64_t step = 0;
+    int iteration = 0;
+    SolidState start;                ///< the committed state at the start of the interval
+    FluidSample drive;               ///< u^k (relaxed) and the latest rho, lattice units
+    IntervalResult trial;            ///< the interval driven by it
+    double start_bulk_velocity = 0;  ///< U_b of the fluid_state_t that began the step
+    cosimlcm::solid_state_t first;   ///< solid_state_t(step, 0), for checkpoints
+    FluidSample first_drive;         ///< its sample, for checkpoints
+    std::int64_t fluid_seq_awaited = 0;  ///< the fluid seq awaited after `first`
+    double residual = 0.0;           ///< |u~ - u| / |u~| of the last answer
+  };
+
+  static FluidSample sample_of(const cosimlcm::fluid_state_t& m) {
+    FluidSample sample;
+    const auto n = static_cast<Eigen::Index>(m.rho_lb.size());
+    sample.rho_lb.resize(n);
+    sample.velocity_lb.resize(3, n);
+    for (Eigen::Index l = 0; l < n; ++l) {
+      const auto k = static_cast<std::size_t>(l);
+      sample.rho_lb[l] = m.rho_lb[k];
+      for (Eigen::Index c = 0; c < 3; ++c) sample.velocity_lb(c, l) = m.velocity_lb[k][static_cast<std::size_t>(c)];
+    }
+    return sample;
+  }
+
+  /// The first relaxation factor of the run: coupling.relaxation, else 1/2.
+  double first_relaxation() const {
+    return c_.scheme.implicit.relaxation > 0.0 ? c_.scheme.implicit.relaxation : 0.5;
+  }
+
+  /// The CGPs the model holds (solid_coupler.hpp set_held): clamped rows; all of a model
+  /// without dynamics.
+  std::vector<bool> held_cgps() const {
+    std::vector<bool> held(static_cast<std::size_t>(n_), !std::isfinite(model_->stable_time_step()));
+    Eigen::Index first = 0;
+    for (const SheetSpec& sheet : s_.config.sheets) {
+      for (Eigen::Index k = 0; k < sheet.num_cgps() && first + k < n_; ++k)
+        if (sheet.is_clamped(k)) held[static_cast<std::size_t>(first + k)] = true;
+      first += sheet.num_cgps();
+    }
+    return held;
+  }
+
+  /// Step m.step's first iterate, driven by the fluid at the start of the step (the serial
+  /// scheme's sample); solid_state_t(step, 0).
+  std::optional<Ending> begin_iterate(const cosimlcm::fluid_state_t& m) {
+    Iterate it;
+    it.step = m.step;
+    it.start = model_->state();
+    it.start_bulk_velocity = m.bulk_velocity_lb;
+    it.drive = sample_of(m);
+    it.first_drive = it.drive;
+    if (!aitken_) aitken_.emplace(first_relaxation(), Eigen::RowVectorXd::Ones(n_));
+    aitken_->new_step();
+    if (const auto e = run_iterate(it)) return e;
+    publish_state(it.step, it.trial.substeps, it.trial.position_lb, it.trial.impulse_lb, 0, it.trial.substeps);
+    it.first = sent_.back();
+    it.fluid_seq_awaited = seq_.expected_step() + 1;  // the sequencer advances after this
+    iterate_ = std::move(it);
+    ++implicit_steps_;
+    if (c_.checkpoint_every > 0 && m.step % c_.checkpoint_every == 0) {
+      try {
+        checkpoint("");
+      } catch (const std::exception& e) {
+        return Ending{exit_code::system, "checkpoint of step " + std::to_string(m.step) + ": " +
+                                             one_line(e.what()), true};
+      }
+    }
+    return std::nullopt;
+  }
+
+  /// The interval driven by it.drive from it.start (the model holds it.start), with the
+  /// reaction integrated exactly over each substep.
+  std::optional<Ending> run_iterate(Iterate& it) {
+    const std::string where = "iteration " + std::to_string(it.iteration) + " of step " + std::to_string(it.step);
+    try {
+      it.trial = coupler_->advance(it.drive, false, true);
+    } catch (const std::exception& e) {
+      return Ending{exit_code::unhealthy, "the implicit scheme's " + where + ": " + one_line(e.what()), true};
+    }
+    if (it.trial.overspeed) {
+      Ending e = overspeed(it.step, *it.trial.overspeed);
+      e.reason += " (the implicit scheme's " + where + ")";
+      return e;
+    }
+    std::string bad = non_finite_state();
+    if (bad.empty() && !(it.trial.position_lb.allFinite() && it.trial.impulse_lb.allFinite()))
+      bad = "a non-finite position or impulse for the fluid";
+    if (!bad.empty())
+      return Ending{exit_code::unhealthy, "non-finite solid state in the implicit scheme's " + where + ": " + bad, true};
+    return std::nullopt;
+  }
+
+  /// fluid_state_t(step + 1, k) answers iterate k with the fluid at the end of the step,
+  /// u~, against the u^k that drove it. Not converged (and iterations left): the next
+  /// iterate, u^{k+1} = u^k + omega (u~ - u^k) (Aitken), published, `again` = true. Else the
+  /// iterate is accepted.
+  std::optional<Ending> answer_iterate(const cosimlcm::fluid_state_t& m, bool& again) {
+    Iterate& it = *iterate_;
+    const protocol::ImplicitSettings& cfg = c_.scheme.implicit;
+    const FluidSample answer = sample_of(m);
+    const double r = (answer.velocity_lb - it.drive.velocity_lb).norm(), un = answer.velocity_lb.norm();
+    // The round-off floor: 1e-14 of the flow's speed at the markers.
+    const bool converged = r <= cfg.tolerance * un + 1e-14 * (un + 1e-300);
+    it.residual = un > 0.0 ? r / un : r;
+    if (!converged && it.iteration + 1 < cfg.max_iterations) {
+      it.drive.velocity_lb = aitken_->next(it.drive.velocity_lb, answer.velocity_lb);
+      it.drive.rho_lb = answer.rho_lb;
+      model_->restore(it.start);
+      ++it.iteration;
+      ++iterations_redone_;
+      if (const auto e = run_iterate(it)) return e;
+      publish_state(it.step, it.trial.substeps, it.trial.position_lb, it.trial.impulse_lb, it.iteration,
+                    it.trial.substeps);
+      again = true;
+      return std::nullopt;
+    }
+    // Accepted: the model holds the end of the interval whose impulses the fluid spread;
+    // the row, the energy sentinel and the snapshot of the step, as interval() does.
+    if (!converged) {
+      ++unconverged_;
+      unconverged_residual_max_ = std::max(unconverged_residual_max_, it.residual);
+    }
+    iterations_max_ = std::max(iterations_max_, it.iteration + 1);
+    if (const auto trip = energy_watch_->check(it.step, sheet_energy_J(), joule_from_hartree(it.trial.fluid_work_au)))
+      return Ending{exit_code::unhealthy, trip->diagnosis + "; " + fastest_cgp(), true};
+    total_substeps_ += it.trial.substeps;
+    record(it.step, &it.trial, it.start_bulk_velocity);
+    const std::int64_t step = it.step;
+    iterate_.reset();
+    if (const auto e = snapshot(step)) return e;
     return std::nullopt;
   }
 
@@ -562,7 +727,21 @@ class CoupledSolid {
     const fs::path file = dir / protocol::checkpoint_name("solid", last_step_);
     protocol::CheckpointWriter w(file);
     w.attr("step", last_step_);
-    w.attr("solid_seq", solid_seq_);
+    // The implicit scheme keeps the step's start and its first iterate: a restart iterates
+    // the step again from there, as the run did.
+    w.attr("solid_seq", iterate_ ? iterate_->first.seq + 1 : solid_seq_);
+    if (implicit_) {
+      w.attr("fluid_seq_awaited", iterate_ ? iterate_->fluid_seq_awaited
+                                           : seq_.expected_step() + (seq_.expected_received() ? 1 : 0));
+      w.attr("aitken_start", aitken_ ? aitken_->step_start() : 0.0);
+      w.attr("start_bulk_velocity_lb", iterate_ ? iterate_->start_bulk_velocity : 0.0);
+      w.attr("iterating", static_cast<std::int64_t>(iterate_ ? 1 : 0));
+      if (iterate_) {
+        const FluidSample& d = iterate_->first_drive;
+        w.put("iterate_rho_lb", d.rho_lb.data(), std::size_t(d.rho_lb.size()));
+        w.put("iterate_velocity_lb", d.velocity_lb.data(), std::size_t(d.velocity_lb.size()));
+      }
+    }
     w.attr("total_substeps", total_substeps_);
     w.attr("num_cgps", static_cast<std::int64_t>(n_));
     w.attr("time_ratio", static_cast<std::int64_t>(c_.time_ratio));
@@ -574,13 +753,13 @@ class CoupledSolid {
     w.attr("watchdog_energy_max_J", ew.energy_max);
     w.text("scene_hash", protocol::scene_hash_of_file(s_.path));
     w.text("reason", reason.empty() ? "every coupling.checkpoint_every steps" : reason);
-    const SolidState st = model_->state();
+    const SolidState st = iterate_ ? iterate_->start : model_->state();
     w.text("model", st.model);
     w.put("positions_bohr", st.positions_bohr.data(), std::size_t(st.positions_bohr.size()));
     w.put("velocities_au", st.velocities_au.data(), std::size_t(st.velocities_au.size()));
     w.put("external_forces_au", st.external_forces_au.data(), std::size_t(st.external_forces_au.size()));
     // The solid_state_t(last_step_) in flight: the fluid has not applied it yet.
-    const cosimlcm::solid_state_t& sent = sent_.back();
+    const cosimlcm::solid_state_t& sent = iterate_ ? iterate_->first : sent_.back();
     std::vector<std::uint8_t> bytes(static_cast<std::size_t>(sent.getEncodedSize()));
     sent.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
     w.put("in_flight_solid_state", bytes);
@@ -645,7 +824,23 @@ class CoupledSolid {
     } else {
       energy_watch_->check(step, sheet_energy_J(), 0.0);  // an older checkpoint: E here is E(0)
     }
-    seq_ = protocol::StepSequencer(step + 1);
+    seq_ = protocol::StepSequencer(implicit_ ? r.int64_attr("fluid_seq_awaited") : step + 1);
+    if (implicit_ && r.int64_attr("iterating") != 0) {
+      // The step's first iterate again, from its start, with the sample it began with.
+      Iterate it;
+      it.step = step;
+      it.start = model_->state();
+      it.drive.rho_lb = Eigen::Map<const Eigen::VectorXd>(r.doubles("iterate_rho_lb", std::size_t(n_)).data(), n_);
+      it.drive.velocity_lb = Eigen::Map<const Eigen::Matrix3Xd>(r.doubles("iterate_velocity_lb", size).data(), 3, n_);
+      it.first_drive = it.drive;
+      it.start_bulk_velocity = r.double_attr("start_bulk_velocity_lb");
+      it.fluid_seq_awaited = r.int64_attr("fluid_seq_awaited");
+      aitken_.emplace(first_relaxation(), Eigen::RowVectorXd::Ones(n_));
+      aitken_->restore_start(r.double_attr("aitken_start"));
+      if (const auto e = run_iterate(it)) throw std::runtime_error("its first iterate again: " + e->reason);
+      iterate_ = std::move(it);
+      ++implicit_steps_;
+    }
     if (snapshots_)
       for (std::int64_t k = 0; k <= step; ++k)
         if (sheet_snapshot_due(k, total_steps_ - 1, s_.sheets_every))
@@ -654,6 +849,7 @@ class CoupledSolid {
     sent.token = o_.token;
     publish(ch_.solid_state, sent);
     last_step_ = step;
+    if (iterate_) iterate_->first = sent;
     sent_.push_back(std::move(sent));
   }
 
@@ -679,14 +875,16 @@ class CoupledSolid {
                       true};
   }
 
+  /// `pending_substeps`: substeps of an implicit iterate, not yet in total_substeps_.
   void publish_state(std::int64_t step, int substeps, const Eigen::Matrix3Xd& x,
-                     const Eigen::Matrix3Xd& j) {
+                     const Eigen::Matrix3Xd& j, int iteration = 0, int pending_substeps = 0) {
     cosimlcm::solid_state_t m{};
     m.token = o_.token;
     m.seq = solid_seq_++;
     m.step = step;
+    m.iteration = iteration;
     m.substeps = substeps;
-    m.solid_time_s = static_cast<double>(total_substeps_) * units_.dt_cg_s();
+    m.solid_time_s = static_cast<double>(total_substeps_ + pending_substeps) * units_.dt_cg_s();
     m.num_cgps = static_cast<std::int32_t>(n_);
     m.position_lb.assign(static_cast<std::size_t>(n_), std::vector<double>(3));
     m.impulse_lb.assign(static_cast<std::size_t>(n_), std::vector<double>(3));
@@ -704,7 +902,7 @@ class CoupledSolid {
   void request_resend() {
     cosimlcm::resend_t r{};
     r.token = o_.token;
-    r.step = seq_.expected_step();
+    r.step = last_step_ + 1;  // fluid_state_t(n + 1) answers solid_state_t(n)
     r.what = "fluid_state";
     publish(ch_.resend, r);
     ++resends_asked_;
@@ -757,9 +955,11 @@ class CoupledSolid {
     e.token = o_.token;
     e.num_cgps = static_cast<std::int32_t>(n_);
     e.lowest_step = 1;
-    e.highest_step = std::min<std::int64_t>(seq_.expected_step() + protocol::kStepWindow,
-                                            total_steps_ - 1);
+    // The implicit scheme's last answer is fluid_state_t(N) (N = total_steps).
+    e.highest_step = std::min<std::int64_t>(last_step_ + 1 + protocol::kStepWindow,
+                                            total_steps_ - (implicit_ ? 0 : 1));
     e.time_ratio = c_.time_ratio;
+    e.max_iterations = c_.scheme.iterations_allowed();
     return e;
   }
 
@@ -806,7 +1006,7 @@ class CoupledSolid {
   void refuse_state(const std::string& channel, const cosimlcm::fluid_state_t& m,
                     const protocol::Rejection& r) {
     rejections_.add(channel, r);
-    if (!welcome_ || !welcome_->accepted || fatal_ || m.step != seq_.expected_step() ||
+    if (!welcome_ || !welcome_->accepted || fatal_ || key_of(m) != seq_.expected_step() ||
         seq_.expected_received())
       return;
     if (++states_refused_ < protocol::kRejectedCopiesLimit) {
@@ -823,14 +1023,18 @@ class CoupledSolid {
                     true};
   }
 
+  /// What the sequencer orders fluid_state_t by: the step (serial), the fluid's seq
+  /// (implicit: several messages per step, consecutive seq in lock-step).
+  std::int64_t key_of(const cosimlcm::fluid_state_t& m) const { return implicit_ ? m.seq : m.step; }
+
   void offer(cosimlcm::fluid_state_t m) {
-    switch (seq_.offer(m.step, m.seq)) {
+    switch (seq_.offer(key_of(m), m.seq)) {
       case protocol::StepSequencer::Verdict::Accept:
         pending_ = std::move(m);
         break;
       case protocol::StepSequencer::Verdict::Early: {
-        const std::int64_t step = m.step;
-        early_.store(step, std::move(m));
+        const std::int64_t key = key_of(m);
+        early_.store(key, std::move(m));
         if (seq_.missing_expected() && welcome_) request_resend();  // a gap: ask at once
         break;
       }
@@ -845,11 +1049,12 @@ class CoupledSolid {
     if (!receive(rbuf, channel, m) || refused(channel, m)) return;
     if (m.what != "solid_state") return;  // our own request for fluid_state, heard back
     ++resend_requests_;
+    // Every kept message of that step (the implicit scheme's iterates of one step share it;
+    // the fluid drops the copies it has had by their seq).
     for (const cosimlcm::solid_state_t& sent : sent_)
       if (sent.step == m.step) {
         publish(ch_.solid_state, sent);  // unchanged: same seq, bit for bit
         ++resends_answered_;
-        return;
       }
     // A step not reached yet (it comes when ready) or no longer kept: ignored.
   }
@@ -1041,6 +1246,15 @@ class CoupledSolid {
              << " c after a substep (limit " << fmt("%g", s_.watchdog.max_cgp_speed)
              << "), unexplained energy max " << fmt("%.3g", energy_watch_->max_ratio())
              << " of the energy scale (limit " << fmt("%g", s_.watchdog.energy_growth) << ")\n";
+      if (implicit_ && implicit_steps_ > 0)
+        out_ << "solid: implicit scheme: " << implicit_steps_ << " steps iterated, "
+             << fmt("%.3g", double(implicit_steps_ + iterations_redone_) / double(implicit_steps_))
+             << " iterations a step on average, at most " << iterations_max_ << " (coupling.max_iterations = "
+             << c_.scheme.implicit.max_iterations << ", tolerance " << fmt("%g", c_.scheme.implicit.tolerance)
+             << "); " << unconverged_ << " steps not converged"
+             << (unconverged_ > 0 ? " (relative residual up to " + fmt("%.3g", unconverged_residual_max_) + ")" : std::string())
+             << "; Aitken factor: first " << fmt("%.4g", first_relaxation()) << ", last "
+             << fmt("%.4g", aitken_ ? aitken_->omega() : 0.0) << "\n";
       if (timed_steps_ > 0)
         out_ << "solid: per LB step: compute " << fmt("%.4g", 1e3 * compute_s_ / double(timed_steps_))
              << " ms (substeps, publishing, recording), waiting " << fmt("%.4g", 1e3 * wait_s_ / double(timed_steps_))
@@ -1092,6 +1306,13 @@ class CoupledSolid {
 
   std::int64_t total_steps_ = 0, rigid_steps_ = 0;
   std::int64_t solid_seq_ = 0, last_step_ = 0, total_substeps_ = 0;
+  // The implicit scheme (protocol/README.md 13).
+  const bool implicit_ = c_.scheme.implicit_scheme();
+  std::optional<Iterate> iterate_;       ///< the step being iterated
+  std::optional<AitkenRelaxation> aitken_;
+  std::int64_t implicit_steps_ = 0, iterations_redone_ = 0, unconverged_ = 0;
+  int iterations_max_ = 0;
+  double unconverged_residual_max_ = 0.0;
   std::int64_t first_step_ = 0;  ///< 0, or the step of --restart
   std::int64_t hellos_ = 0, resends_asked_ = 0, resend_requests_ = 0, resends_answered_ = 0;
   std::map<std::string, std::int64_t> undecodable_;

@@ -40,7 +40,7 @@ Eigen::Vector3d SolidCoupler::momentum_lb() const {
   return p;
 }
 
-IntervalResult SolidCoupler::advance(const FluidSample& sample, bool rigid) {
+IntervalResult SolidCoupler::advance(const FluidSample& sample, bool rigid, bool implicit_reaction) {
   const Eigen::Index n = model_.num_cgps();
   if (sample.rho_lb.size() != n || sample.velocity_lb.cols() != n)
     fail(__LINE__, "a fluid sample of " + std::to_string(sample.rho_lb.size()) +
@@ -65,9 +65,19 @@ IntervalResult SolidCoupler::advance(const FluidSample& sample, bool rigid) {
   // Trapezoid sum of the positions over the substep boundaries, in bohr (converted once).
   Eigen::Matrix3Xd position_sum = 0.5 * model_.positions();
   const double b_v = units_.velocity_ratio(), b_f = units_.force_ratio();  // Eq. 32
+  // phi(dt_CG / T) per CGP (implicit_reaction), else 1: h = dt / T with 1 / T the rate of
+  // the reaction's velocity decay, 2 rho dA B_V / (B_F m) in atomic units (Eqs. 18-20, 32).
+  Eigen::VectorXd phi = Eigen::VectorXd::Ones(n);
+  if (implicit_reaction)
+    for (Eigen::Index l = 0; l < n; ++l) {
+      if (static_cast<std::size_t>(l) < held_.size() && held_[static_cast<std::size_t>(l)]) continue;
+      const double h = 2.0 * sample.rho_lb[l] * area_[static_cast<std::size_t>(l)] * b_v * dt_au /
+                       (b_f * model_.masses()[l]);
+      phi[l] = h > 1e-8 ? -std::expm1(-h) / h : 1.0 - 0.5 * h;
+    }
   for (int k = 0; k < a_t; ++k) {
     for (Eigen::Index l = 0; l < n; ++l) {
-      const double rho_da = 2.0 * sample.rho_lb[l] * area_[static_cast<std::size_t>(l)];
+      const double rho_da = 2.0 * sample.rho_lb[l] * area_[static_cast<std::size_t>(l)] * phi[l];
       for (int c = 0; c < 3; ++c) {
         const double u_b = b_v * model_.velocities()(c, l);
         const double g_da = rho_da * (u_b - sample.velocity_lb(c, l));  // on the fluid (Eq. 19)
@@ -86,26 +96,7 @@ IntervalResult SolidCoupler::advance(const FluidSample& sample, bool rigid) {
         r.impulse_lb(c, l) -= b_f * force_au_(c, l) / a_t;
     position_sum += (k + 1 < a_t ? 1.0 : 0.5) * model_.positions();
     // The watchdog (DESIGN 6): stop within the interval, before the state can overflow.
-    if (std::isfinite(speed_limit_lb_)) {
-      Eigen::Index fastest = 0;
-      const double v2 = model_.velocities().colwise().squaredNorm().maxCoeff(&fastest);
-      const double speed = b_v * std::sqrt(v2);
-      if (speed > max_speed_lb_) max_speed_lb_ = speed;
-      if (!(speed <= speed_limit_lb_)) {
-        IntervalResult::Overspeed o;
-        o.substep = k + 1;
-        o.cgp = fastest;
-        o.speed_lb = speed;
-        // T / dt_LB = m / (2 rho rho_air dA dx) in physical units; dt_CG = dt_LB / A_T.
-        const double m_kg = model_.masses()[fastest] * protocol::PhysicalConstants::electron_mass_kg;
-        const double da_m2 = area_[static_cast<std::size_t>(fastest)] * units_.dx_m() * units_.dx_m();
-        const double t_lb = m_kg / (2.0 * sample.rho_lb[fastest] * units_.air_density_kg_m3() * da_m2 * units_.dx_m());
-        o.dt_over_relaxation = 1.0 / (t_lb * a_t);
-        r.overspeed = o;
-        r.substeps = k + 1;
-        return r;
-      }
-    }
+    if (over_speed_limit(k, sample, r)) return r;
   }
   r.position_lb.resize(3, n);
   for (Eigen::Index l = 0; l < n; ++l)
@@ -113,6 +104,29 @@ IntervalResult SolidCoupler::advance(const FluidSample& sample, bool rigid) {
       r.position_lb(c, l) = units_.length_lb_from_bohr(position_sum(c, l) / a_t) + origin_[c];
   r.substeps = a_t;
   return r;
+}
+
+bool SolidCoupler::over_speed_limit(int k, const FluidSample& sample, IntervalResult& r) {
+  if (!std::isfinite(speed_limit_lb_)) return false;
+  Eigen::Index fastest = 0;
+  const double v2 = model_.velocities().colwise().squaredNorm().maxCoeff(&fastest);
+  const double speed = units_.velocity_ratio() * std::sqrt(v2);
+  if (speed > max_speed_lb_) max_speed_lb_ = speed;
+  if (speed <= speed_limit_lb_) return false;
+  IntervalResult::Overspeed o;
+  o.substep = k + 1;
+  o.cgp = fastest;
+  o.speed_lb = speed;
+  // T / dt_LB = m / (2 rho rho_air dA dx) in physical units; dt_CG = dt_LB / A_T.
+  const int a_t = units_.inputs().time_ratio;
+  const double rho = sample.rho_lb[fastest];
+  const double m_kg = model_.masses()[fastest] * protocol::PhysicalConstants::electron_mass_kg;
+  const double da_m2 = area_[static_cast<std::size_t>(fastest)] * units_.dx_m() * units_.dx_m();
+  const double t_lb = m_kg / (2.0 * rho * units_.air_density_kg_m3() * da_m2 * units_.dx_m());
+  o.dt_over_relaxation = 1.0 / (t_lb * a_t);
+  r.overspeed = o;
+  r.substeps = k + 1;
+  return true;
 }
 
 std::vector<double> marker_areas_lb(const std::vector<SheetSpec>& sheets,

@@ -67,13 +67,25 @@ class SolidCoupler {
   /// g = 2 rho (U_B - u) (momentum_exchange_force, fluid/immersed_boundary.hpp), the CGP
   /// gets -g dA (B_F, Eq. 32) for the substep and J_l accumulates g dA / A_T.
   /// Throws std::invalid_argument for a sample of the wrong size or a non-finite value.
-  IntervalResult advance(const FluidSample& sample, bool rigid);
+  ///
+  /// implicit_reaction (coupling.scheme = "implicit", protocol/README.md 13): the reaction on
+  /// the CGP is integrated exactly over the substep instead of held at its start value (the
+  /// drag of relaxation time T = m / (2 rho dA c) against the frozen u_l, Eqs. 18-20): the
+  /// force times phi(dt_CG / T), phi(h) = (1 - e^-h) / h, which takes the CGP's velocity
+  /// exactly e^-h of the way from u_l over a substep (alone; velocity Verlet holds an
+  /// external force constant over the substep). phi -> 1 for dt_CG << T: the same force;
+  /// any dt_CG / T is stable, where the held force diverges above 2.
+  IntervalResult advance(const FluidSample& sample, bool rigid, bool implicit_reaction = false);
 
   /// The watchdog's limit on a CGP's speed, c (watchdog.max_cgp_speed; a displacement of
   /// speed / A_T dx per substep), checked after every substep; +infinity: none.
   void set_speed_limit(double speed_lb) { speed_limit_lb_ = speed_lb; }
   /// The largest CGP speed after a substep so far, c (checked only with a speed limit).
   double max_speed_lb() const { return max_speed_lb_; }
+
+  /// The CGPs whose velocity the model holds (clamped; every CGP of a model without
+  /// dynamics): their reaction is not integrated as a drag (implicit_reaction).
+  void set_held(std::vector<bool> held) { held_ = std::move(held); }
 
   /// The CGP positions in lattice units (what the first SOLID_STATE carries).
   Eigen::Matrix3Xd positions_lb() const;
@@ -86,6 +98,10 @@ class SolidCoupler {
   std::vector<double> area_;
   Eigen::Vector3d origin_;
   Eigen::Matrix3Xd force_au_;
+  /// The substeps' watchdog check: fills r.overspeed and returns true for a CGP above the
+  /// speed limit after substep k (0-based).
+  bool over_speed_limit(int k, const FluidSample& sample, IntervalResult& r);
+  std::vector<bool> held_;
   double speed_limit_lb_ = std::numeric_limits<double>::infinity();
   double max_speed_lb_ = 0.0;
 };

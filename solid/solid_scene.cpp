@@ -102,7 +102,7 @@ const std::vector<Section>& schema() {
       {"coupling",
        false,
        {"time_ratio", "rigid_steps", "handshake_timeout_s", "peer_timeout_s", "resend_after_s",
-        "checkpoint_every",
+        "checkpoint_every", "scheme", "max_iterations", "tolerance", "relaxation",
         "lcm_url", "channel_prefix"},
        Use::Coupled},
       // The stability watchdog (protocol/watchdog.hpp): the same table in both servers,
@@ -618,6 +618,35 @@ void load_grid(const Reader& r, SolidScene& s) {
     s.dx_m = *v * kMicrometre;
 }
 
+/// [coupling] scheme, max_iterations, tolerance, relaxation (protocol/coupling_scheme.hpp);
+/// the fluid's parser checks the same limits.
+void load_scheme(const Reader& r, const Scope& sec, protocol::SchemeSettings& out) {
+  using protocol::ImplicitSettings;
+  if (const auto i = r.choice(sec, "scheme", {"serial", "implicit"}))
+    out.scheme = *i == 1 ? protocol::CouplingScheme::Implicit : protocol::CouplingScheme::Serial;
+  ImplicitSettings& m = out.implicit;
+  if (const auto v = r.integer_in(sec, "max_iterations", 1, ImplicitSettings::max_iterations_max,
+                                  " (sub-iterations per LB step of the implicit scheme)"))
+    m.max_iterations = *v;
+  if (const auto v = r.number(sec, "tolerance")) {
+    if (!(*v >= ImplicitSettings::tolerance_min && *v < 1.0))
+      r.bad(*sec.node("tolerance"), sec.key("tolerance"),
+            "must be a number in [1e-14, 1) (the implicit scheme's relative residual of the impulses)");
+    m.tolerance = *v;
+  }
+  if (const auto v = r.number(sec, "relaxation")) {
+    if (!(*v > 0.0 && *v <= 1.0))
+      r.bad(*sec.node("relaxation"), sec.key("relaxation"),
+            "must be a number in (0, 1] (the implicit scheme's first relaxation factor; leave it out for the "
+            "added-mass estimate)");
+    m.relaxation = *v;
+  }
+  if (out.scheme != protocol::CouplingScheme::Implicit)
+    for (const char* key : {"max_iterations", "tolerance", "relaxation"})
+      if (const toml::node* n = sec.node(key))
+        r.bad(*n, sec.key(key), "belongs to coupling.scheme = \"implicit\"; this scene's scheme is \"serial\"");
+}
+
 void load_coupling(const Reader& r, SolidScene& s) {
   const Scope sec = r.section("coupling");
   CouplingSettings c;
@@ -636,6 +665,7 @@ void load_coupling(const Reader& r, SolidScene& s) {
             "must be an integer >= 0 (LB steps between coupled checkpoints; 0: none)");
     c.checkpoint_every = *v;
   }
+  load_scheme(r, sec, c.scheme);
   for (const auto& [key, target] : {std::pair{"handshake_timeout_s", &c.handshake_timeout_s},
                                     std::pair{"peer_timeout_s", &c.peer_timeout_s},
                                     std::pair{"resend_after_s", &c.resend_after_s}}) {

@@ -13,6 +13,7 @@
 #include <string_view>
 
 #include "protocol/units.hpp"
+#include "protocol/coupling_scheme.hpp"
 #include "protocol/watchdog.hpp"
 #include "solid/solid_config.hpp"
 
@@ -63,6 +64,8 @@ struct CouplingSettings {
   /// Coupled checkpoints (DESIGN 2.4) every this many LB steps into OUTPUT/checkpoints/;
   /// 0: none (a clean abort still writes one).
   std::int64_t checkpoint_every = 0;
+  /// serial (the paper's) or implicit sub-iterations (protocol/coupling_scheme.hpp).
+  protocol::SchemeSettings scheme;
 };
 
 /// Why an LCM URL may not be used ("" if it may): a coupled run talks over udpm:// with

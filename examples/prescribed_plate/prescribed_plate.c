@@ -462,7 +462,8 @@ static int publish_solid_state(Plate *p, int64_t m) {
     xrow[l] = X[l];
     jrow[l] = J[l];
   }
-  cosimlcm_solid_state_t msg = {(char *)p->token, p->solid_seq, m, substeps,
+  /* iteration 0: this example speaks the serial scheme only (protocol/README.md 13). */
+  cosimlcm_solid_state_t msg = {(char *)p->token, p->solid_seq, m, 0, substeps,
                                 (double)p->substeps_total * p->dt_cg_s, n, xrow, jrow};
   const int size = cosimlcm_solid_state_t_encoded_size(&msg);
   SentMessage *slot = &p->sent[p->solid_seq % 2]; /* keep the last two for resends */
