@@ -142,7 +142,7 @@ class CoupledFluid {
 
     const auto n = static_cast<std::size_t>(num_cgps_);
     std::vector<Vec3> x(n), j(n);
-    std::vector<MarkerSample> samples(n);
+    std::vector<MarkerSample> samples(n), start_samples(n);
     const Clock::time_point start = Clock::now();
     if (c_.scheme.implicit_scheme()) return step_all_implicit(solver, ib, log, snapshots, limits, first_step, start);
     Clock::time_point last_progress = start;
@@ -173,7 +173,9 @@ class CoupledFluid {
       const Clock::time_point w0 = Clock::now();
       if (const auto t = markers_.check_positions(step, x)) return trip(*t, &solver, step, limits);
       watch_s_ += std::chrono::duration<double>(Clock::now() - w0).count();
-      // Eqs. 21-24 and 25-26: spread J_l at X_l, collide with the forcing, stream.
+      // The fluid before the step at X_l (fluid_state_t's *_start_lb), then Eqs. 21-24 and
+      // 25-26: spread J_l at X_l, collide with the forcing, stream.
+      ib.sample(solver, x, start_samples);
       ib.spread(solver, x, j);
       solver.step();
       const std::int64_t now = step + 1;
@@ -185,7 +187,7 @@ class CoupledFluid {
       if (!last) {
         const Clock::time_point t2 = Clock::now();
         compute_s_ += std::chrono::duration<double>(t2 - t1).count();
-        publish_fluid_state(now, samples);
+        publish_fluid_state(now, samples, start_samples);
         publish_s_ += std::chrono::duration<double>(Clock::now() - t2).count();
         if (periodic) checkpoint(solver.state(), now, "");
       } else {
@@ -294,7 +296,7 @@ class CoupledFluid {
     const double dt_us = units_.dt_lb_s() * 1e6;
     const auto n = static_cast<std::size_t>(num_cgps_);
     std::vector<Vec3> x(n), j(n);
-    std::vector<MarkerSample> samples(n);
+    std::vector<MarkerSample> samples(n), start_samples(n);
     const std::int64_t dynamic_from = std::max<std::int64_t>(c_.rigid_steps, 1);
     PopulationField backup;               // the committed state of `step` while it is iterated
     bool have_backup = false;
@@ -364,12 +366,13 @@ class CoupledFluid {
       const Clock::time_point w0 = Clock::now();
       if (const auto t = markers_.check_positions(step, x)) return trip(*t, &solver, step, limits);
       watch_s_ += std::chrono::duration<double>(Clock::now() - w0).count();
-      ib.spread(solver, x, j);  // Eqs. 21-24 and 25-26
+      ib.sample(solver, x, start_samples);  // the fluid before the step at X_l
+      ib.spread(solver, x, j);              // Eqs. 21-24 and 25-26
       solver.step();
       if (auto code = sample_markers(solver, ib, step + 1, x, samples, limits)) return *code;
       const Clock::time_point t2 = Clock::now();
       compute_s_ += std::chrono::duration<double>(t2 - t1).count();
-      publish_fluid_state(step + 1, samples, iteration);
+      publish_fluid_state(step + 1, samples, start_samples, iteration);
       publish_s_ += std::chrono::duration<double>(Clock::now() - t2).count();
       if (!o_.quiet && Clock::now() - last_progress > std::chrono::seconds(2)) {
         last_progress = Clock::now();
@@ -735,7 +738,8 @@ class CoupledFluid {
     return Ending{kBadInput, why};
   }
 
-  void publish_fluid_state(std::int64_t step, const std::vector<MarkerSample>& samples, int iteration = 0) {
+  void publish_fluid_state(std::int64_t step, const std::vector<MarkerSample>& samples,
+                           const std::vector<MarkerSample>& start, int iteration = 0) {
     cosimlcm::fluid_state_t m{};
     m.token = o_.token;
     m.seq = fluid_seq_++;
@@ -748,6 +752,12 @@ class CoupledFluid {
     for (std::size_t l = 0; l < samples.size(); ++l) {
       m.rho_lb[l] = samples[l].rho;
       m.velocity_lb[l] = {samples[l].u[0], samples[l].u[1], samples[l].u[2]};
+    }
+    m.rho_start_lb.resize(start.size());
+    m.velocity_start_lb.resize(start.size());
+    for (std::size_t l = 0; l < start.size(); ++l) {
+      m.rho_start_lb[l] = start[l].rho;
+      m.velocity_start_lb[l] = {start[l].u[0], start[l].u[1], start[l].u[2]};
     }
     net_.publish(ch_.fluid_state, m);
     sent_.push_back(std::move(m));

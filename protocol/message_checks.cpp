@@ -334,14 +334,20 @@ std::optional<Rejection> check(const cosimlcm::fluid_state_t& m, const Expectati
                   "rho_lb has " + std::to_string(m.rho_lb.size()) +
                       " entries; expected num_cgps = " + std::to_string(m.num_cgps));
   if (auto r = rows3(type, "velocity_lb", m.velocity_lb, m.num_cgps)) return r;
+  if (m.rho_start_lb.size() != static_cast<std::size_t>(m.num_cgps))
+    return reject(RejectCategory::Count, type,
+                  "rho_start_lb has " + std::to_string(m.rho_start_lb.size()) +
+                      " entries; expected num_cgps = " + std::to_string(m.num_cgps));
+  if (auto r = rows3(type, "velocity_start_lb", m.velocity_start_lb, m.num_cgps)) return r;
   if (auto r = finite(type, "bulk_velocity_lb", m.bulk_velocity_lb)) return r;
-  for (std::size_t l = 0; l < m.rho_lb.size(); ++l) {
-    const std::string field = "rho_lb[" + std::to_string(l) + "]";
-    if (auto r = finite(type, field, m.rho_lb[l])) return r;
-    if (!(m.rho_lb[l] > 0.0))
-      return reject(RejectCategory::Range, type,
-                    field + " = " + num(m.rho_lb[l]) + "; allowed: a density > 0");
-  }
+  for (const auto& [name, rho] : {std::pair{"rho_lb", &m.rho_lb}, std::pair{"rho_start_lb", &m.rho_start_lb}})
+    for (std::size_t l = 0; l < rho->size(); ++l) {
+      const std::string field = std::string(name) + "[" + std::to_string(l) + "]";
+      if (auto r = finite(type, field, (*rho)[l])) return r;
+      if (!((*rho)[l] > 0.0))
+        return reject(RejectCategory::Range, type,
+                      field + " = " + num((*rho)[l]) + "; allowed: a density > 0");
+    }
   return std::nullopt;
 }
 
@@ -428,7 +434,9 @@ std::optional<std::string> check_encoding(const cosimlcm::fluid_state_t*, const 
   b.i64("step");
   b.i32("iteration");
   b.f64("bulk_velocity_lb");
-  b.count_and_arrays(4);  // rho_lb[n], velocity_lb[n][3]
+  // rho_lb[n], velocity_lb[n][3], rho_start_lb[n], velocity_start_lb[n][3]: LCM encodes
+  // each array whole, one after the other, so the bytes needed are the same as per CGP.
+  b.count_and_arrays(8);
   b.end();
   return b.problem();
 }

@@ -518,6 +518,21 @@ class CoupledSolid {
     return sample;
   }
 
+  /// The fluid before the step at the iterate's markers (fluid_state_t's *_start_lb).
+  static FluidSample start_sample_of(const cosimlcm::fluid_state_t& m) {
+    FluidSample sample;
+    const auto n = static_cast<Eigen::Index>(m.rho_start_lb.size());
+    sample.rho_lb.resize(n);
+    sample.velocity_lb.resize(3, n);
+    for (Eigen::Index l = 0; l < n; ++l) {
+      const auto k = static_cast<std::size_t>(l);
+      sample.rho_lb[l] = m.rho_start_lb[k];
+      for (Eigen::Index c = 0; c < 3; ++c)
+        sample.velocity_lb(c, l) = m.velocity_start_lb[k][static_cast<std::size_t>(c)];
+    }
+    return sample;
+  }
+
   /// The first relaxation factor of the run: coupling.relaxation, else 1/2.
   double first_relaxation() const {
     return c_.scheme.implicit.relaxation > 0.0 ? c_.scheme.implicit.relaxation : 0.5;
@@ -586,14 +601,15 @@ class CoupledSolid {
     return std::nullopt;
   }
 
-  /// fluid_state_t(step + 1, k) answers iterate k with the fluid at the end of the step,
-  /// u~, against the u^k that drove it. Not converged (and iterations left): the next
+  /// fluid_state_t(step + 1, k) answers iterate k with the fluid before the step at the
+  /// iterate's markers (the mean positions over its interval, where J was spread), u~,
+  /// against the u^k that drove it. Not converged (and iterations left): the next
   /// iterate, u^{k+1} = u^k + omega (u~ - u^k) (Aitken), published, `again` = true. Else the
   /// iterate is accepted.
   std::optional<Ending> answer_iterate(const cosimlcm::fluid_state_t& m, bool& again) {
     Iterate& it = *iterate_;
     const protocol::ImplicitSettings& cfg = c_.scheme.implicit;
-    const FluidSample answer = sample_of(m);
+    const FluidSample answer = start_sample_of(m);
     const double r = (answer.velocity_lb - it.drive.velocity_lb).norm(), un = answer.velocity_lb.norm();
     // The round-off floor: 1e-14 of the flow's speed at the markers.
     const bool converged = r <= cfg.tolerance * un + 1e-14 * (un + 1e-300);

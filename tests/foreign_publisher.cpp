@@ -219,6 +219,8 @@ int main(int argc, char** argv) {
         f.rho_lb.resize(m);
         for (std::size_t l = 0; l < m; ++l) f.rho_lb[l] = 0.5 + garbage(step, l, 0, 2.0);
         f.velocity_lb = rows3(m, step, 0.4, -0.2);
+        f.rho_start_lb = f.rho_lb;
+        f.velocity_start_lb = f.velocity_lb;
         publish(ch_fluid, f);
         break;
       }

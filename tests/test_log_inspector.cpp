@@ -84,6 +84,8 @@ cosimlcm::fluid_state_t fluid_state(std::int64_t step, std::int64_t seq) {
     m.rho_lb.push_back(1.0 + 0.0078125 * l);
     m.velocity_lb.push_back({0.015625 * double(step), 0.0, double(l)});
   }
+  m.rho_start_lb = m.rho_lb;
+  m.velocity_start_lb = m.velocity_lb;
   return m;
 }
 

@@ -97,6 +97,8 @@ cosimlcm::fluid_state_t valid_fluid_state(std::int32_t n = 4) {
   m.num_cgps = n;
   m.rho_lb.assign(static_cast<std::size_t>(n), 1.001);
   m.velocity_lb.assign(static_cast<std::size_t>(n), std::vector<double>{0.01, 0.0, -1e-4});
+  m.rho_start_lb = m.rho_lb;
+  m.velocity_start_lb = m.velocity_lb;
   return m;
 }
 
@@ -280,7 +282,8 @@ TEST(MessageChecks, EncodedMessagesAreCheckedBeforeDecoding) {
 
   // Layout: hash (8), token length (4) + 17 bytes, seq (8), step (8), substeps (4),
   // solid_time_s (8), num_cgps (4) at byte 57.
-  const std::size_t token_at = 8, num_at = 8 + 4 + 17 + 8 + 8 + 4 + 8;
+  // num_cgps after the hash, the token (4 + 17), seq, step, iteration, substeps, solid_time_s.
+  const std::size_t token_at = 8, num_at = 8 + 4 + 17 + 8 + 8 + 4 + 4 + 8;
   struct Bad {
     const char* name;
     std::function<void(std::vector<std::uint8_t>&)> breakit;
@@ -554,7 +557,7 @@ std::vector<std::vector<std::uint8_t>> malformed_copies(const cosimlcm::solid_st
     out.push_back(encode(m));
   }
   std::vector<std::uint8_t> hostile = encode(good);
-  put_i32(hostile, 57, 0x7fffffffU);  // num_cgps = 2^31 - 1
+  put_i32(hostile, 61, 0x7fffffffU);  // num_cgps = 2^31 - 1 (after 8 + 21 + 8 + 8 + 4 + 4 + 8 bytes)
   out.push_back(hostile);
   std::vector<std::uint8_t> no_token = encode(good);
   put_i32(no_token, 8, 0);  // token length 0

@@ -159,6 +159,7 @@ TEST(Protocol, MessagesRoundTrip) {
     sent.seq = big - 1;
     sent.step = (std::int64_t{1} << 40) + 12345;
     sent.substeps = 150;
+    sent.iteration = 3;
     sent.solid_time_s = 1.2345678901234567e-7;
     sent.num_cgps = 7;
     sent.position_lb = rows3(sent.num_cgps, 3.75);
@@ -172,6 +173,7 @@ TEST(Protocol, MessagesRoundTrip) {
     EXPECT_EQ(got.seq, sent.seq);
     EXPECT_EQ(got.step, sent.step);
     EXPECT_EQ(got.substeps, sent.substeps);
+    EXPECT_EQ(got.iteration, sent.iteration);
     EXPECT_SAME_BITS(sent.solid_time_s, got.solid_time_s, "solid_time_s");
     EXPECT_EQ(got.num_cgps, sent.num_cgps);
     expect_same_rows(sent.position_lb, got.position_lb, "position_lb");
@@ -187,6 +189,9 @@ TEST(Protocol, MessagesRoundTrip) {
     sent.num_cgps = 5;
     sent.rho_lb = {1.0, tiny, -0.0, huge, 0.9999999999999999};
     sent.velocity_lb = rows3(sent.num_cgps, 1e-3);
+    sent.iteration = 7;
+    sent.rho_start_lb = {0.5, 1.0, huge, tiny, 2.0};
+    sent.velocity_start_lb = rows3(sent.num_cgps, -2e-3);
     const auto inbox = publish_and_receive(bus, ch.fluid_state, sent);
     ASSERT_EQ(inbox.messages.size(), 1u);
     const auto& got = inbox.messages.front();
@@ -199,6 +204,11 @@ TEST(Protocol, MessagesRoundTrip) {
     for (std::size_t l = 0; l < sent.rho_lb.size(); ++l)
       EXPECT_SAME_BITS(sent.rho_lb[l], got.rho_lb[l], "rho_lb[" + std::to_string(l) + "]");
     expect_same_rows(sent.velocity_lb, got.velocity_lb, "velocity_lb");
+    EXPECT_EQ(got.iteration, sent.iteration);
+    ASSERT_EQ(got.rho_start_lb.size(), sent.rho_start_lb.size());
+    for (std::size_t l = 0; l < sent.rho_start_lb.size(); ++l)
+      EXPECT_SAME_BITS(sent.rho_start_lb[l], got.rho_start_lb[l], "rho_start_lb[" + std::to_string(l) + "]");
+    expect_same_rows(sent.velocity_start_lb, got.velocity_start_lb, "velocity_start_lb");
   }
 
   {

@@ -175,6 +175,8 @@ struct FakeFluid {
     f.num_cgps = n;
     f.rho_lb.assign(static_cast<std::size_t>(n), 1.0);
     f.velocity_lb.assign(static_cast<std::size_t>(n), std::vector<double>{kU, 0.0, 0.0});
+    f.rho_start_lb = f.rho_lb;
+    f.velocity_start_lb = f.velocity_lb;
     if (corrupt) corrupt(f);
     return f;
   }
@@ -634,8 +636,9 @@ TEST(SolidCoupled, MalformedMessagesAreRejected) {
     m.step += 20;
     out.push_back(encoded(m));
     std::vector<std::uint8_t> hostile = encoded(good);
-    // num_cgps after the hash (8), the token (4 + 17), seq, step, bulk_velocity_lb (24).
-    const std::size_t at = 8 + 4 + 17 + 24;
+    // num_cgps after the hash (8), the token (4 + 17), seq, step, iteration,
+    // bulk_velocity_lb (28).
+    const std::size_t at = 8 + 4 + 17 + 28;
     hostile[at] = 0x7f, hostile[at + 1] = hostile[at + 2] = hostile[at + 3] = 0xff;
     out.push_back(hostile);
     std::vector<std::uint8_t> no_token = encoded(good);

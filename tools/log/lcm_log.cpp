@@ -176,11 +176,13 @@ std::vector<Field> layout(MsgType t) {
       return {{'S', "token"},       {'B', "accepted"},    {'S', "reason"},
               {'L', "total_steps"}, {'L', "rigid_steps"}, {'I', "time_ratio"}};
     case MsgType::solid_state:
-      return {{'S', "token"},        {'L', "seq"},      {'L', "step"},        {'I', "substeps"},
-              {'D', "solid_time_s"}, {'N', "num_cgps"}, {'3', "position_lb"}, {'3', "impulse_lb"}};
+      return {{'S', "token"},        {'L', "seq"},      {'L', "step"},        {'I', "iteration"},
+              {'I', "substeps"},     {'D', "solid_time_s"}, {'N', "num_cgps"}, {'3', "position_lb"},
+              {'3', "impulse_lb"}};
     case MsgType::fluid_state:
-      return {{'S', "token"},    {'L', "seq"},    {'L', "step"},       {'D', "bulk_velocity_lb"},
-              {'N', "num_cgps"}, {'1', "rho_lb"}, {'3', "velocity_lb"}};
+      return {{'S', "token"},    {'L', "seq"},    {'L', "step"},       {'I', "iteration"},
+              {'D', "bulk_velocity_lb"}, {'N', "num_cgps"}, {'1', "rho_lb"}, {'3', "velocity_lb"},
+              {'1', "rho_start_lb"}, {'3', "velocity_start_lb"}};
     case MsgType::resend:
       return {{'S', "token"}, {'L', "step"}, {'S', "what"}};
     case MsgType::stop:
