@@ -496,6 +496,7 @@ class CoupledSolid {
     std::int64_t step = 0;
     int iteration = 0;
     SolidState start;                ///< the committed state at the start of the interval
+    SolidCoupler::ReactionMemory start_memory;  ///< the implicit reaction's, at the start
     FluidSample drive;               ///< u^k (relaxed) and the latest rho, lattice units
     IntervalResult trial;            ///< the interval driven by it
     double start_bulk_velocity = 0;  ///< U_b of the fluid_state_t that began the step
@@ -557,6 +558,7 @@ class CoupledSolid {
     Iterate it;
     it.step = m.step;
     it.start = model_->state();
+    it.start_memory = coupler_->reaction_memory();
     it.start_bulk_velocity = m.bulk_velocity_lb;
     it.drive = sample_of(m);
     it.first_drive = it.drive;
@@ -584,6 +586,7 @@ class CoupledSolid {
   std::optional<Ending> run_iterate(Iterate& it) {
     const std::string where = "iteration " + std::to_string(it.iteration) + " of step " + std::to_string(it.step);
     try {
+      coupler_->set_reaction_memory(it.start_memory);
       it.trial = coupler_->advance(it.drive, false, true);
     } catch (const std::exception& e) {
       return Ending{exit_code::unhealthy, "the implicit scheme's " + where + ": " + one_line(e.what()), true};
@@ -756,6 +759,9 @@ class CoupledSolid {
         const FluidSample& d = iterate_->first_drive;
         w.put("iterate_rho_lb", d.rho_lb.data(), std::size_t(d.rho_lb.size()));
         w.put("iterate_velocity_lb", d.velocity_lb.data(), std::size_t(d.velocity_lb.size()));
+        const SolidCoupler::ReactionMemory& mem = iterate_->start_memory;
+        w.put("reaction_memory_velocity_au", mem.velocity.data(), std::size_t(mem.velocity.size()));
+        w.put("reaction_memory_force_au", mem.force.data(), std::size_t(mem.force.size()));
       }
     }
     w.attr("total_substeps", total_substeps_);
@@ -846,6 +852,13 @@ class CoupledSolid {
       Iterate it;
       it.step = step;
       it.start = model_->state();
+      // An empty memory (the first free step) was written as empty arrays.
+      if (r.doubles("reaction_memory_velocity_au").size() == size) {
+        it.start_memory.velocity =
+            Eigen::Map<const Eigen::Matrix3Xd>(r.doubles("reaction_memory_velocity_au", size).data(), 3, n_);
+        it.start_memory.force =
+            Eigen::Map<const Eigen::Matrix3Xd>(r.doubles("reaction_memory_force_au", size).data(), 3, n_);
+      }
       it.drive.rho_lb = Eigen::Map<const Eigen::VectorXd>(r.doubles("iterate_rho_lb", std::size_t(n_)).data(), n_);
       it.drive.velocity_lb = Eigen::Map<const Eigen::Matrix3Xd>(r.doubles("iterate_velocity_lb", size).data(), 3, n_);
       it.first_drive = it.drive;

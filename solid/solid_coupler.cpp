@@ -65,24 +65,38 @@ IntervalResult SolidCoupler::advance(const FluidSample& sample, bool rigid, bool
   // Trapezoid sum of the positions over the substep boundaries, in bohr (converted once).
   Eigen::Matrix3Xd position_sum = 0.5 * model_.positions();
   const double b_v = units_.velocity_ratio(), b_f = units_.force_ratio();  // Eq. 32
-  // phi(dt_CG / T) per CGP (implicit_reaction), else 1: h = dt / T with 1 / T the rate of
-  // the reaction's velocity decay, 2 rho dA B_V / (B_F m) in atomic units (Eqs. 18-20, 32).
-  Eigen::VectorXd phi = Eigen::VectorXd::Ones(n);
-  if (implicit_reaction)
-    for (Eigen::Index l = 0; l < n; ++l) {
-      if (static_cast<std::size_t>(l) < held_.size() && held_[static_cast<std::size_t>(l)]) continue;
-      const double h = 2.0 * sample.rho_lb[l] * area_[static_cast<std::size_t>(l)] * b_v * dt_au /
-                       (b_f * model_.masses()[l]);
-      phi[l] = h > 1e-8 ? -std::expm1(-h) / h : 1.0 - 0.5 * h;
-    }
+  const auto held = [&](Eigen::Index l) {
+    return static_cast<std::size_t>(l) < held_.size() && held_[static_cast<std::size_t>(l)];
+  };
+  if (implicit_reaction && memory_.velocity.cols() != n) {
+    memory_.velocity = model_.velocities();
+    memory_.force = Eigen::Matrix3Xd::Zero(3, n);
+  }
   for (int k = 0; k < a_t; ++k) {
     for (Eigen::Index l = 0; l < n; ++l) {
-      const double rho_da = 2.0 * sample.rho_lb[l] * area_[static_cast<std::size_t>(l)] * phi[l];
+      const double rho_da = 2.0 * sample.rho_lb[l] * area_[static_cast<std::size_t>(l)];
+      if (implicit_reaction && !held(l)) {
+        // Backward Euler for the drag (see the header): h = D B_V dt / (B_F m) in atomic units.
+        const double m = model_.masses()[l];
+        const double h = rho_da * b_v * dt_au / (b_f * m);
+        for (int c = 0; c < 3; ++c) {
+          const double v = model_.velocities()(c, l);
+          const double f_other = m * (v - memory_.velocity(c, l)) / dt_au - memory_.force(c, l);
+          const double v_star = v + dt_au / m * f_other;
+          const double g_da = rho_da * (b_v * v_star - sample.velocity_lb(c, l)) / (1.0 + h);  // Eq. 19
+          force_au_(c, l) = -g_da / b_f;                                                        // Eq. 20
+        }
+        continue;
+      }
       for (int c = 0; c < 3; ++c) {
         const double u_b = b_v * model_.velocities()(c, l);
         const double g_da = rho_da * (u_b - sample.velocity_lb(c, l));  // on the fluid (Eq. 19)
         force_au_(c, l) = -g_da / b_f;                                  // on the CGP (Eq. 20)
       }
+    }
+    if (implicit_reaction) {
+      memory_.velocity = model_.velocities();
+      memory_.force = force_au_;
     }
     // The fluid's work at the velocities the forces were computed from (before the substep).
     r.fluid_work_au += force_au_.cwiseProduct(model_.velocities()).sum() * dt_au;

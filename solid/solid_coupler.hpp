@@ -69,12 +69,12 @@ class SolidCoupler {
   /// Throws std::invalid_argument for a sample of the wrong size or a non-finite value.
   ///
   /// implicit_reaction (coupling.scheme = "implicit", protocol/README.md 13): the reaction on
-  /// the CGP is integrated exactly over the substep instead of held at its start value (the
-  /// drag of relaxation time T = m / (2 rho dA c) against the frozen u_l, Eqs. 18-20): the
-  /// force times phi(dt_CG / T), phi(h) = (1 - e^-h) / h, which takes the CGP's velocity
-  /// exactly e^-h of the way from u_l over a substep (alone; velocity Verlet holds an
-  /// external force constant over the substep). phi -> 1 for dt_CG << T: the same force;
-  /// any dt_CG / T is stable, where the held force diverges above 2.
+  /// a free CGP is the drag of Eqs. 18-20 at its velocity at the end of the substep
+  /// (backward Euler), F = D (u - V*) / (1 + h), D = 2 rho dA, h = dt_CG / T,
+  /// T = m / (D c), V* = V + dt_CG / m F_other, with F_other the CGP's other forces (elastic,
+  /// contact) of the previous substep, m dV / dt_CG - F (reaction_memory()). Any h is stable
+  /// (the held force of the serial scheme diverges above h = 2), and a CGP that its other
+  /// forces hold at rest gets the full drag D u.
   IntervalResult advance(const FluidSample& sample, bool rigid, bool implicit_reaction = false);
 
   /// The watchdog's limit on a CGP's speed, c (watchdog.max_cgp_speed; a displacement of
@@ -82,6 +82,17 @@ class SolidCoupler {
   void set_speed_limit(double speed_lb) { speed_limit_lb_ = speed_lb; }
   /// The largest CGP speed after a substep so far, c (checked only with a speed limit).
   double max_speed_lb() const { return max_speed_lb_; }
+
+  /// What the implicit reaction remembers of the last substep: each CGP's velocity at its
+  /// start and the reaction it got (atomic units); empty before the first implicit interval
+  /// (the other forces then start at 0). Kept by the implicit scheme with the state it goes
+  /// back to.
+  struct ReactionMemory {
+    Eigen::Matrix3Xd velocity;
+    Eigen::Matrix3Xd force;
+  };
+  const ReactionMemory& reaction_memory() const { return memory_; }
+  void set_reaction_memory(ReactionMemory m) { memory_ = std::move(m); }
 
   /// The CGPs whose velocity the model holds (clamped; every CGP of a model without
   /// dynamics): their reaction is not integrated as a drag (implicit_reaction).
@@ -102,6 +113,7 @@ class SolidCoupler {
   /// speed limit after substep k (0-based).
   bool over_speed_limit(int k, const FluidSample& sample, IntervalResult& r);
   std::vector<bool> held_;
+  ReactionMemory memory_;
   double speed_limit_lb_ = std::numeric_limits<double>::infinity();
   double max_speed_lb_ = 0.0;
 };
