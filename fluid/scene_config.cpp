@@ -422,14 +422,14 @@ void load_scheme(const Reader& r, protocol::SchemeSettings& out) {
   if (const auto v = r.number("coupling", "tolerance")) {
     if (!(*v >= ImplicitSettings::tolerance_min && *v < 1.0))
       r.bad(*r.node("coupling", "tolerance"), "coupling.tolerance",
-            "must be a number in [1e-14, 1) (the implicit scheme's relative residual of the impulses)");
+            "must be a number in [1e-14, 1) (the implicit scheme's relative change of the fluid sample at convergence)");
     m.tolerance = *v;
   }
   if (const auto v = r.number("coupling", "relaxation")) {
     if (!(*v > 0.0 && *v <= 1.0))
       r.bad(*r.node("coupling", "relaxation"), "coupling.relaxation",
-            "must be a number in (0, 1] (the implicit scheme's first relaxation factor; leave it out for the "
-            "added-mass estimate)");
+            "must be a number in (0, 1] (the implicit scheme's first Aitken relaxation factor; "
+            "default 0.5)");
     m.relaxation = *v;
   }
   if (out.scheme != protocol::CouplingScheme::Implicit)

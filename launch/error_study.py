@@ -752,20 +752,25 @@ def knob_truncation(plan: Plan) -> Knob:
 
 
 def knob_scheme(plan: Plan, schemes: list[tuple[str, dict]]) -> Knob:
+    ref_a_t = 2400 if plan.short else 4800
     knob = Knob(
         key="coupling_scheme", title="Coupling scheme", kind="other",
-        setup=("`scenes/coupled_small.toml` with each scheme the servers offer. Offered now: the serial "
-               "staggered scheme only (the fluid steps, then the solid integrates its A_T substeps with "
-               "that step's force); the study takes a list of schemes, each a set of scene keys, and "
-               "compares them once there are two."),
-        reference=("The most accurate scheme on offer (none to compare with yet: a single scheme has no error "
-                   "of its own here)."),
+        setup=("`scenes/coupled_small.toml` (A_T = 150) with each scheme the servers offer: `serial`, the paper's "
+               "staggered scheme (the solid integrates its A_T substeps with the fluid sampled at the start of the "
+               "LB step, the reaction held at each substep's starting velocity), and `implicit` "
+               "(`[coupling] scheme = \"implicit\"`, protocol/README.md 13: sub-iterations per LB step with "
+               "Aitken relaxation until the sample is the fluid before the step at the markers where that "
+               "step's impulses are spread, and the reaction at the end velocity of each substep)."),
+        reference=(f"The serial scheme at A_T = {ref_a_t} (no analytic solution). Error: |d - d_ref| / |d_ref| of the "
+                   "marked CGP's displacement at the last step."),
         error_name="relative error of the marked CGP's displacement", settings=[],
-        memory_columns=["fluid", "solid"], rank=len(schemes) > 1, ref_short="none (one scheme)")
-    for name, patch in schemes:
-        st = Setting(name, len(knob.settings))
+        memory_columns=["fluid", "solid"], rank=len(schemes) > 1, ref_short=f"serial, A_T = {ref_a_t}")
+    runs = []
+    for name, patch, a_t, is_ref in [(n, p, COUPLED_BASE_A_T, False) for n, p in schemes] + [
+            ("serial_reference", {}, ref_a_t, True)]:
+        st = Setting(name if not is_ref else f"serial, A_T = {ref_a_t}", len(knob.settings), reference=is_ref)
         out = plan.out / "runs" / knob.key / name
-        scene = coupled_base_scene(out, COUPLED_BASE_A_T, f"coupled_{name}", f"coupling scheme {name}")
+        scene = coupled_base_scene(out, a_t, f"coupled_{name}", f"coupling scheme {name}, A_T = {a_t}")
         if patch:
             cfg = tomllib.loads(scene.read_text())
             for table, keys in patch.items():
@@ -773,8 +778,16 @@ def knob_scheme(plan: Plan, schemes: list[tuple[str, dict]]) -> Knob:
             write_scene(scene, cfg, f"error study: coupling scheme {name}")
         _repeat(plan, st, lambda: run_coupled(scene, out, plan.threads), f"{knob.key} {st.label}",
                 out / "launcher.log")
-        st.note = "the only scheme offered: no reference" if len(schemes) == 1 else ""
+        iterations = re.search(r"implicit scheme: .*?([0-9.]+) iterations a step on average",
+                               (out / "solid.log").read_text() if (out / "solid.log").exists() else "")
+        if iterations:
+            st.note = f"{iterations.group(1)} sub-iterations a step on average"
+        runs.append((st, out))
         knob.settings.append(st)
+    d_ref, _ = marked_displacement(runs[-1][1])
+    for st, out in runs[:-1]:
+        d, _ = marked_displacement(out)
+        st.error = float(np.linalg.norm(d - d_ref) / np.linalg.norm(d_ref))
     return knob
 
 
@@ -788,9 +801,8 @@ def knob_precision() -> Knob:
         memory_columns=[], rank=False, ref_short="none (one precision)")
 
 
-# Coupling schemes the servers offer: (name, scene keys that select it). Add e.g.
-# ("parallel", {"coupling": {"scheme": "parallel"}}) once the servers take such a key.
-SCHEMES: list[tuple[str, dict]] = [("serial", {})]
+# Coupling schemes the servers offer: (name, scene keys that select it).
+SCHEMES: list[tuple[str, dict]] = [("serial", {}), ("implicit", {"coupling": {"scheme": "implicit"}})]
 
 
 # ---------------------------------------------------------------------------------------

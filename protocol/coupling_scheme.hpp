@@ -4,10 +4,11 @@
 //   serial    the paper's staggered scheme (DESIGN 2.1): one exchange per LB step; the solid
 //             integrates its A_T substeps with the fluid sample of the start of the interval
 //             and the momentum-exchange reaction at each substep's velocity (Eqs. 18-20).
-//   implicit  sub-iterations per LB step until the impulse J_l that drives the solid and the
-//             fluid agrees with the momentum exchange (Eqs. 18-20) at the fluid's end-of-step
-//             sample, with Aitken's dynamic relaxation (Kuettler & Wall 2008), as partitioned
-//             coupling libraries do (preCICE's "aitken" acceleration).
+//   implicit  sub-iterations per LB step, with Aitken's dynamic relaxation (Kuettler & Wall
+//             2008) as partitioned coupling libraries do (preCICE's "aitken"), until the
+//             fluid sample the solid integrated with is the fluid before the step at the
+//             markers where that step's impulses are spread; the reaction of Eqs. 18-20 at
+//             the end velocity of each substep (backward Euler).
 #pragma once
 
 #include <optional>
@@ -35,12 +36,11 @@ struct ImplicitSettings {
   /// Sub-iterations of one LB step at most (1 .. max_iterations_max); a step that has not
   /// converged by then goes on with its last iterate and is counted (preCICE's behaviour).
   int max_iterations = 30;
-  /// Converged when |J~ - J| <= tolerance |J~| (2-norms over all CGPs; plus a round-off floor),
-  /// in [tolerance_min, 1).
+  /// Converged when |u~ - u| <= tolerance |u~| (the fluid sample at the markers, 2-norms over
+  /// all CGPs), in [tolerance_min, 1).
   double tolerance = 1e-4;
-  /// The relaxation factor of the first iterate of the run, in (0, 1]; 0: automatic, the
-  /// added-mass estimate mu / (1 + mu), mu = m / (rho_air dA dx) of the lightest CGP
-  /// (protocol/README.md 13). Later steps start from the previous step's last Aitken factor.
+  /// The relaxation factor of the first iterate of the run, in (0, 1]; 0: the default 1/2.
+  /// Later steps start from the previous step's last Aitken factor.
   double relaxation = 0.0;
 };
 

@@ -631,14 +631,14 @@ void load_scheme(const Reader& r, const Scope& sec, protocol::SchemeSettings& ou
   if (const auto v = r.number(sec, "tolerance")) {
     if (!(*v >= ImplicitSettings::tolerance_min && *v < 1.0))
       r.bad(*sec.node("tolerance"), sec.key("tolerance"),
-            "must be a number in [1e-14, 1) (the implicit scheme's relative residual of the impulses)");
+            "must be a number in [1e-14, 1) (the implicit scheme's relative change of the fluid sample at convergence)");
     m.tolerance = *v;
   }
   if (const auto v = r.number(sec, "relaxation")) {
     if (!(*v > 0.0 && *v <= 1.0))
       r.bad(*sec.node("relaxation"), sec.key("relaxation"),
-            "must be a number in (0, 1] (the implicit scheme's first relaxation factor; leave it out for the "
-            "added-mass estimate)");
+            "must be a number in (0, 1] (the implicit scheme's first Aitken relaxation factor; "
+            "default 0.5)");
     m.relaxation = *v;
   }
   if (out.scheme != protocol::CouplingScheme::Implicit)

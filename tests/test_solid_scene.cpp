@@ -93,6 +93,11 @@ const std::vector<BadCase>& bad_cases() {
       {"coupling_ttl_missing.toml",
        {":5: coupling.lcm_url = \"udpm://239.255.76.67:7667\": has no ttl=0",
         "packets never leave this machine"}},
+      {"coupling_scheme_unknown.toml",
+       {":5: coupling.scheme = \"gauss-seidel\": must be one of \"serial\", \"implicit\""}},
+      {"coupling_relaxation_range.toml",
+       {":6: coupling.relaxation = 1.5: must be a number in (0, 1] (the implicit scheme's first Aitken "
+        "relaxation factor; default 0.5)"}},
       {"coupling_ttl_one.toml",
        {":5: coupling.lcm_url = \"udpm://239.255.76.67:7667?ttl=1\": ttl=1 is not allowed: "
         "the ttl must be 0"}},

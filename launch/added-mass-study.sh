@@ -1,0 +1,23 @@
+#!/usr/bin/env bash
+# The added-mass limit of the coupling schemes (issue 7 item 4): the light_sheet scene with
+# lighter and lighter CGPs at one A_T, serial against implicit, each against the serial
+# scheme at 8 x the A_T. Writes out/added-mass/added-mass.md, and docs/added-mass.md with
+# --docs. About 3 minutes on 2 cores.
+#
+#   bash launch/added-mass-study.sh [--docs] [--no-build] [--out DIR] [--time-ratio N]
+#                                   [--atoms A,A,...] [--reference-factor F]
+#
+# Installs what is missing and builds first unless --no-build. Exit status: 0 done; 1 a run
+# could not be read; 2 bad arguments.
+set -euo pipefail
+root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+build=1
+args=()
+for a in "$@"; do
+  if [ "$a" = "--no-build" ]; then build=0; else args+=("$a"); fi
+done
+if [ $build -eq 1 ]; then
+  bash "$root/launch/bootstrap.sh"
+  bash "$root/launch/build.sh" >/dev/null
+fi
+exec /usr/bin/python3 "$root/launch/added_mass_study.py" "${args[@]+"${args[@]}"}"
