@@ -83,10 +83,11 @@ struct StateAcc {
     std::uint64_t hash = 0;
   };
   std::map<std::int64_t, Copy> steps;
+  std::map<std::pair<std::int64_t, std::int32_t>, Copy> iterates;
   std::set<std::int64_t> seqs;
   std::int64_t max_seq = 0;
 
-  void add(StateStats& st, std::int64_t seq, std::int64_t step, std::int64_t num_cgps,
+  void add(StateStats& st, std::int64_t seq, std::int64_t step, std::int32_t iteration, std::int64_t num_cgps,
            const std::vector<std::uint8_t>& data) {
     ++st.messages;
     if (st.num_cgps < 0)
@@ -94,12 +95,24 @@ struct StateAcc {
     else if (num_cgps != st.num_cgps)
       ++st.num_cgps_changes;
     const std::uint64_t h = fnv1a(data);
-    auto [it, fresh] = steps.try_emplace(step, Copy{1, h});
+    // A later iterate of a step has its own copies, by (step, iteration).
+    Copy* copy = nullptr;
+    bool fresh = false;
+    if (iteration > 0) {
+      const auto r = iterates.try_emplace({step, iteration}, Copy{1, h});
+      copy = &r.first->second;
+      fresh = r.second;
+      if (fresh) ++st.sub_iterations;
+    } else {
+      const auto r = steps.try_emplace(step, Copy{1, h});
+      copy = &r.first->second;
+      fresh = r.second;
+    }
     if (!fresh) {
-      if (it->second.count == 1) ++st.steps_duplicated;
-      ++it->second.count;
+      if (copy->count == 1) ++st.steps_duplicated;
+      ++copy->count;
       ++st.extra_copies;
-      if (it->second.hash != h) ++st.copies_differing;
+      if (copy->hash != h) ++st.copies_differing;
     }
     if (seqs.count(seq) != 0) {
       ++st.seq_duplicated;
@@ -271,7 +284,7 @@ LogSummary summarize_log(const std::string& path) {
         if (!(err = decode_as(e.data, m)).empty()) break;
         RunStats& r = run_of(m.token);
         const auto ri = run_index.at({pi, m.token});
-        acc[{pi, ri}].first.add(r.solid, m.seq, m.step, m.num_cgps, e.data);
+        acc[{pi, ri}].first.add(r.solid, m.seq, m.step, m.iteration, m.num_cgps, e.data);
         break;
       }
       case MsgType::fluid_state: {
@@ -279,7 +292,7 @@ LogSummary summarize_log(const std::string& path) {
         if (!(err = decode_as(e.data, m)).empty()) break;
         RunStats& r = run_of(m.token);
         const auto ri = run_index.at({pi, m.token});
-        acc[{pi, ri}].second.add(r.fluid, m.seq, m.step, m.num_cgps, e.data);
+        acc[{pi, ri}].second.add(r.fluid, m.seq, m.step, m.iteration, m.num_cgps, e.data);
         break;
       }
       case MsgType::resend: {
@@ -360,8 +373,11 @@ std::string state_line(const char* name, const StateStats& st) {
   if (st.steps_missing > 0) out += " (" + format_ranges(st.steps_missing_ranges) + ")";
   out += printf_s(", duplicated %" PRId64, st.steps_duplicated);
   if (st.steps_duplicated > 0) out += " (" + format_ranges(st.steps_duplicated_ranges) + ")";
-  out += printf_s(", extra copies %" PRId64 " (not bit for bit: %" PRId64 ")\n", st.extra_copies,
+  out += printf_s(", extra copies %" PRId64 " (not bit for bit: %" PRId64 ")", st.extra_copies,
                   st.copies_differing);
+  if (st.sub_iterations > 0)
+    out += printf_s(", sub-iterations %" PRId64 " (implicit scheme)", st.sub_iterations);
+  out += "\n";
   out += printf_s("      seq %" PRId64 "..%" PRId64 ": missing %" PRId64, st.first_seq, st.last_seq,
                   st.seq_missing);
   if (st.seq_missing > 0) out += " (" + format_ranges(st.seq_missing_ranges) + ")";

@@ -60,6 +60,9 @@ struct StateStats {
   std::int64_t seq_out_of_order = 0;  ///< a new seq below the largest logged before it
   std::int64_t num_cgps = -1;         ///< of the first message; -1 for none
   std::int64_t num_cgps_changes = 0;  ///< messages with another num_cgps than the first
+  /// Distinct sub-iterations (iteration > 0: the implicit scheme, protocol/README.md 13);
+  /// their copies are counted apart from the steps' (a step's iterates are not resends).
+  std::int64_t sub_iterations = 0;
 };
 
 /// One run: a channel prefix and a token (protocol/README.md, section 6).

@@ -122,6 +122,8 @@ struct RunTraffic {
   /// step -> offset of the first copy (later copies are resends or duplicates, section 7)
   std::map<std::int64_t, long> solid_states, fluid_states;
   std::int64_t messages = 0, copies = 0;
+  /// The first step with a sub-iteration (iteration > 0: the implicit scheme), or -1.
+  std::int64_t iterated_step = -1;
 };
 
 struct PrefixTraffic {
@@ -188,6 +190,7 @@ LogScan scan(LogReader& log) {
         if (const auto m = decode<cosimlcm::solid_state_t>(*e)) {
           RunTraffic& r = run_of(m->token);
           if (!r.solid_states.emplace(m->step, offset).second) ++r.copies;
+          if (m->iteration > 0 && r.iterated_step < 0) r.iterated_step = m->step;
         } else {
           ++s.undecodable;
         }
@@ -755,6 +758,9 @@ class Replay {
     if (!run.welcome->accepted)
       throw ReplayError(where + ": the handshake was refused (" + one_line(run.welcome->reason) +
                         "); nothing to replay");
+    if (run.iterated_step >= 0)
+      throw ReplayError(where + " ran the implicit scheme (solid_state_t of step " + std::to_string(run.iterated_step) +
+                        " has sub-iterations, protocol/README.md 13); cosim-replay replays the serial scheme only");
     const bool fluid = o_.side == Side::Fluid;
     const auto& outputs = fluid ? run.fluid_states : run.solid_states;
     if (outputs.empty())
