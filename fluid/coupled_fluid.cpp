@@ -32,6 +32,7 @@
 #include "protocol/handshake.hpp"
 #include "protocol/hello_lcm.hpp"
 #include "protocol/message_checks.hpp"
+#include "protocol/peak_memory.hpp"
 #include "protocol/marker_watch.hpp"
 #include "protocol/step_sequencer.hpp"
 #include "protocol/text.hpp"
@@ -223,6 +224,7 @@ class CoupledFluid {
                   static_cast<long long>(s_.watchdog.health_every));
     out_ << line;
     out_ << "fluid: watchdog margins: " << markers_.margins() << "\n";
+    out_ << "fluid: peak memory " << protocol::fmt("%.1f", protocol::peak_rss_mib()) << " MiB (largest resident set)\n";
     if (c_.scheme.implicit_scheme())
       out_ << "fluid: implicit scheme: " << redone_steps_ << " LB steps computed again for sub-iterations, "
            << protocol::fmt("%.3g", double(s_.steps + redone_steps_) / double(s_.steps)) << " fluid steps per LB step\n";

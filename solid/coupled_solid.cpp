@@ -38,6 +38,7 @@
 #include "protocol/hdf5_handle.hpp"
 #include "protocol/hdf5_quiet.hpp"
 #include "protocol/message_checks.hpp"
+#include "protocol/peak_memory.hpp"
 #include "protocol/step_sequencer.hpp"
 #include "protocol/text.hpp"
 #include "protocol/units.hpp"
@@ -1275,6 +1276,7 @@ class CoupledSolid {
              << " c after a substep (limit " << fmt("%g", s_.watchdog.max_cgp_speed)
              << "), unexplained energy max " << fmt("%.3g", energy_watch_->max_ratio())
              << " of the energy scale (limit " << fmt("%g", s_.watchdog.energy_growth) << ")\n";
+      out_ << "solid: peak memory " << fmt("%.1f", protocol::peak_rss_mib()) << " MiB (largest resident set)\n";
       if (implicit_ && implicit_steps_ > 0)
         out_ << "solid: implicit scheme: " << implicit_steps_ << " steps iterated, "
              << fmt("%.3g", double(implicit_steps_ + iterations_redone_) / double(implicit_steps_))
