@@ -32,7 +32,7 @@ const fs::path kSource = COSIM_SOURCE_DIR;
 /// snapshots added and a short resend interval (a lost message costs 50 ms, not 0.5 s).
 /// `checkpoints`: 1000 LB steps instead, checkpoints every 100, snapshots every 200 and a
 /// peer timeout of 3 s (the survivor of a killed peer gives up quickly).
-fs::path write_scene(const fs::path& dir, bool checkpoints = false) {
+fs::path write_scene(const fs::path& dir, bool checkpoints = false, bool implicit = false) {
   std::string s = slurp(kSource / "scenes" / "coupled_small.toml");
   const auto set = [&s](const std::string& from, const std::string& to) {
     const std::size_t at = s.find(from);
@@ -51,6 +51,8 @@ fs::path write_scene(const fs::path& dir, bool checkpoints = false) {
     set("sheets_every = 40", "sheets_every = 200");
     set("peer_timeout_s = 10", "peer_timeout_s = 3\ncheckpoint_every = 100");
   }
+  // The implicit scheme (protocol/README.md 13), checkpoints every 40 steps.
+  if (implicit) set("rigid_steps = 40", "rigid_steps = 40\nscheme = \"implicit\"\ncheckpoint_every = 40");
   const fs::path scene = dir / "small.toml";
   std::ofstream(scene) << s;
   return scene;
@@ -109,6 +111,33 @@ TEST(Reproducibility, LossyTransportGivesIdenticalResults) {
   // Each kind of fault happened (on at least one side), so the run proves something.
   for (std::size_t k = 0; k < 4; ++k) EXPECT_GT(f[k] + s[k], 0) << "fault kind " << k << "\n" << logs(lossy);
   EXPECT_EQ(compare_outputs(clean, lossy), "") << logs(lossy);
+  if (!HasFailure()) fs::remove_all(dir);
+}
+
+/// The implicit scheme's sub-iterations through the same faults, and a restart from its
+/// checkpoint of step 80 (taken while step 80 is iterated: the solid keeps the step's start
+/// and first sample, the fluid its committed state): both bit for bit the clean run.
+TEST(Reproducibility, ImplicitSchemeIsBitIdenticalUnderFaultsAndRestart) {
+  const fs::path dir = scratch("implicit");
+  const fs::path scene = write_scene(dir, false, true);
+  const fs::path clean = dir / "clean", lossy = dir / "lossy", restarted = dir / "restarted", from = dir / "from80";
+  expect_done(clean, run_launcher(kSource, scene, clean));
+  EXPECT_NE(slurp(clean / "solid.log").find("solid: implicit scheme: 80 steps iterated"), std::string::npos)
+      << logs(clean);
+  expect_done(lossy, run_launcher(kSource, scene, lossy, "",
+                                  "COSIM_FAULTS=drop=0.03,duplicate=0.03,reorder=0.03,"
+                                  "delay=0.03,delay_ms=20,seed=11"));
+  const auto f = injected(slurp(lossy / "fluid.log")), s = injected(slurp(lossy / "solid.log"));
+  for (std::size_t k = 0; k < 4; ++k) EXPECT_GT(f[k] + s[k], 0) << "fault kind " << k << "\n" << logs(lossy);
+  EXPECT_EQ(compare_outputs(clean, lossy), "") << logs(lossy);
+  fs::create_directories(from);
+  for (const char* side : {"fluid", "solid"})
+    fs::copy_file(clean / "checkpoints" / (std::string(side) + "_00000080.h5"),
+                  from / (std::string(side) + "_00000080.h5"));
+  expect_done(restarted, run_launcher(kSource, scene, restarted, "--restart " + cosim::test::quoted(from.string())));
+  EXPECT_NE(slurp(restarted / "solid.log").find("restarted from"), std::string::npos) << logs(restarted);
+  for (const std::string& file : cosim::test::h5_files(restarted))
+    EXPECT_EQ(cosim::test::compare_h5(clean, restarted, file), "") << file;
   if (!HasFailure()) fs::remove_all(dir);
 }
 
