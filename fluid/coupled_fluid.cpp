@@ -101,6 +101,9 @@ class CoupledFluid {
         const protocol::CheckpointReader r(o_.restart);
         solid_seq_ = protocol::StepSequencer(c_.scheme.implicit_scheme() ? r.int64_attr("solid_seq_awaited")
                                                                           : r.int64_attr("step"));
+        // The in-flight solid_state_t may come during the handshake: its A_T is the checkpoint's.
+        restart_ratio_ = r.has("time_ratio") ? static_cast<int>(r.int64_attr("time_ratio")) : c_.time_ratio;
+        first_step_ = r.int64_attr("step");
       } catch (const std::exception&) {
       }
     }
@@ -807,6 +810,9 @@ class CoupledFluid {
                                                 protocol::kStepWindow,
                                             s_.steps - (implicit ? 0 : 1));
     e.time_ratio = time_ratio_;
+    // The restart's first solid_state_t was computed with the checkpoint's A_T (check_solid_state
+    // holds it to that for its step).
+    if (first_step_ > 0 && restart_ratio_ > 0 && restart_ratio_ != time_ratio_) e.restart_time_ratio = restart_ratio_;
     e.max_iterations = c_.scheme.iterations_allowed();
     return e;
   }

@@ -311,10 +311,14 @@ std::optional<Rejection> check(const cosimlcm::solid_state_t& m, const Expectati
   if (auto r = count_ok(type, m.num_cgps, e)) return r;
   if (auto r = rows3(type, "position_lb", m.position_lb, m.num_cgps)) return r;
   if (auto r = rows3(type, "impulse_lb", m.impulse_lb, m.num_cgps)) return r;
-  if (e.time_ratio > 0 ? m.substeps != 0 && m.substeps != e.time_ratio : m.substeps < 0)
+  if (e.time_ratio > 0 ? m.substeps != 0 && m.substeps != e.time_ratio &&
+                             (e.restart_time_ratio <= 0 || m.substeps != e.restart_time_ratio)
+                       : m.substeps < 0)
     return reject(RejectCategory::Range, type,
                   "substeps = " + std::to_string(m.substeps) + "; allowed: 0 or A_T = " +
-                      std::to_string(e.time_ratio));
+                      std::to_string(e.time_ratio) +
+                      (e.restart_time_ratio > 0 ? " (or the restart's " + std::to_string(e.restart_time_ratio) + ")"
+                                                : std::string()));
   if (auto r = finite(type, "solid_time_s", m.solid_time_s)) return r;
   if (!(m.solid_time_s >= 0.0))
     return reject(RejectCategory::Range, type,

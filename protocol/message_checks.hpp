@@ -60,6 +60,10 @@ struct Expectation {
   std::int64_t lowest_step = 0;  ///< the window of acceptable steps, inclusive
   std::int64_t highest_step = 0;
   std::int32_t time_ratio = 0;   ///< A_T of the run: substeps must be 0 or A_T
+  /// A second A_T that substeps may equal (0: none): a restart with another A_T (the
+  /// watchdog's retry) receives the checkpoint's in-flight solid_state_t, computed with the
+  /// old one.
+  std::int32_t restart_time_ratio = 0;
   /// Sub-iterations per step (coupling.max_iterations of the implicit scheme; 1 in the
   /// serial scheme): a state message's iteration must lie in [0, max_iterations).
   std::int32_t max_iterations = 1;

@@ -214,6 +214,29 @@ TEST(MessageChecks, MalformedMessagesAreRejected) {
     m.substeps = 0;
     EXPECT_FALSE(cosim::protocol::check(m, expect_state()).has_value());
   }
+  {  // a restart with another A_T (the watchdog's retry) also takes the checkpoint's A_T, no other
+    SS m = valid_solid_state();
+    m.substeps = 75;
+    cosim::protocol::Expectation e = expect_state();
+    e.restart_time_ratio = 75;
+    EXPECT_FALSE(cosim::protocol::check(m, e).has_value());
+    m.substeps = 74;
+    const auto r = cosim::protocol::check(m, e);
+    ASSERT_TRUE(r.has_value());
+    EXPECT_NE(r->what.find("substeps = 74; allowed: 0 or A_T = 150 (or the restart's 75)"), std::string::npos) << r->what;
+  }
+  {  // the implicit scheme's iteration lies in [0, max_iterations)
+    SS m = valid_solid_state();
+    m.iteration = 3;
+    cosim::protocol::Expectation e = expect_state();
+    EXPECT_TRUE(cosim::protocol::check(m, e).has_value());  // serial: 0 only
+    e.max_iterations = 4;
+    EXPECT_FALSE(cosim::protocol::check(m, e).has_value());
+    m.iteration = 4;
+    const auto r = cosim::protocol::check(m, e);
+    ASSERT_TRUE(r.has_value());
+    EXPECT_NE(r->what.find("iteration = 4; allowed: 0 to 3"), std::string::npos) << r->what;
+  }
   expect_rejected<FS>(
       valid_fluid_state(), expect_state(),
       {
@@ -280,8 +303,8 @@ TEST(MessageChecks, EncodedMessagesAreCheckedBeforeDecoding) {
   EXPECT_EQ(m.num_cgps, 4);
   EXPECT_EQ(m.position_lb.size(), 4u);
 
-  // Layout: hash (8), token length (4) + 17 bytes, seq (8), step (8), substeps (4),
-  // solid_time_s (8), num_cgps (4) at byte 57.
+  // Layout: hash (8), token length (4) + 17 bytes, seq (8), step (8), iteration (4),
+  // substeps (4), solid_time_s (8), num_cgps (4) at byte 61.
   // num_cgps after the hash, the token (4 + 17), seq, step, iteration, substeps, solid_time_s.
   const std::size_t token_at = 8, num_at = 8 + 4 + 17 + 8 + 8 + 4 + 4 + 8;
   struct Bad {
