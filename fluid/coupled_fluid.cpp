@@ -146,6 +146,14 @@ class CoupledFluid {
     const Clock::time_point start = Clock::now();
     if (c_.scheme.implicit_scheme()) return step_all_implicit(solver, ib, log, snapshots, limits, first_step, start);
     Clock::time_point last_progress = start;
+    // The parallel scheme (protocol/README.md 14) publishes the fluid_state_t the solid's
+    // next interval needs: fluid_state_t(n + 1) drives solid_state_t(n + 2) (dynamic steps),
+    // so it goes out right after the step, before solid_state_t(n + 1) is awaited, and the
+    // solid integrates while the fluid steps; the serial scheme publishes 1 .. N - 1.
+    const bool parallel = c_.scheme.parallel_scheme();
+    const auto publishes = [&](std::int64_t m) {
+      return parallel ? protocol::parallel_fluid_state_needed(m, s_.steps, c_.rigid_steps) : m >= 1 && m < s_.steps;
+    };
     for (std::int64_t step = first_step; step < s_.steps; ++step) {
       const Clock::time_point t0 = Clock::now();
       awaited_step_ = step;
@@ -157,7 +165,7 @@ class CoupledFluid {
         if (peer_code_ == kUnhealthy && protocol::dt_curable(e->reason)) announce_retry(step, c_.time_ratio, 0);
         return end(*e);
       }
-      const Clock::time_point t1 = Clock::now();
+      Clock::time_point t1 = Clock::now();
       wait_s_ += std::chrono::duration<double>(t1 - t0).count();
       const cosimlcm::solid_state_t& m = inbox_.at(step);
       if (auto e = check_solid_state(m, step)) return end(*e);
@@ -173,6 +181,16 @@ class CoupledFluid {
       const Clock::time_point w0 = Clock::now();
       if (const auto t = markers_.check_positions(step, x)) return trip(*t, &solver, step, limits);
       watch_s_ += std::chrono::duration<double>(Clock::now() - w0).count();
+      if (step == 0 && publishes(0)) {
+        // The parallel scheme's first interval (dynamic from step 1) is driven by the fluid
+        // at step 0, sampled at the initial X_l (Eq. 17) and published before the first step.
+        if (auto code = sample_markers(solver, ib, 0, x, samples, limits)) return *code;
+        const Clock::time_point t2 = Clock::now();
+        compute_s_ += std::chrono::duration<double>(t2 - t1).count();
+        publish_fluid_state(0, samples, samples);
+        t1 = Clock::now();
+        publish_s_ += std::chrono::duration<double>(t1 - t2).count();
+      }
       // The fluid before the step at X_l (fluid_state_t's *_start_lb), then Eqs. 21-24 and
       // 25-26: spread J_l at X_l, collide with the forcing, stream.
       ib.sample(solver, x, start_samples);
@@ -180,11 +198,12 @@ class CoupledFluid {
       solver.step();
       const std::int64_t now = step + 1;
       const bool last = now == s_.steps;
-      if (!last)
+      const bool publish = publishes(now);
+      if (publish)
         if (auto code = sample_markers(solver, ib, now, x, samples, limits)) return *code;
       const bool periodic = !last && c_.checkpoint_every > 0 && now % c_.checkpoint_every == 0;
       if (auto code = step_outputs(solver, now, last, periodic, log, snapshots, limits, dt_us, mass0)) return *code;
-      if (!last) {
+      if (publish) {
         const Clock::time_point t2 = Clock::now();
         compute_s_ += std::chrono::duration<double>(t2 - t1).count();
         publish_fluid_state(now, samples, start_samples);
@@ -447,6 +466,9 @@ class CoupledFluid {
   /// written (for periodic checkpoints a failure throws: an output error ends the run).
   std::string checkpoint(const PopulationField& f, std::int64_t step, const std::string& reason) {
     namespace fs = std::filesystem;
+    // The parallel scheme has both sides' messages in flight at every step; it keeps no
+    // checkpoints (protocol/README.md 14; the scene parser refuses checkpoint_every > 0).
+    if (c_.scheme.parallel_scheme()) return "; no checkpoint (coupling.scheme = \"parallel\" writes none)";
     const fs::path dir = fs::path(s_.output_dir) / "checkpoints";
     const fs::path file = dir / protocol::checkpoint_name("fluid", step);
     try {
@@ -988,6 +1010,11 @@ int run_coupled_fluid(const FluidScene& scene, const CoupledFluidOptions& option
   }
   if (options.token.empty()) {
     err << "fluid: a coupled run needs the run's token: --token TOKEN or COSIM_RUN_TOKEN\n";
+    return kBadInput;
+  }
+  if (!options.restart.empty() && scene.coupling->scheme.parallel_scheme()) {
+    err << "fluid: --restart " << options.restart << ": " << scene.path
+        << " runs coupling.scheme = \"parallel\", which writes no checkpoints and cannot be restarted\n";
     return kBadInput;
   }
   CoupledFluid run(scene, options, out);

@@ -409,8 +409,8 @@ void load_grid(const Reader& r, FluidScene& s) {
 /// the solid's parser checks the same limits.
 void load_scheme(const Reader& r, protocol::SchemeSettings& out) {
   using protocol::ImplicitSettings;
-  if (const auto i = r.choice("coupling", "scheme", {"serial", "implicit"}))
-    out.scheme = *i == 1 ? protocol::CouplingScheme::Implicit : protocol::CouplingScheme::Serial;
+  if (const auto i = r.choice("coupling", "scheme", {"serial", "implicit", "parallel"}))
+    out.scheme = static_cast<protocol::CouplingScheme>(*i);
   ImplicitSettings& m = out.implicit;
   if (const auto v = r.integer("coupling", "max_iterations")) {
     if (*v < 1 || *v > ImplicitSettings::max_iterations_max)
@@ -435,8 +435,8 @@ void load_scheme(const Reader& r, protocol::SchemeSettings& out) {
   if (out.scheme != protocol::CouplingScheme::Implicit)
     for (const char* key : {"max_iterations", "tolerance", "relaxation"})
       if (const toml::node* n = r.node("coupling", key))
-        r.bad(*n, std::string("coupling.") + key, "belongs to coupling.scheme = \"implicit\"; this scene's scheme is "
-                                                   "\"serial\"");
+        r.bad(*n, std::string("coupling.") + key, std::string("belongs to coupling.scheme = \"implicit\"; this scene's scheme is \"") +
+                                                   protocol::scheme_name(out.scheme) + "\"");
 }
 
 void load_coupling(const Reader& r, FluidScene& s) {
@@ -460,6 +460,10 @@ void load_coupling(const Reader& r, FluidScene& s) {
     c.checkpoint_every = *v;
   }
   load_scheme(r, c.scheme);
+  // The parallel scheme keeps no checkpoints (protocol/README.md section 14).
+  if (c.scheme.parallel_scheme() && c.checkpoint_every > 0)
+    r.bad(*r.node("coupling", "checkpoint_every"), "coupling.checkpoint_every",
+          "must be 0 with coupling.scheme = \"parallel\" (the parallel scheme writes no checkpoints)");
   for (auto [key, target] : {std::pair{"handshake_timeout_s", &c.handshake_timeout_s},
                              std::pair{"peer_timeout_s", &c.peer_timeout_s},
                              std::pair{"resend_after_s", &c.resend_after_s}}) {
