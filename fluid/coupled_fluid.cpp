@@ -175,6 +175,10 @@ class CoupledFluid {
       }
       inbox_.erase(inbox_.begin(), inbox_.upper_bound(step));
       solid_seq_.advance();
+      // A message of the next step that came early is offered again, now due (in the
+      // parallel scheme solid_state_t(n + 1) may overtake a lost solid_state_t(n)).
+      if (const auto next = inbox_.find(solid_seq_.expected_step()); next != inbox_.end())
+        solid_seq_.offer(next->first, next->second.seq);
       states_refused_ = 0;
       // The watchdog on the markers (DESIGN 6): how far each moved, how far apart they are.
       // The fluid at `step` is not touched yet: it is kept, if healthy, as the checkpoint.
@@ -857,7 +861,10 @@ class CoupledFluid {
     const std::int64_t key = key_of(m);
     switch (solid_seq_.offer(key, m.seq)) {
       case protocol::StepSequencer::Verdict::Accept:
+        if (m.step < s_.steps + 1 && inbox_.size() < 8) inbox_.emplace(key, std::move(m));
+        break;
       case protocol::StepSequencer::Verdict::Early:
+        // Held until due: the sequencer is offered it again after advance() (step_all).
         if (m.step < s_.steps + 1 && inbox_.size() < 8) inbox_.emplace(key, std::move(m));
         break;
       default:
