@@ -129,6 +129,13 @@ class CoupledFluid {
         return stop_and_end({kBadInput, "--restart " + o_.restart + ": " + x.what()}, 0);
       }
       out_ << "fluid: restarted from " << o_.restart << " at step " << first_step << "\n";
+      if (republish_) {
+        // The token is this run's; the rest is the message sent before, bit for bit.
+        republish_->token = o_.token;
+        net_.publish(ch_.fluid_state, *republish_);
+        sent_.push_back(std::move(*republish_));
+        republish_.reset();
+      }
     } else {
       const FlowSummary first = summarize(solver);
       mass0_ = first.mass;
@@ -470,9 +477,6 @@ class CoupledFluid {
   /// written (for periodic checkpoints a failure throws: an output error ends the run).
   std::string checkpoint(const PopulationField& f, std::int64_t step, const std::string& reason) {
     namespace fs = std::filesystem;
-    // The parallel scheme has both sides' messages in flight at every step; it keeps no
-    // checkpoints (protocol/README.md 14; the scene parser refuses checkpoint_every > 0).
-    if (c_.scheme.parallel_scheme()) return "; no checkpoint (coupling.scheme = \"parallel\" writes none)";
     const fs::path dir = fs::path(s_.output_dir) / "checkpoints";
     const fs::path file = dir / protocol::checkpoint_name("fluid", step);
     try {
@@ -497,6 +501,15 @@ class CoupledFluid {
       w.text("scene_hash", protocol::scene_hash_of_file(s_.path));
       w.text("reason", reason.empty() ? "every coupling.checkpoint_every steps" : reason);
       w.put("populations", f.q(0), std::size_t(D3Q19::Q) * f.layout().stride());
+      // The parallel scheme (protocol/README.md 14): fluid_state_t(step) is in flight too,
+      // the solid's next interval needs it.
+      if (c_.scheme.parallel_scheme())
+        for (const cosimlcm::fluid_state_t& m : sent_)
+          if (m.step == step) {
+            std::vector<std::uint8_t> bytes(static_cast<std::size_t>(m.getEncodedSize()));
+            m.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+            w.put("in_flight_fluid_state", bytes);
+          }
       put_rows(w, rows_);
       w.commit();
       protocol::prune_checkpoints(dir, "fluid_", 3);
@@ -542,6 +555,19 @@ class CoupledFluid {
         throw std::runtime_error("watchdog_neighbour has " + std::to_string(ref.neighbour.size()) +
                                  " markers, the solid announced " + std::to_string(num_cgps_));
       markers_.restore(ref);
+    }
+    // The parallel scheme: the solid's restart awaits fluid_state_t(step) from step D - 1 on
+    // (protocol/README.md 14); it is published again once the checkpoint is read.
+    if (c_.scheme.parallel_scheme() && step >= std::max<std::int64_t>(c_.rigid_steps, 1) - 1 &&
+        protocol::parallel_fluid_state_needed(step, s_.steps, c_.rigid_steps)) {
+      if (!r.has("in_flight_fluid_state"))
+        throw std::runtime_error("no in_flight_fluid_state (fluid_state_t of step " + std::to_string(step) +
+                                 "), which the parallel scheme's solid needs to continue");
+      cosimlcm::fluid_state_t m{};
+      const std::vector<std::uint8_t> bytes = r.bytes("in_flight_fluid_state");
+      if (m.decode(bytes.data(), 0, static_cast<int>(bytes.size())) < 0 || m.step != step || m.num_cgps != num_cgps_)
+        throw std::runtime_error("in_flight_fluid_state is not the fluid_state_t of step " + std::to_string(step));
+      republish_ = std::move(m);
     }
     rows_ = get_rows(r);
     for (const FlowSummary& row : rows_) log.append(row);
@@ -987,6 +1013,8 @@ class CoupledFluid {
   std::int32_t time_ratio_ = 0;  ///< A_T agreed in the handshake
   std::map<std::int64_t, cosimlcm::solid_state_t> inbox_;
   std::deque<cosimlcm::fluid_state_t> sent_;
+  /// The parallel scheme's restart: the checkpoint's fluid_state_t in flight, published again.
+  std::optional<cosimlcm::fluid_state_t> republish_;
   std::int32_t num_cgps_ = 0;
   std::int64_t first_step_ = 0;  ///< 0, or the step of --restart
   int restart_ratio_ = 0;        ///< the A_T of the --restart checkpoint
@@ -1017,11 +1045,6 @@ int run_coupled_fluid(const FluidScene& scene, const CoupledFluidOptions& option
   }
   if (options.token.empty()) {
     err << "fluid: a coupled run needs the run's token: --token TOKEN or COSIM_RUN_TOKEN\n";
-    return kBadInput;
-  }
-  if (!options.restart.empty() && scene.coupling->scheme.parallel_scheme()) {
-    err << "fluid: --restart " << options.restart << ": " << scene.path
-        << " runs coupling.scheme = \"parallel\", which writes no checkpoints and cannot be restarted\n";
     return kBadInput;
   }
   CoupledFluid run(scene, options, out);

@@ -460,10 +460,6 @@ void load_coupling(const Reader& r, FluidScene& s) {
     c.checkpoint_every = *v;
   }
   load_scheme(r, c.scheme);
-  // The parallel scheme keeps no checkpoints (protocol/README.md section 14).
-  if (c.scheme.parallel_scheme() && c.checkpoint_every > 0)
-    r.bad(*r.node("coupling", "checkpoint_every"), "coupling.checkpoint_every",
-          "must be 0 with coupling.scheme = \"parallel\" (the parallel scheme writes no checkpoints)");
   for (auto [key, target] : {std::pair{"handshake_timeout_s", &c.handshake_timeout_s},
                              std::pair{"peer_timeout_s", &c.peer_timeout_s},
                              std::pair{"resend_after_s", &c.resend_after_s}}) {

@@ -504,7 +504,8 @@ class CoupledSolid {
   /// step after the interval, as in the serial scheme. fluid_state_t(D - 1) drives both.
   std::optional<Ending> parallel_intervals(const cosimlcm::fluid_state_t& m) {
     const std::int64_t dynamic_from = std::max<std::int64_t>(rigid_steps_, 1);
-    if (m.step >= 1 && m.step < dynamic_from)
+    // (A restart at step D - 1 has published solid_state_t(D - 1) already.)
+    if (m.step >= 1 && m.step < dynamic_from && last_step_ < m.step)
       if (const auto e = interval(m, m.step)) return e;
     if (m.step + 1 >= dynamic_from && m.step + 1 <= total_steps_ - 1) return interval(m, m.step + 1);
     return check_fluid_state(m);
@@ -872,7 +873,10 @@ class CoupledSolid {
     } else {
       energy_watch_->check(step, sheet_energy_J(), 0.0);  // an older checkpoint: E here is E(0)
     }
-    seq_ = protocol::StepSequencer(implicit_ ? r.int64_attr("fluid_seq_awaited") : step + 1);
+    // The parallel scheme awaits fluid_state_t(step) from step D - 1 on (it drives the interval
+    // step -> step + 1; protocol/README.md 14), which the fluid publishes again.
+    const bool parallel_awaits_step = parallel_ && step >= std::max<std::int64_t>(rigid_steps_, 1) - 1;
+    seq_ = protocol::StepSequencer(implicit_ ? r.int64_attr("fluid_seq_awaited") : parallel_awaits_step ? step : step + 1);
     if (implicit_ && r.int64_attr("iterating") != 0) {
       // The step's first iterate again, from its start, with the sample it began with.
       Iterate it;
@@ -1266,9 +1270,7 @@ class CoupledSolid {
   int finish(Ending e) {
     // A clean abort (the fluid lost, or stopped with an error) keeps the state after the
     // last interval for a restart (DESIGN 2.4).
-    if (e.code == exit_code::peer_lost && parallel_) {
-      e.reason += "; no checkpoint (coupling.scheme = \"parallel\" writes none)";
-    } else if (e.code == exit_code::peer_lost && model_ && !sent_.empty() && last_step_ > first_step_) {
+    if (e.code == exit_code::peer_lost && model_ && !sent_.empty() && last_step_ > first_step_) {
       try {
         e.reason += "; checkpoint " + checkpoint(e.reason);
       } catch (const std::exception& x) {
@@ -1394,11 +1396,6 @@ int run_coupled_solid(const SolidScene& scene, const CoupledSolidOptions& option
   if (!options.check_only && options.token.empty()) {
     err << "solid: a coupled scene needs the run's token: --token TOKEN or the environment "
            "variable COSIM_RUN_TOKEN (the launcher draws one per run)\n";
-    return exit_code::bad_input;
-  }
-  if (!options.restart.empty() && scene.coupling->scheme.parallel_scheme()) {
-    err << "solid: --restart " << options.restart << ": " << scene.path
-        << " runs coupling.scheme = \"parallel\", which writes no checkpoints and cannot be restarted\n";
     return exit_code::bad_input;
   }
   try {

@@ -165,6 +165,45 @@ TEST(Reproducibility, CheckpointRestartIsBitIdentical) {
   if (!HasFailure()) fs::remove_all(dir);
 }
 
+/// The parallel scheme's checkpoints (protocol/README.md 14) hold fluid_state_t(N) in flight
+/// too. 60 LB steps (40 rigid), a checkpoint every 13: the newest three are 26 (spin-up, the
+/// serial order), 39 (D - 1: fluid_state_t(39) drives both solid_state_t(39) and (40)) and 52
+/// (free); a restart from each gives every HDF5 output of the full run bit for bit.
+TEST(Reproducibility, ParallelCheckpointRestartIsBitIdentical) {
+  const fs::path dir = scratch("parallel_checkpoint_restart");
+  const fs::path scene = write_scene(dir, false, "parallel");
+  {
+    std::string s = slurp(scene);
+    for (const auto& [from, to] : {std::pair<std::string, std::string>{"steps = 120", "steps = 60"},
+                                   {"peer_timeout_s = 10", "peer_timeout_s = 10\ncheckpoint_every = 13"}}) {
+      const std::size_t at = s.find(from);
+      ASSERT_NE(at, std::string::npos) << from;
+      s.replace(at, from.size(), to);
+    }
+    std::ofstream(scene) << s;
+  }
+  const fs::path full = dir / "full";
+  expect_done(full, run_launcher(kSource, scene, full));
+  for (const char* step : {"00000026", "00000039", "00000052"}) {
+    const fs::path from = dir / (std::string("from") + step), restarted = dir / (std::string("restarted") + step);
+    fs::create_directories(from);
+    for (const char* side : {"fluid", "solid"}) {
+      const fs::path f = full / "checkpoints" / (std::string(side) + "_" + step + ".h5");
+      ASSERT_TRUE(fs::exists(f)) << f << "\n" << logs(full);
+      fs::copy_file(f, from / f.filename());
+    }
+    expect_done(restarted, run_launcher(kSource, scene, restarted, "--restart " + cosim::test::quoted(from.string())));
+    EXPECT_NE(slurp(restarted / "solid.log").find("restarted from"), std::string::npos) << logs(restarted);
+    std::size_t files = 0;
+    for (const std::string& f : cosim::test::h5_files(restarted)) {
+      EXPECT_EQ(cosim::test::compare_h5(full, restarted, f), "") << "restart from " << step << ": " << f;
+      ++files;
+    }
+    EXPECT_GE(files, 4u) << step;  // solid.h5, monitor.h5, fields_000060, plane 40 or 60, sheets
+  }
+  if (!HasFailure()) fs::remove_all(dir);
+}
+
 /// The solid is killed (SIGKILL) after its checkpoint of step 100: the fluid notices within
 /// its peer timeout, writes its own checkpoint and exits 4 naming the reason and the file;
 /// a restart from the checkpoints folder completes the run, identical to an uninterrupted one.

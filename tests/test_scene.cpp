@@ -87,9 +87,6 @@ const std::vector<BadCase> kBadCases = {
     {"coupling_iterations_serial.toml",
      {":36: coupling.max_iterations = 5: belongs to coupling.scheme = \"implicit\"; this scene's scheme is "
       "\"serial\""}},
-    {"coupling_parallel_checkpoints.toml",
-     {":37: coupling.checkpoint_every = 100: must be 0 with coupling.scheme = \"parallel\" (the parallel scheme writes no "
-      "checkpoints)"}},
     {"coupling_tolerance_range.toml", {":37: coupling.tolerance = 0: must be a number in [1e-14, 1)"}},
     {"coupling_ttl.toml",
      {"coupling.lcm_url = \"udpm://239.255.76.67:7667?ttl=1\": must be a udpm:// URL with ttl=0"}},

@@ -95,9 +95,6 @@ const std::vector<BadCase>& bad_cases() {
         "packets never leave this machine"}},
       {"coupling_scheme_unknown.toml",
        {":5: coupling.scheme = \"gauss-seidel\": must be one of \"serial\", \"implicit\", \"parallel\""}},
-      {"coupling_parallel_checkpoints.toml",
-       {":6: coupling.checkpoint_every = 100: must be 0 with coupling.scheme = \"parallel\" (the parallel scheme writes "
-        "no checkpoints)"}},
       {"coupling_relaxation_range.toml",
        {":6: coupling.relaxation = 1.5: must be a number in (0, 1] (the implicit scheme's first Aitken "
         "relaxation factor; default 0.5)"}},
