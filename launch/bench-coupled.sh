@@ -28,7 +28,7 @@ fi
 field() {  # field FILE REGEX: the number captured by the first (..) of the regex
   sed -n "s/$2/\1/p" "$1" | head -1
 }
-echo "bench-coupled: $(nproc) cores, OMP_NUM_THREADS=${OMP_NUM_THREADS:-default}," \
+echo "bench-coupled: $(getconf _NPROCESSORS_ONLN) cores, OMP_NUM_THREADS=${OMP_NUM_THREADS:-default}," \
   "OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-default}; load average $(cut -d' ' -f1-3 /proc/loadavg)"
 printf '%-20s %-8s %13s %5s %6s | %13s %10s %10s | %13s %10s | %9s\n' scene scheme grid CGPs steps \
   "fluid compute" "wait" "publish" "solid compute" "wait" "wall/step"
