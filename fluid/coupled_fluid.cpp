@@ -133,6 +133,13 @@ class CoupledFluid {
         return stop_and_end({kBadInput, "--restart " + o_.restart + ": " + x.what()}, 0);
       }
       out_ << "fluid: restarted from " << o_.restart << " at step " << first_step << "\n";
+      if (republish_) {
+        // The token is this run's; the rest is the message sent before, bit for bit.
+        republish_->token = o_.token;
+        net_.publish(ch_.fluid_state, *republish_);
+        sent_.push_back(std::move(*republish_));
+        republish_.reset();
+      }
     } else {
       const FlowSummary first = summarize(solver);
       mass0_ = first.mass;
@@ -150,6 +157,14 @@ class CoupledFluid {
     const Clock::time_point start = Clock::now();
     if (c_.scheme.implicit_scheme()) return step_all_implicit(solver, ib, log, snapshots, limits, first_step, start);
     Clock::time_point last_progress = start;
+    // The parallel scheme (protocol/README.md 14) publishes the fluid_state_t the solid's
+    // next interval needs: fluid_state_t(n + 1) drives solid_state_t(n + 2) (dynamic steps),
+    // so it goes out right after the step, before solid_state_t(n + 1) is awaited, and the
+    // solid integrates while the fluid steps; the serial scheme publishes 1 .. N - 1.
+    const bool parallel = c_.scheme.parallel_scheme();
+    const auto publishes = [&](std::int64_t m) {
+      return parallel ? protocol::parallel_fluid_state_needed(m, s_.steps, c_.rigid_steps) : m >= 1 && m < s_.steps;
+    };
     for (std::int64_t step = first_step; step < s_.steps; ++step) {
       const Clock::time_point t0 = Clock::now();
       awaited_step_ = step;
@@ -161,7 +176,7 @@ class CoupledFluid {
         if (peer_code_ == kUnhealthy && protocol::dt_curable(e->reason)) announce_retry(step, c_.time_ratio, 0);
         return end(*e);
       }
-      const Clock::time_point t1 = Clock::now();
+      Clock::time_point t1 = Clock::now();
       wait_s_ += std::chrono::duration<double>(t1 - t0).count();
       const cosimlcm::solid_state_t& m = inbox_.at(step);
       if (auto e = check_solid_state(m, step)) return end(*e);
@@ -171,12 +186,26 @@ class CoupledFluid {
       }
       inbox_.erase(inbox_.begin(), inbox_.upper_bound(step));
       solid_seq_.advance();
+      // A message of the next step that came early is offered again, now due (in the
+      // parallel scheme solid_state_t(n + 1) may overtake a lost solid_state_t(n)).
+      if (const auto next = inbox_.find(solid_seq_.expected_step()); next != inbox_.end())
+        solid_seq_.offer(next->first, next->second.seq);
       states_refused_ = 0;
       // The watchdog on the markers (DESIGN 6): how far each moved, how far apart they are.
       // The fluid at `step` is not touched yet: it is kept, if healthy, as the checkpoint.
       const Clock::time_point w0 = Clock::now();
       if (const auto t = markers_.check_positions(step, x)) return trip(*t, &solver, step, limits);
       watch_s_ += std::chrono::duration<double>(Clock::now() - w0).count();
+      if (step == 0 && publishes(0)) {
+        // The parallel scheme's first interval (dynamic from step 1) is driven by the fluid
+        // at step 0, sampled at the initial X_l (Eq. 17) and published before the first step.
+        if (auto code = sample_markers(solver, ib, 0, x, samples, limits)) return *code;
+        const Clock::time_point t2 = Clock::now();
+        compute_s_ += std::chrono::duration<double>(t2 - t1).count();
+        publish_fluid_state(0, samples, samples);
+        t1 = Clock::now();
+        publish_s_ += std::chrono::duration<double>(t1 - t2).count();
+      }
       // The fluid before the step at X_l (fluid_state_t's *_start_lb), then Eqs. 21-24 and
       // 25-26: spread J_l at X_l, collide with the forcing, stream.
       ib.sample(solver, x, start_samples);
@@ -184,11 +213,12 @@ class CoupledFluid {
       solver.step();
       const std::int64_t now = step + 1;
       const bool last = now == s_.steps;
-      if (!last)
+      const bool publish = publishes(now);
+      if (publish)
         if (auto code = sample_markers(solver, ib, now, x, samples, limits)) return *code;
       const bool periodic = !last && c_.checkpoint_every > 0 && now % c_.checkpoint_every == 0;
       if (auto code = step_outputs(solver, now, last, periodic, log, snapshots, limits, dt_us, mass0)) return *code;
-      if (!last) {
+      if (publish) {
         const Clock::time_point t2 = Clock::now();
         compute_s_ += std::chrono::duration<double>(t2 - t1).count();
         publish_fluid_state(now, samples, start_samples);
@@ -476,6 +506,15 @@ class CoupledFluid {
       w.text("scene_hash", protocol::scene_hash_of_file(s_.path));
       w.text("reason", reason.empty() ? "every coupling.checkpoint_every steps" : reason);
       w.put("populations", f.q(0), std::size_t(D3Q19::Q) * f.layout().stride());
+      // The parallel scheme (protocol/README.md 14): fluid_state_t(step) is in flight too,
+      // the solid's next interval needs it.
+      if (c_.scheme.parallel_scheme())
+        for (const cosimlcm::fluid_state_t& m : sent_)
+          if (m.step == step) {
+            std::vector<std::uint8_t> bytes(static_cast<std::size_t>(m.getEncodedSize()));
+            m.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+            w.put("in_flight_fluid_state", bytes);
+          }
       put_rows(w, rows_);
       w.commit();
       protocol::prune_checkpoints(dir, "fluid_", 3);
@@ -521,6 +560,19 @@ class CoupledFluid {
         throw std::runtime_error("watchdog_neighbour has " + std::to_string(ref.neighbour.size()) +
                                  " markers, the solid announced " + std::to_string(num_cgps_));
       markers_.restore(ref);
+    }
+    // The parallel scheme: the solid's restart awaits fluid_state_t(step) from step D - 1 on
+    // (protocol/README.md 14); it is published again once the checkpoint is read.
+    if (c_.scheme.parallel_scheme() && step >= std::max<std::int64_t>(c_.rigid_steps, 1) - 1 &&
+        protocol::parallel_fluid_state_needed(step, s_.steps, c_.rigid_steps)) {
+      if (!r.has("in_flight_fluid_state"))
+        throw std::runtime_error("no in_flight_fluid_state (fluid_state_t of step " + std::to_string(step) +
+                                 "), which the parallel scheme's solid needs to continue");
+      cosimlcm::fluid_state_t m{};
+      const std::vector<std::uint8_t> bytes = r.bytes("in_flight_fluid_state");
+      if (m.decode(bytes.data(), 0, static_cast<int>(bytes.size())) < 0 || m.step != step || m.num_cgps != num_cgps_)
+        throw std::runtime_error("in_flight_fluid_state is not the fluid_state_t of step " + std::to_string(step));
+      republish_ = std::move(m);
     }
     rows_ = get_rows(r);
     for (const FlowSummary& row : rows_) log.append(row);
@@ -843,7 +895,10 @@ class CoupledFluid {
     const std::int64_t key = key_of(m);
     switch (solid_seq_.offer(key, m.seq)) {
       case protocol::StepSequencer::Verdict::Accept:
+        if (m.step < s_.steps + 1 && inbox_.size() < 8) inbox_.emplace(key, std::move(m));
+        break;
       case protocol::StepSequencer::Verdict::Early:
+        // Held until due: the sequencer is offered it again after advance() (step_all).
         if (m.step < s_.steps + 1 && inbox_.size() < 8) inbox_.emplace(key, std::move(m));
         break;
       default:
@@ -966,6 +1021,8 @@ class CoupledFluid {
   std::int32_t time_ratio_ = 0;  ///< A_T agreed in the handshake
   std::map<std::int64_t, cosimlcm::solid_state_t> inbox_;
   std::deque<cosimlcm::fluid_state_t> sent_;
+  /// The parallel scheme's restart: the checkpoint's fluid_state_t in flight, published again.
+  std::optional<cosimlcm::fluid_state_t> republish_;
   std::int32_t num_cgps_ = 0;
   std::int64_t first_step_ = 0;  ///< 0, or the step of --restart
   int restart_ratio_ = 0;        ///< the A_T of the --restart checkpoint

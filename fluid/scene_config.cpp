@@ -409,8 +409,8 @@ void load_grid(const Reader& r, FluidScene& s) {
 /// the solid's parser checks the same limits.
 void load_scheme(const Reader& r, protocol::SchemeSettings& out) {
   using protocol::ImplicitSettings;
-  if (const auto i = r.choice("coupling", "scheme", {"serial", "implicit"}))
-    out.scheme = *i == 1 ? protocol::CouplingScheme::Implicit : protocol::CouplingScheme::Serial;
+  if (const auto i = r.choice("coupling", "scheme", {"serial", "implicit", "parallel"}))
+    out.scheme = static_cast<protocol::CouplingScheme>(*i);
   ImplicitSettings& m = out.implicit;
   if (const auto v = r.integer("coupling", "max_iterations")) {
     if (*v < 1 || *v > ImplicitSettings::max_iterations_max)
@@ -435,8 +435,8 @@ void load_scheme(const Reader& r, protocol::SchemeSettings& out) {
   if (out.scheme != protocol::CouplingScheme::Implicit)
     for (const char* key : {"max_iterations", "tolerance", "relaxation"})
       if (const toml::node* n = r.node("coupling", key))
-        r.bad(*n, std::string("coupling.") + key, "belongs to coupling.scheme = \"implicit\"; this scene's scheme is "
-                                                   "\"serial\"");
+        r.bad(*n, std::string("coupling.") + key, std::string("belongs to coupling.scheme = \"implicit\"; this scene's scheme is \"") +
+                                                   protocol::scheme_name(out.scheme) + "\"");
 }
 
 void load_coupling(const Reader& r, FluidScene& s) {

@@ -1,11 +1,26 @@
 #!/usr/bin/env bash
 # Time per LB step of the coupled run, split per side into compute, waiting and (fluid)
-# publishing (DESIGN 7), for the small coupled scene and the paper's grid. Prints a table.
-#   bash launch/bench-coupled.sh [--no-build]
+# publishing (DESIGN 7), for the small coupled scene and the paper's grid, with the serial
+# and the parallel scheme (protocol/README.md sections 5 and 14). Prints a table, then each
+# side alone (cosim-replay of the serial run's log: the same work with its peer played
+# in-process from the log, no waiting on a real peer) against the coupled wall time:
+#   serial   wall / (fluid alone + solid alone)   the serial scheme's goal: <= 1.15
+#   parallel wall / max(fluid alone, solid alone) the parallel scheme's goal: <= 1.10
+#   bash launch/bench-coupled.sh [--no-build] [--scenes "coupled_small coupled_paper_grid"]
+# The fluid runs with OpenMP's default threads unless OMP_NUM_THREADS is set; set
+# OMP_WAIT_POLICY=passive so that its idle threads do not spin on the solid's core.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 build=1
-[ "${1:-}" = "--no-build" ] && build=0
+scenes="coupled_small coupled_paper_grid"
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --no-build) build=0 ;;
+    --scenes) scenes="$2"; shift ;;
+    *) echo "bench-coupled: unknown argument $1 (--no-build, --scenes \"A B\")" >&2; exit 2 ;;
+  esac
+  shift
+done
 if [ $build -eq 1 ]; then
   bash "$root/launch/bootstrap.sh"
   bash "$root/launch/build.sh" >/dev/null
@@ -13,24 +28,68 @@ fi
 field() {  # field FILE REGEX: the number captured by the first (..) of the regex
   sed -n "s/$2/\1/p" "$1" | head -1
 }
-printf '%-20s %13s %5s %6s | %13s %10s %10s | %13s %10s | %9s\n' scene grid CGPs steps \
+echo "bench-coupled: $(getconf _NPROCESSORS_ONLN) cores, OMP_NUM_THREADS=${OMP_NUM_THREADS:-default}," \
+  "OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-default}; load average $(cut -d' ' -f1-3 /proc/loadavg)"
+printf '%-20s %-8s %13s %5s %6s | %13s %10s %10s | %13s %10s | %9s\n' scene scheme grid CGPs steps \
   "fluid compute" "wait" "publish" "solid compute" "wait" "wall/step"
-for scene in coupled_small coupled_paper_grid; do
-  out="$root/out/bench/$scene"
-  rm -rf "$out"
-  bash "$root/launch/run-coupled.sh" "$root/scenes/$scene.toml" --no-build --quiet --output "$out" >/dev/null
-  f="$out/fluid.log"; s="$out/solid.log"
-  grid=$(field "$f" '.*grid *\([0-9]* x [0-9]* x [0-9]*\).*' | tr -d ' ')
-  cgps=$(field "$f" '.*handshake accepted: solid model [a-z]*, \([0-9]*\) CGPs.*')
-  steps=$(field "$f" '.*coupled run done, \([0-9]*\) LB steps.*')
-  wall=$(field "$f" '.*LB steps in \([0-9.e+-]*\) s.*')
-  fc=$(field "$f" '.*per LB step: compute \([0-9.e+-]*\) ms.*')
-  fw=$(field "$f" '.*waiting \([0-9.e+-]*\) ms (for solid_state_t).*')
-  fp=$(field "$f" '.*publishing \([0-9.e+-]*\) ms.*')
-  sc=$(field "$s" '.*per LB step: compute \([0-9.e+-]*\) ms.*')
-  sw=$(field "$s" '.*waiting \([0-9.e+-]*\) ms (for fluid_state_t).*')
-  ws=$(awk -v w="$wall" -v n="$steps" 'BEGIN { printf "%.3g", 1e3 * w / n }')
-  printf '%-20s %13s %5s %6s | %10s ms %7s ms %7s ms | %10s ms %7s ms | %6s ms\n' "$scene" "$grid" \
-    "$cgps" "$steps" "$fc" "$fw" "$fp" "$sc" "$sw" "$ws"
+declare -A wall fluid_alone solid_alone
+for scene in $scenes; do
+  for scheme in serial parallel; do
+    out="$root/out/bench/$scene/$scheme"
+    rm -rf "$out"
+    mkdir -p "$out"
+    # The scene with its scheme (the file both servers read; the replay needs its bytes).
+    sed "s/^\[coupling\]$/[coupling]\nscheme = \"$scheme\"/" "$root/scenes/$scene.toml" > "$out/../$scheme.toml"
+    log=()
+    [ "$scheme" = serial ] && log=(--log)
+    bash "$root/launch/run-coupled.sh" "$out/../$scheme.toml" --no-build --quiet --output "$out" "${log[@]}" >/dev/null
+    f="$out/fluid.log"; s="$out/solid.log"
+    grid=$(field "$f" '.*grid *\([0-9]* x [0-9]* x [0-9]*\).*' | tr -d ' ')
+    cgps=$(field "$f" '.*handshake accepted: solid model [a-z]*, \([0-9]*\) CGPs.*')
+    steps=$(field "$f" '.*coupled run done, \([0-9]*\) LB steps.*')
+    w=$(field "$f" '.*LB steps in \([0-9.e+-]*\) s.*')
+    fc=$(field "$f" '.*per LB step: compute \([0-9.e+-]*\) ms.*')
+    fw=$(field "$f" '.*waiting \([0-9.e+-]*\) ms (for solid_state_t).*')
+    fp=$(field "$f" '.*publishing \([0-9.e+-]*\) ms.*')
+    sc=$(field "$s" '.*per LB step: compute \([0-9.e+-]*\) ms.*')
+    sw=$(field "$s" '.*waiting \([0-9.e+-]*\) ms (for fluid_state_t).*')
+    ws=$(awk -v w="$w" -v n="$steps" 'BEGIN { printf "%.4g", 1e3 * w / n }')
+    wall[$scene.$scheme]=$ws
+    printf '%-20s %-8s %13s %5s %6s | %10s ms %7s ms %7s ms | %10s ms %7s ms | %6s ms\n' "$scene" "$scheme" \
+      "$grid" "$cgps" "$steps" "$fc" "$fw" "$fp" "$sc" "$sw" "$ws"
+    if [ "$scheme" = serial ]; then
+      # Each side alone: cosim-replay runs it against the log with the peer in-process.
+      for side in fluid solid; do
+        rdir="$out/../alone_$side"
+        rm -rf "$rdir"
+        "$root/build/tools/replay/cosim-replay" "$out/traffic.lcmlog" --side $side --scene "$out/../$scheme.toml" \
+          --output "$rdir" --quiet >/dev/null
+        r="$rdir/$side.log"
+        if [ $side = fluid ]; then
+          a=$(field "$r" '.*LB steps in \([0-9.e+-]*\) s.*')
+          fluid_alone[$scene]=$(awk -v w="$a" -v n="$steps" 'BEGIN { printf "%.4g", 1e3 * w / n }')
+        else
+          c=$(field "$r" '.*per LB step: compute \([0-9.e+-]*\) ms.*')
+          x=$(field "$r" '.*waiting \([0-9.e+-]*\) ms (for fluid_state_t).*')
+          solid_alone[$scene]=$(awk -v c="$c" -v x="$x" 'BEGIN { printf "%.4g", c + x }')
+        fi
+      done
+    fi
+  done
 done
-echo "(serial scheme: each side waits while the other computes; rigid spin-up steps take no substeps)"
+echo "(serial: each side waits while the other computes; parallel: both compute the same step at once;"
+echo " rigid spin-up steps take no substeps and run in the serial order in both schemes)"
+echo
+printf '%-20s | %12s %12s | %13s %13s %7s | %15s %14s %7s\n' scene "fluid alone" "solid alone" \
+  "serial wall" "/ (F + S)" "goal" "parallel wall" "/ max(F, S)" "goal"
+for scene in $scenes; do
+  fa=${fluid_alone[$scene]}; sa=${solid_alone[$scene]}
+  ws=${wall[$scene.serial]}; wp=${wall[$scene.parallel]}
+  awk -v s="$scene" -v fa="$fa" -v sa="$sa" -v ws="$ws" -v wp="$wp" 'BEGIN {
+    m = fa > sa ? fa : sa
+    printf "%-20s | %9.4g ms %9.4g ms | %10.4g ms %13.3f %7s | %12.4g ms %14.3f %7s\n", s, fa, sa, ws,
+      ws / (fa + sa), (ws / (fa + sa) <= 1.15 ? "<=1.15" : ">1.15!"), wp, wp / m, (wp / m <= 1.10 ? "<=1.10" : ">1.10!")
+  }'
+done
+echo "(alone: the side's wall per LB step under cosim-replay of the serial run's log, its peer played"
+echo " in-process from the log; the fluid's from its 'LB steps in' line, the solid's compute + waiting)"

@@ -802,7 +802,8 @@ def knob_precision() -> Knob:
 
 
 # Coupling schemes the servers offer: (name, scene keys that select it).
-SCHEMES: list[tuple[str, dict]] = [("serial", {}), ("implicit", {"coupling": {"scheme": "implicit"}})]
+SCHEMES: list[tuple[str, dict]] = [("serial", {}), ("implicit", {"coupling": {"scheme": "implicit"}}),
+                                  ("parallel", {"coupling": {"scheme": "parallel"}})]
 
 
 # ---------------------------------------------------------------------------------------

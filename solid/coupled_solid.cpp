@@ -142,7 +142,10 @@ class CoupledSolid {
     if (const auto e = open_bus()) return report(*e);
     if (const auto e = handshake()) return finish(*e);
     out_ << "solid: handshake accepted: " << total_steps_ << " LB steps (" << rigid_steps_
-         << " rigid), A_T = " << c_.time_ratio << "\n";
+         << " rigid), A_T = " << c_.time_ratio << (parallel_ ? ", parallel scheme" : "") << "\n";
+    // The parallel scheme's first fluid_state_t is of step 0 when the sheets are free from
+    // step 1 (section 14).
+    if (parallel_) seq_ = protocol::StepSequencer(protocol::parallel_first_fluid_state(rigid_steps_));
     out_.flush();
     start_ = last_progress_ = Clock::now();
 
@@ -417,7 +420,8 @@ class CoupledSolid {
           return Ending{exit_code::peer_lost,
                         "the fluid was silent for " + fmt("%g", c_.peer_timeout_s) +
                             " s (peer_timeout_s) while the solid waited for fluid_state_t of step " +
-                            std::to_string(last_step_ + 1) + " on " + ch_.fluid_state + " (" +
+                            std::to_string(parallel_ ? seq_.expected_step() : last_step_ + 1) + " on " +
+                            ch_.fluid_state + " (" +
                             std::to_string(watch_.resends_since_heard()) + " resend_t sent)",
                         true};
       }
@@ -472,6 +476,7 @@ class CoupledSolid {
   /// What fluid_state_t(m) asks for: the serial scheme's interval; in the implicit scheme the
   /// answer to the current iterate (another iterate, or its acceptance), then the next step.
   std::optional<Ending> on_fluid_state(const cosimlcm::fluid_state_t& m) {
+    if (parallel_) return parallel_intervals(m);
     if (!implicit_) return interval(m);
     if (const auto e = check_fluid_state(m)) return e;
     if (iterate_) {
@@ -487,6 +492,24 @@ class CoupledSolid {
     }
     if (m.step < rigid_steps_) return interval(m);  // the spin-up: nothing to iterate
     return begin_iterate(m);
+  }
+
+  // ---- the parallel scheme (protocol/README.md 14) ----
+
+  /// What fluid_state_t(m) drives in the parallel scheme, with D = max(rigid_steps, 1): the
+  /// spin-up's solid_state_t(m) for 1 <= m < D, as in the serial scheme (no substeps: there
+  /// is nothing to overlap, and a held sheet's direct forcing (Eqs. 18-20) is deadbeat only
+  /// without the lag); then, for m + 1 >= D, the interval m -> m + 1 with the sample of the
+  /// fluid at m, solid_state_t(m + 1), which the fluid spreads while stepping m + 1 -> m + 2
+  /// (Eqs. 21-24): the fluid receives exactly the J its CGPs received the opposite of, one
+  /// step after the interval, as in the serial scheme. fluid_state_t(D - 1) drives both.
+  std::optional<Ending> parallel_intervals(const cosimlcm::fluid_state_t& m) {
+    const std::int64_t dynamic_from = std::max<std::int64_t>(rigid_steps_, 1);
+    // (A restart at step D - 1 has published solid_state_t(D - 1) already.)
+    if (m.step >= 1 && m.step < dynamic_from && last_step_ < m.step)
+      if (const auto e = interval(m, m.step)) return e;
+    if (m.step + 1 >= dynamic_from && m.step + 1 <= total_steps_ - 1) return interval(m, m.step + 1);
+    return check_fluid_state(m);
   }
 
   // ---- the implicit scheme (protocol/README.md 13) ----
@@ -647,8 +670,12 @@ class CoupledSolid {
     return std::nullopt;
   }
 
-  /// One LB interval for fluid_state_t(m) (section 5, steps 1-4).
-  std::optional<Ending> interval(const cosimlcm::fluid_state_t& m) {
+  /// One LB interval for fluid_state_t(m) (section 5, steps 1-4; Eqs. 18-20 and 24):
+  /// solid_state_t(step), with step = m.step (the serial scheme), or m.step + 1 (the
+  /// parallel scheme's dynamic steps, section 14: the interval step - 1 -> step driven by the
+  /// fluid sample at its start).
+  std::optional<Ending> interval(const cosimlcm::fluid_state_t& m) { return interval(m, m.step); }
+  std::optional<Ending> interval(const cosimlcm::fluid_state_t& m, std::int64_t step) {
     if (const auto e = check_fluid_state(m)) return e;
     FluidSample sample;
     sample.rho_lb.resize(n_);
@@ -659,16 +686,16 @@ class CoupledSolid {
       for (Eigen::Index c = 0; c < 3; ++c)
         sample.velocity_lb(c, l) = m.velocity_lb[k][static_cast<std::size_t>(c)];
     }
-    const bool rigid = m.step < rigid_steps_;
+    const bool rigid = step < rigid_steps_;
     IntervalResult r;
     try {
       r = coupler_->advance(sample, rigid);
-      if (r.overspeed) return overspeed(m.step, *r.overspeed);
+      if (r.overspeed) return overspeed(step, *r.overspeed);
     } catch (const std::exception& e) {
       if (const std::string bad = non_finite_state(); !bad.empty())
         return Ending{exit_code::unhealthy, "non-finite solid state in the interval of step " +
-                                                std::to_string(m.step) + ": " + bad, true};
-      return Ending{exit_code::system, "the interval of step " + std::to_string(m.step) + ": " +
+                                                std::to_string(step) + ": " + bad, true};
+      return Ending{exit_code::system, "the interval of step " + std::to_string(step) + ": " +
                                            one_line(e.what()), true};
     }
     std::string bad = non_finite_state();
@@ -676,19 +703,19 @@ class CoupledSolid {
       bad = "a non-finite position or impulse for the fluid";
     if (!bad.empty())
       return Ending{exit_code::unhealthy, "non-finite solid state after the interval of step " +
-                                              std::to_string(m.step) + ": " + bad, true};
+                                              std::to_string(step) + ": " + bad, true};
     // The energy sentinel, before anything of this interval is published or recorded.
-    if (const auto trip = energy_watch_->check(m.step, sheet_energy_J(), joule_from_hartree(r.fluid_work_au)))
+    if (const auto trip = energy_watch_->check(step, sheet_energy_J(), joule_from_hartree(r.fluid_work_au)))
       return Ending{exit_code::unhealthy, trip->diagnosis + "; " + fastest_cgp(), true};
     total_substeps_ += r.substeps;
-    publish_state(m.step, r.substeps, r.position_lb, r.impulse_lb);
-    record(m.step, &r, m.bulk_velocity_lb);
-    if (const auto e = snapshot(m.step)) return e;
-    if (c_.checkpoint_every > 0 && m.step % c_.checkpoint_every == 0) {
+    publish_state(step, r.substeps, r.position_lb, r.impulse_lb);
+    record(step, &r, m.bulk_velocity_lb);
+    if (const auto e = snapshot(step)) return e;
+    if (c_.checkpoint_every > 0 && step % c_.checkpoint_every == 0) {
       try {
         checkpoint("");
       } catch (const std::exception& e) {
-        return Ending{exit_code::system, "checkpoint of step " + std::to_string(m.step) + ": " +
+        return Ending{exit_code::system, "checkpoint of step " + std::to_string(step) + ": " +
                                              one_line(e.what()), true};
       }
     }
@@ -847,7 +874,10 @@ class CoupledSolid {
     } else {
       energy_watch_->check(step, sheet_energy_J(), 0.0);  // an older checkpoint: E here is E(0)
     }
-    seq_ = protocol::StepSequencer(implicit_ ? r.int64_attr("fluid_seq_awaited") : step + 1);
+    // The parallel scheme awaits fluid_state_t(step) from step D - 1 on (it drives the interval
+    // step -> step + 1; protocol/README.md 14), which the fluid publishes again.
+    const bool parallel_awaits_step = parallel_ && step >= std::max<std::int64_t>(rigid_steps_, 1) - 1;
+    seq_ = protocol::StepSequencer(implicit_ ? r.int64_attr("fluid_seq_awaited") : parallel_awaits_step ? step : step + 1);
     if (implicit_ && r.int64_attr("iterating") != 0) {
       // The step's first iterate again, from its start, with the sample it began with.
       Iterate it;
@@ -932,7 +962,8 @@ class CoupledSolid {
   void request_resend() {
     cosimlcm::resend_t r{};
     r.token = o_.token;
-    r.step = last_step_ + 1;  // fluid_state_t(n + 1) answers solid_state_t(n)
+    // fluid_state_t(n + 1) answers solid_state_t(n); in the parallel scheme the awaited step.
+    r.step = parallel_ ? seq_.expected_step() : last_step_ + 1;
     r.what = "fluid_state";
     publish(ch_.resend, r);
     ++resends_asked_;
@@ -984,7 +1015,7 @@ class CoupledSolid {
     protocol::Expectation e;
     e.token = o_.token;
     e.num_cgps = static_cast<std::int32_t>(n_);
-    e.lowest_step = 1;
+    e.lowest_step = parallel_ ? 0 : 1;
     // The implicit scheme's last answer is fluid_state_t(N) (N = total_steps).
     e.highest_step = std::min<std::int64_t>(last_step_ + 1 + protocol::kStepWindow,
                                             total_steps_ - (implicit_ ? 0 : 1));
@@ -1339,6 +1370,7 @@ class CoupledSolid {
   std::int64_t solid_seq_ = 0, last_step_ = 0, total_substeps_ = 0;
   // The implicit scheme (protocol/README.md 13).
   const bool implicit_ = c_.scheme.implicit_scheme();
+  const bool parallel_ = c_.scheme.parallel_scheme();  ///< protocol/README.md 14
   std::optional<Iterate> iterate_;       ///< the step being iterated
   std::optional<AitkenRelaxation> aitken_;
   std::int64_t implicit_steps_ = 0, iterations_redone_ = 0, unconverged_ = 0;

@@ -622,8 +622,8 @@ void load_grid(const Reader& r, SolidScene& s) {
 /// the fluid's parser checks the same limits.
 void load_scheme(const Reader& r, const Scope& sec, protocol::SchemeSettings& out) {
   using protocol::ImplicitSettings;
-  if (const auto i = r.choice(sec, "scheme", {"serial", "implicit"}))
-    out.scheme = *i == 1 ? protocol::CouplingScheme::Implicit : protocol::CouplingScheme::Serial;
+  if (const auto i = r.choice(sec, "scheme", {"serial", "implicit", "parallel"}))
+    out.scheme = static_cast<protocol::CouplingScheme>(*i);
   ImplicitSettings& m = out.implicit;
   if (const auto v = r.integer_in(sec, "max_iterations", 1, ImplicitSettings::max_iterations_max,
                                   " (sub-iterations per LB step of the implicit scheme)"))
@@ -644,7 +644,8 @@ void load_scheme(const Reader& r, const Scope& sec, protocol::SchemeSettings& ou
   if (out.scheme != protocol::CouplingScheme::Implicit)
     for (const char* key : {"max_iterations", "tolerance", "relaxation"})
       if (const toml::node* n = sec.node(key))
-        r.bad(*n, sec.key(key), "belongs to coupling.scheme = \"implicit\"; this scene's scheme is \"serial\"");
+        r.bad(*n, sec.key(key), std::string("belongs to coupling.scheme = \"implicit\"; this scene's scheme is \"") +
+                                    protocol::scheme_name(out.scheme) + "\"");
 }
 
 void load_coupling(const Reader& r, SolidScene& s) {

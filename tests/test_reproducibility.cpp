@@ -32,7 +32,7 @@ const fs::path kSource = COSIM_SOURCE_DIR;
 /// snapshots added and a short resend interval (a lost message costs 50 ms, not 0.5 s).
 /// `checkpoints`: 1000 LB steps instead, checkpoints every 100, snapshots every 200 and a
 /// peer timeout of 3 s (the survivor of a killed peer gives up quickly).
-fs::path write_scene(const fs::path& dir, bool checkpoints = false, bool implicit = false) {
+fs::path write_scene(const fs::path& dir, bool checkpoints = false, const std::string& scheme = "serial") {
   std::string s = slurp(kSource / "scenes" / "coupled_small.toml");
   const auto set = [&s](const std::string& from, const std::string& to) {
     const std::size_t at = s.find(from);
@@ -51,8 +51,9 @@ fs::path write_scene(const fs::path& dir, bool checkpoints = false, bool implici
     set("sheets_every = 40", "sheets_every = 200");
     set("peer_timeout_s = 10", "peer_timeout_s = 3\ncheckpoint_every = 100");
   }
-  // The implicit scheme (protocol/README.md 13), checkpoints every 40 steps.
-  if (implicit) set("rigid_steps = 40", "rigid_steps = 40\nscheme = \"implicit\"\ncheckpoint_every = 40");
+  // Another scheme (protocol/README.md 13, 14); the implicit one with checkpoints every 40 steps.
+  if (scheme == "implicit") set("rigid_steps = 40", "rigid_steps = 40\nscheme = \"implicit\"\ncheckpoint_every = 40");
+  else if (scheme != "serial") set("rigid_steps = 40", "rigid_steps = 40\nscheme = \"" + scheme + "\"");
   const fs::path scene = dir / "small.toml";
   std::ofstream(scene) << s;
   return scene;
@@ -119,7 +120,7 @@ TEST(Reproducibility, LossyTransportGivesIdenticalResults) {
 /// and first sample, the fluid its committed state): both bit for bit the clean run.
 TEST(Reproducibility, ImplicitSchemeIsBitIdenticalUnderFaultsAndRestart) {
   const fs::path dir = scratch("implicit");
-  const fs::path scene = write_scene(dir, false, true);
+  const fs::path scene = write_scene(dir, false, "implicit");
   const fs::path clean = dir / "clean", lossy = dir / "lossy", restarted = dir / "restarted", from = dir / "from80";
   expect_done(clean, run_launcher(kSource, scene, clean));
   EXPECT_NE(slurp(clean / "solid.log").find("solid: implicit scheme: 80 steps iterated"), std::string::npos)
@@ -138,6 +139,26 @@ TEST(Reproducibility, ImplicitSchemeIsBitIdenticalUnderFaultsAndRestart) {
   EXPECT_NE(slurp(restarted / "solid.log").find("restarted from"), std::string::npos) << logs(restarted);
   for (const std::string& file : cosim::test::h5_files(restarted))
     EXPECT_EQ(cosim::test::compare_h5(clean, restarted, file), "") << file;
+  if (!HasFailure()) fs::remove_all(dir);
+}
+
+/// The parallel scheme (protocol/README.md 14) through the same faults: its message order has
+/// both sides a message ahead, and fluid_state_t(0) and the spin-up's hand-over to be
+/// recovered by the same resends; every HDF5 output equals the clean run's bit for bit.
+TEST(Reproducibility, ParallelLossyTransportGivesIdenticalResults) {
+  const fs::path dir = scratch("parallel_lossy");
+  const fs::path scene = write_scene(dir, false, "parallel");
+  const fs::path clean = dir / "clean", lossy = dir / "lossy";
+  expect_done(clean, run_launcher(kSource, scene, clean));
+  expect_done(lossy, run_launcher(kSource, scene, lossy, "",
+                                  "COSIM_FAULTS=drop=0.03,duplicate=0.03,reorder=0.03,"
+                                  "delay=0.03,delay_ms=20,seed=11"));
+  const auto f = injected(slurp(lossy / "fluid.log")), s = injected(slurp(lossy / "solid.log"));
+  std::printf("injected: fluid dropped %lld, duplicated %lld, reordered %lld, delayed %lld; "
+              "solid dropped %lld, duplicated %lld, reordered %lld, delayed %lld\n",
+              f[0], f[1], f[2], f[3], s[0], s[1], s[2], s[3]);
+  for (std::size_t k = 0; k < 4; ++k) EXPECT_GT(f[k] + s[k], 0) << "fault kind " << k << "\n" << logs(lossy);
+  EXPECT_EQ(compare_outputs(clean, lossy), "") << logs(lossy);
   if (!HasFailure()) fs::remove_all(dir);
 }
 
@@ -170,6 +191,45 @@ TEST(Reproducibility, CheckpointRestartIsBitIdentical) {
   }
   // solid.h5, monitor.h5, fields_001000, plane 800 and 1000, sheets 800 and 999
   EXPECT_GE(files, 7u);
+  if (!HasFailure()) fs::remove_all(dir);
+}
+
+/// The parallel scheme's checkpoints (protocol/README.md 14) hold fluid_state_t(N) in flight
+/// too. 60 LB steps (40 rigid), a checkpoint every 13: the newest three are 26 (spin-up, the
+/// serial order), 39 (D - 1: fluid_state_t(39) drives both solid_state_t(39) and (40)) and 52
+/// (free); a restart from each gives every HDF5 output of the full run bit for bit.
+TEST(Reproducibility, ParallelCheckpointRestartIsBitIdentical) {
+  const fs::path dir = scratch("parallel_checkpoint_restart");
+  const fs::path scene = write_scene(dir, false, "parallel");
+  {
+    std::string s = slurp(scene);
+    for (const auto& [from, to] : {std::pair<std::string, std::string>{"steps = 120", "steps = 60"},
+                                   {"peer_timeout_s = 10", "peer_timeout_s = 10\ncheckpoint_every = 13"}}) {
+      const std::size_t at = s.find(from);
+      ASSERT_NE(at, std::string::npos) << from;
+      s.replace(at, from.size(), to);
+    }
+    std::ofstream(scene) << s;
+  }
+  const fs::path full = dir / "full";
+  expect_done(full, run_launcher(kSource, scene, full));
+  for (const char* step : {"00000026", "00000039", "00000052"}) {
+    const fs::path from = dir / (std::string("from") + step), restarted = dir / (std::string("restarted") + step);
+    fs::create_directories(from);
+    for (const char* side : {"fluid", "solid"}) {
+      const fs::path f = full / "checkpoints" / (std::string(side) + "_" + step + ".h5");
+      ASSERT_TRUE(fs::exists(f)) << f << "\n" << logs(full);
+      fs::copy_file(f, from / f.filename());
+    }
+    expect_done(restarted, run_launcher(kSource, scene, restarted, "--restart " + cosim::test::quoted(from.string())));
+    EXPECT_NE(slurp(restarted / "solid.log").find("restarted from"), std::string::npos) << logs(restarted);
+    std::size_t files = 0;
+    for (const std::string& f : cosim::test::h5_files(restarted)) {
+      EXPECT_EQ(cosim::test::compare_h5(full, restarted, f), "") << "restart from " << step << ": " << f;
+      ++files;
+    }
+    EXPECT_GE(files, 4u) << step;  // solid.h5, monitor.h5, fields_000060, plane 40 or 60, sheets
+  }
   if (!HasFailure()) fs::remove_all(dir);
 }
 

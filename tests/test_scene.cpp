@@ -83,7 +83,7 @@ const std::vector<BadCase> kBadCases = {
     {"planes_without_heights.toml",
      {"output.planes_y: missing; planes_every > 0 needs the planes"}},
     {"coupling_scheme_unknown.toml",
-     {":36: coupling.scheme = \"gauss-seidel\": must be one of \"serial\", \"implicit\""}},
+     {":36: coupling.scheme = \"gauss-seidel\": must be one of \"serial\", \"implicit\", \"parallel\""}},
     {"coupling_iterations_serial.toml",
      {":36: coupling.max_iterations = 5: belongs to coupling.scheme = \"implicit\"; this scene's scheme is "
       "\"serial\""}},

@@ -36,6 +36,7 @@
 #include "cosimlcm/stop_t.hpp"
 #include "cosimlcm/welcome_t.hpp"
 #include "protocol/channels.hpp"
+#include "protocol/coupling_scheme.hpp"
 #include "protocol/handshake.hpp"
 #include "protocol/units.hpp"
 #include "solid/coupled_solid.hpp"
@@ -66,7 +67,8 @@ fs::path scratch_dir(const std::string& name) {
 /// A coupled scene with the fluid's sections (which the solid leaves alone), a 3 x 4 rcgp
 /// sheet (12 CGPs) standing in the flow, memq:// and short timeouts.
 fs::path write_scene(const fs::path& dir, std::int64_t rigid_steps, double peer_timeout_s = 3.0,
-                     double handshake_timeout_s = 3.0, const std::string& model = "rcgp") {
+                     double handshake_timeout_s = 3.0, const std::string& model = "rcgp",
+                     const std::string& scheme = "serial") {
   const fs::path scene = dir / "coupled.toml";
   std::ofstream(scene) << "[scene]\nname = \"coupled_test\"\n\n"
                           "[grid]\nnx = 16\nny = 16\nnz = 16\ndx_um = 0.2561\n\n"
@@ -80,7 +82,8 @@ fs::path write_scene(const fs::path& dir, std::int64_t rigid_steps, double peer_
                        << "\nhandshake_timeout_s = " << handshake_timeout_s
                        << "\npeer_timeout_s = " << peer_timeout_s
                        << "\nresend_after_s = 0.1\nlcm_url = \"memq://\"\n"
-                          "channel_prefix = \"TEST_\"\n\n"
+                          "channel_prefix = \"TEST_\"\nscheme = \""
+                       << scheme << "\"\n\n"
                           "[output]\ndirectory = \""
                        << (dir / "out").string() << "\"\nfields_every = 0\n";
   return scene;
@@ -92,7 +95,7 @@ fs::path write_scene(const fs::path& dir, std::int64_t rigid_steps, double peer_
 struct FakeFluid {
   FakeFluid(lcm::LCM& bus_, const SolidScene& scene, std::int64_t total_steps_)
       : bus(bus_), ch(scene.coupling->channel_prefix), total_steps(total_steps_),
-        rigid_steps(scene.coupling->rigid_steps) {
+        rigid_steps(scene.coupling->rigid_steps), parallel(scene.coupling->scheme.parallel_scheme()) {
     const UnitConverter u(scene.unit_inputs());
     own.token = kToken;
     own.role = "fluid";
@@ -132,6 +135,9 @@ struct FakeFluid {
   lcm::LCM& bus;
   Channels ch;
   std::int64_t total_steps, rigid_steps;
+  /// The parallel scheme (protocol/README.md 14): publish fluid_state_t(m) only where
+  /// parallel_fluid_state_needed(m), fluid_state_t(0) on solid_state_t(0) included.
+  bool parallel = false;
   cosim::protocol::Hello own;
   std::int64_t seq = 0;
   std::set<std::int64_t> answered;
@@ -204,6 +210,11 @@ struct FakeFluid {
       own_stops += 3;
       return;
     }
+    if (parallel && m->step == 0 && cosim::protocol::parallel_fluid_state_needed(0, total_steps, rigid_steps)) {
+      published[0] = sample(0, m->num_cgps);
+      if (lose_first_copy.count(0) == 0) bus.publish(ch.fluid_state, &published[0]);
+    }
+    if (parallel && !cosim::protocol::parallel_fluid_state_needed(next, total_steps, rigid_steps)) return;
     const cosimlcm::fluid_state_t f = sample(next, m->num_cgps);
     published[next] = f;
     if (next == foreign_step) {
@@ -388,6 +399,44 @@ TEST(SolidCoupled, RigidSpinUpTakesNoSubsteps) {
 
 // A model without dynamics (rigid) has no stable-step limit; it announces the largest finite
 // double, which the coordinator's checks accept, and runs: the sheet does not move.
+// The parallel scheme's order (protocol/README.md 14) against a fake fluid that publishes only
+// the fluid_state_t the scheme needs: with 2 rigid steps of 5, fluid_state_t(1) drives the
+// spin-up's solid_state_t(1) and the first free one, (2); fluid_state_t(2) drives (3),
+// fluid_state_t(3) drives (4), and no fluid_state_t(4) is needed. With no spin-up the first
+// free interval is driven by fluid_state_t(0); a lost first copy of it is asked for again.
+TEST(SolidCoupled, ParallelSchemeOrder) {
+  for (const std::int64_t rigid : {2, 0}) {
+    const fs::path dir = scratch_dir("parallel" + std::to_string(rigid));
+    const SolidScene scene =
+        cosim::solid::load_solid_scene(write_scene(dir, rigid, 3.0, 3.0, "rcgp", "parallel").string());
+    ASSERT_TRUE(scene.coupling->scheme.parallel_scheme());
+    lcm::LCM bus("memq://");
+    FakeFluid fluid(bus, scene, 5);
+    if (rigid == 0) fluid.lose_first_copy = {0};
+    const Outcome r = run_solid(scene, bus);
+    EXPECT_EQ(r.code, 0) << r.out << r.err;
+    const UnitConverter units(scene.unit_inputs());
+    std::vector<std::int64_t> published;
+    for (const auto& [step, m] : fluid.published) published.push_back(step);
+    const std::vector<std::int64_t> expected =
+        rigid == 2 ? std::vector<std::int64_t>{1, 2, 3} : std::vector<std::int64_t>{0, 1, 2, 3};
+    EXPECT_EQ(published, expected);
+    ASSERT_EQ(fluid.states.size(), 5u) << r.out << r.err;
+    const std::int64_t dynamic_from = std::max<std::int64_t>(rigid, 1);
+    for (std::size_t k = 0; k < 5; ++k) {
+      EXPECT_EQ(fluid.states[k].step, static_cast<std::int64_t>(k));
+      EXPECT_EQ(fluid.states[k].substeps, std::int64_t(k) < dynamic_from ? 0 : kTimeRatio) << "step " << k;
+      const double t = double(std::max<std::int64_t>(0, std::int64_t(k) - dynamic_from + 1));
+      EXPECT_NEAR(fluid.states[k].solid_time_s, t * units.dt_lb_s(), 1e-9 * units.dt_lb_s()) << "step " << k;
+    }
+    if (rigid == 0) {
+      EXPECT_GE(counter(r.out, "resends asked"), 1) << r.out;
+    }
+    EXPECT_EQ(dataset_rows(dir / "out" / "solid.h5", "step"), 5) << r.out;
+    fs::remove_all(dir);
+  }
+}
+
 TEST(SolidCoupled, RigidModelPassesTheHandshake) {
   const fs::path dir = scratch_dir("rigidmodel");
   const SolidScene scene =

@@ -94,7 +94,7 @@ const std::vector<BadCase>& bad_cases() {
        {":5: coupling.lcm_url = \"udpm://239.255.76.67:7667\": has no ttl=0",
         "packets never leave this machine"}},
       {"coupling_scheme_unknown.toml",
-       {":5: coupling.scheme = \"gauss-seidel\": must be one of \"serial\", \"implicit\""}},
+       {":5: coupling.scheme = \"gauss-seidel\": must be one of \"serial\", \"implicit\", \"parallel\""}},
       {"coupling_relaxation_range.toml",
        {":6: coupling.relaxation = 1.5: must be a number in (0, 1] (the implicit scheme's first Aitken "
         "relaxation factor; default 0.5)"}},

@@ -680,6 +680,9 @@ class Replay {
     } catch (const solid::SolidSceneError& e) {
       throw ReplayError(e.what());
     }
+    if (fluid ? fscene->coupling->scheme.parallel_scheme() : sscene->coupling->scheme.parallel_scheme())
+      throw ReplayError(o_.scene_path + " runs coupling.scheme = \"parallel\" (protocol/README.md 14); "
+                        "cosim-replay replays the serial scheme only");
     const fs::path output = output_dir();
     if (fluid) {
       fluid::SceneOverrides ov;
