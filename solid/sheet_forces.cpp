@@ -1,6 +1,8 @@
 #include "solid/sheet_forces.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <cstddef>
 #include <stdexcept>
 #include <string>
 
@@ -10,10 +12,8 @@ namespace cosim::solid {
 
 namespace {
 
-/// Scratch of a term's local vectors, on the stack: a term touches at most 9 CGPs.
+/// A term touches at most 9 CGPs, and its frame at most 9.
 constexpr int kMaxTermNodes = 9;
-using TermVector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 3 * kMaxTermNodes, 1>;
-using TermPoints = Eigen::Matrix<double, 3, Eigen::Dynamic, 0, 3, kMaxTermNodes>;
 
 }  // namespace
 
@@ -35,6 +35,10 @@ double LinearSheetForce::evaluate(const Eigen::Matrix3Xd& x, Eigen::Matrix3Xd& f
 
 namespace {
 
+/// Largest point count of a term: its frame and its nodes outside the frame.
+constexpr int kMaxTermPoints = 2 * kMaxTermNodes;
+constexpr int L = CorotationalSheetForce::kLanes;
+
 /// Whether every entry of k in the rows and columns of local component `c` (DOF 3 p + c)
 /// is zero.
 bool component_unused(const Eigen::MatrixXd& k, int c) {
@@ -43,78 +47,145 @@ bool component_unused(const Eigen::MatrixXd& k, int c) {
   return true;
 }
 
-/// The local displacement u (3 x m, local axes) of a term packed for its coupling, and the
-/// generalised force g = K u unpacked back into 3 x m.
-void apply_term(const Eigen::MatrixXd& k, int coupling, const TermPoints& u, TermPoints& g,
-                double& energy) {
-  const auto m = u.cols();
-  if (coupling == 0) {  // in-plane: (a, b) of every node
-    TermVector v(2 * m);
-    for (Eigen::Index p = 0; p < m; ++p) v.segment<2>(2 * p) = u.col(p).head<2>();
-    const TermVector kv = k * v;
-    energy += 0.5 * v.dot(kv);
-    for (Eigen::Index p = 0; p < m; ++p) g.col(p) << kv(2 * p), kv(2 * p + 1), 0.0;
-  } else if (coupling == 1) {  // normal: n of every node
-    TermVector v(m);
-    for (Eigen::Index p = 0; p < m; ++p) v(p) = u(2, p);
-    const TermVector kv = k * v;
-    energy += 0.5 * v.dot(kv);
-    for (Eigen::Index p = 0; p < m; ++p) g.col(p) << 0.0, 0.0, kv(p);
-  } else {
-    const TermVector v = Eigen::Map<const TermVector>(u.data(), 3 * m);
-    const TermVector kv = k * v;
-    energy += 0.5 * v.dot(kv);
-    g = Eigen::Map<const TermPoints>(kv.data(), 3, m);
+/// Whether k couples the in-plane components (a, b) with the normal one n.
+bool plane_normal_coupled(const Eigen::MatrixXd& k) {
+  for (Eigen::Index i = 0; i < k.rows(); ++i)
+    for (Eigen::Index j = 0; j < k.cols(); ++j)
+      if ((i % 3 == 2) != (j % 3 == 2) && k(i, j) != 0.0) return true;
+  return false;
+}
+
+/// The rows and columns of k (3m x 3m, DOF 3 p + c) of the components `comps`, row-major.
+std::vector<double> pick(const Eigen::MatrixXd& k, const std::vector<int>& comps) {
+  const auto m = k.rows() / 3;
+  std::vector<double> out;
+  for (Eigen::Index p = 0; p < m; ++p)
+    for (const int a : comps)
+      for (Eigen::Index q = 0; q < m; ++q)
+        for (const int b : comps) out.push_back(k(3 * p + a, 3 * q + b));
+  return out;
+}
+
+/// Lane arrays: one value per term of a batch.
+using Lanes = double[L];
+
+/// kv = K v for the n-vector v of every lane (K n x n, row-major, the group's), and the
+/// lanes' energies e += 1/2 v . kv (E_t = 1/2 u^T K u, the U K U term of Eq. 4).
+inline void apply_k(const double* k, int n, const Lanes* v, Lanes* kv, Lanes& e) {
+  for (int i = 0; i < n; ++i) {
+    Lanes acc{};
+    for (int j = 0; j < n; ++j) {
+      const double kij = k[i * n + j];
+      for (int l = 0; l < L; ++l) acc[l] += kij * v[j][l];
+    }
+    for (int l = 0; l < L; ++l) {
+      kv[i][l] = acc[l];
+      e[l] += 0.5 * v[i][l] * acc[l];
+    }
   }
 }
 
 }  // namespace
 
 CorotationalSheetForce::CorotationalSheetForce(const std::vector<SheetBlock>& sheets) {
+  // One term, before it is batched: its points (model-wide), reference geometry and the
+  // group it belongs to.
+  struct Pending {
+    std::vector<int> points;
+    Eigen::Matrix3Xd ref_frame, ref_nodes;
+  };
+  std::vector<std::vector<Pending>> pending;
   for (const SheetBlock& s : sheets) {
     for (const StiffnessTerm& t : s.terms) {
-      Term c;
       const auto m = static_cast<Eigen::Index>(t.nodes.size());
-      if (m > kMaxTermNodes)
+      const auto nf = static_cast<Eigen::Index>(t.frame.size());
+      if (m > kMaxTermNodes || nf > kMaxTermNodes)
         throw std::logic_error("CorotationalSheetForce: a term of " + std::to_string(m) +
-                               " CGPs; the scratch holds " + std::to_string(kMaxTermNodes));
+                               " CGPs and a frame of " + std::to_string(nf) + "; at most " +
+                               std::to_string(kMaxTermNodes) + " each");
+      Group g;
+      g.nf = static_cast<int>(nf);
+      g.m = static_cast<int>(m);
       // K stays in the sheet's local axes; keep only the components it couples.
       const bool no_normal = component_unused(t.k, 2);
       const bool no_plane = component_unused(t.k, 0) && component_unused(t.k, 1);
       if (no_normal && !no_plane) {
-        c.coupling = Coupling::InPlane;
-        c.k.resize(2 * m, 2 * m);
-        for (Eigen::Index p = 0; p < m; ++p)
-          for (Eigen::Index q = 0; q < m; ++q)
-            c.k.block<2, 2>(2 * p, 2 * q) = t.k.block<2, 2>(3 * p, 3 * q);
+        g.coupling = Coupling::InPlane;
+        g.k_plane = pick(t.k, {0, 1});
       } else if (no_plane && !no_normal) {
-        c.coupling = Coupling::Normal;
-        c.k.resize(m, m);
-        for (Eigen::Index p = 0; p < m; ++p)
-          for (Eigen::Index q = 0; q < m; ++q) c.k(p, q) = t.k(3 * p + 2, 3 * q + 2);
+        g.coupling = Coupling::Normal;
+        g.k_normal = pick(t.k, {2});
+      } else if (!plane_normal_coupled(t.k)) {
+        g.coupling = Coupling::Split;
+        g.k_plane = pick(t.k, {0, 1});
+        g.k_normal = pick(t.k, {2});
       } else {
-        c.coupling = Coupling::All;
-        c.k = t.k;
+        g.coupling = Coupling::All;
+        g.k_all = pick(t.k, {0, 1, 2});
       }
-      c.axes = s.axes;
+      g.axes = nf == 0 ? s.axes : Eigen::Matrix3d::Zero();
+      // Points: the frame, then the nodes outside it.
+      Pending pt;
+      for (const Eigen::Index l : t.frame) pt.points.push_back(static_cast<int>(s.first + l));
+      for (const Eigen::Index l : t.nodes) {
+        const int global = static_cast<int>(s.first + l);
+        const auto it = std::find(pt.points.begin(), pt.points.end(), global);
+        g.slot.push_back(static_cast<int>(it - pt.points.begin()));
+        if (it == pt.points.end()) pt.points.push_back(global);
+      }
+      g.np = static_cast<int>(pt.points.size());
       Eigen::Vector3d centre = Eigen::Vector3d::Zero();
       for (const Eigen::Index l : t.frame) centre += s.reference_bohr.col(l);
-      if (!t.frame.empty()) centre /= static_cast<double>(t.frame.size());
-      c.ref_nodes.resize(3, m);
-      for (Eigen::Index p = 0; p < m; ++p) {
-        const Eigen::Index l = t.nodes[static_cast<std::size_t>(p)];
-        c.nodes.push_back(s.first + l);
-        c.ref_nodes.col(p) = s.axes.transpose() * (s.reference_bohr.col(l) - centre);
+      if (nf > 0) centre /= static_cast<double>(nf);
+      pt.ref_nodes.resize(3, m);
+      for (Eigen::Index p = 0; p < m; ++p)
+        pt.ref_nodes.col(p) = s.axes.transpose() *
+                              (s.reference_bohr.col(t.nodes[static_cast<std::size_t>(p)]) - centre);
+      pt.ref_frame.resize(3, nf);
+      for (Eigen::Index k = 0; k < nf; ++k)
+        pt.ref_frame.col(k) = s.axes.transpose() *
+                              (s.reference_bohr.col(t.frame[static_cast<std::size_t>(k)]) - centre);
+
+      // The group of equal shape, coupling and (bit-equal) K.
+      std::size_t gi = 0;
+      for (; gi < groups_.size(); ++gi) {
+        const Group& o = groups_[gi];
+        if (o.nf == g.nf && o.m == g.m && o.np == g.np && o.coupling == g.coupling &&
+            o.slot == g.slot && o.k_plane == g.k_plane && o.k_normal == g.k_normal &&
+            o.k_all == g.k_all && o.axes == g.axes)
+          break;
       }
-      c.ref_frame.resize(3, static_cast<Eigen::Index>(t.frame.size()));
-      c.ref_frame_ab.resize(2, static_cast<Eigen::Index>(t.frame.size()));
-      for (std::size_t k = 0; k < t.frame.size(); ++k) {
-        const auto kk = static_cast<Eigen::Index>(k);
-        c.frame.push_back(s.first + t.frame[k]);
-        c.ref_frame.col(kk) = s.axes.transpose() * (s.reference_bohr.col(t.frame[k]) - centre);
-        c.ref_frame_ab.col(kk) = c.ref_frame.col(kk).head<2>();
+      if (gi == groups_.size()) {
+        groups_.push_back(std::move(g));
+        pending.emplace_back();
       }
-      terms_.push_back(std::move(c));
+      pending[gi].push_back(std::move(pt));
+    }
+  }
+  // Structure of arrays by batch; the last batch's empty lanes repeat its first term (they
+  // are computed, but neither their forces nor their energies are added).
+  for (std::size_t gi = 0; gi < groups_.size(); ++gi) {
+    Group& g = groups_[gi];
+    const std::vector<Pending>& terms = pending[gi];
+    g.count = static_cast<int>(terms.size());
+    g.batches = (g.count + L - 1) / L;
+    const auto nb = static_cast<std::size_t>(g.batches);
+    g.points.resize(nb * static_cast<std::size_t>(g.np * L));
+    g.ref_frame.resize(nb * static_cast<std::size_t>(g.nf * 3 * L));
+    g.ref_nodes.resize(nb * static_cast<std::size_t>(g.m * 3 * L));
+    for (int b = 0; b < g.batches; ++b) {
+      for (int l = 0; l < L; ++l) {
+        const int ti = b * L + l < g.count ? b * L + l : b * L;
+        const Pending& t = terms[static_cast<std::size_t>(ti)];
+        for (int s = 0; s < g.np; ++s)
+          g.points[static_cast<std::size_t>((b * g.np + s) * L + l)] = t.points[static_cast<std::size_t>(s)];
+        for (int s = 0; s < g.nf; ++s)
+          for (int c = 0; c < 3; ++c)
+            g.ref_frame[static_cast<std::size_t>(((b * g.nf + s) * 3 + c) * L + l)] = t.ref_frame(c, s);
+        for (int p = 0; p < g.m; ++p)
+          for (int c = 0; c < 3; ++c)
+            g.ref_nodes[static_cast<std::size_t>(((b * g.m + p) * 3 + c) * L + l)] = t.ref_nodes(c, p);
+      }
     }
   }
 }
@@ -122,69 +193,179 @@ CorotationalSheetForce::CorotationalSheetForce(const std::vector<SheetBlock>& sh
 double CorotationalSheetForce::evaluate(const Eigen::Matrix3Xd& x, Eigen::Matrix3Xd& f) const {
   f.setZero();
   double energy = 0.0;
-  for (const Term& t : terms_) {
-    const auto nf = static_cast<Eigen::Index>(t.frame.size());
-    const auto m = static_cast<Eigen::Index>(t.nodes.size());
-    const int coupling = static_cast<int>(t.coupling);
-    TermPoints u(3, m), g(3, m);
-    if (nf == 0) {  // a term tied to the plate: evaluated in the fixed frame
-      for (Eigen::Index p = 0; p < m; ++p)
-        u.col(p) = t.axes.transpose() * x.col(t.nodes[static_cast<std::size_t>(p)]) - t.ref_nodes.col(p);
-      apply_term(t.k, coupling, u, g, energy);
-      for (Eigen::Index p = 0; p < m; ++p) f.col(t.nodes[static_cast<std::size_t>(p)]) -= t.axes * g.col(p);
-      continue;
-    }
-    Eigen::Vector3d centre = Eigen::Vector3d::Zero();
-    for (const Eigen::Index l : t.frame) centre += x.col(l);
-    centre /= static_cast<double>(nf);
-    // Polar decomposition of the flat frame's F = A P^T (see the header), with P = the
-    // sheet's (e_a, e_b): in local axes Q = A (A^T A)^(-1/2) are the rotated e_a, e_b.
-    Eigen::Matrix<double, 3, 2> a2 = Eigen::Matrix<double, 3, 2>::Zero();
-    for (Eigen::Index k = 0; k < nf; ++k)
-      a2 += (x.col(t.frame[static_cast<std::size_t>(k)]) - centre) * t.ref_frame_ab.col(k).transpose();
-    const Eigen::Matrix2d m2 = a2.transpose() * a2;
-    const double det_root = std::sqrt(m2.determinant());
-    const Eigen::Matrix2d root =  // (A^T A)^(1/2) of a 2 x 2 SPD matrix, closed form
-        (m2 + det_root * Eigen::Matrix2d::Identity()) / std::sqrt(m2.trace() + 2.0 * det_root);
-    // root^-1 = adj(root) / det(root), adj(M) = tr(M) I - M for a 2 x 2 M.
-    const double tr_root = root.trace(), det_root_m = root.determinant();
-    const Eigen::Matrix2d adj_root = tr_root * Eigen::Matrix2d::Identity() - root;
-    const Eigen::Matrix<double, 3, 2> q = a2 * (adj_root / det_root_m);
-    // RA: the sheet's local axes, rotated with the frame (columns q_a, q_b, q_a x q_b).
-    Eigen::Matrix3d ra;
-    ra.leftCols<2>() = q;
-    ra.col(2) = q.col(0).cross(q.col(1));
+  for (const Group& g : groups_) evaluate_group(g, x.data(), f.data(), energy);
+  return energy;
+}
 
-    TermPoints y(3, m);
-    for (Eigen::Index p = 0; p < m; ++p) {
-      y.col(p) = ra.transpose() * (x.col(t.nodes[static_cast<std::size_t>(p)]) - centre);
-      u.col(p) = y.col(p) - t.ref_nodes.col(p);
+// One group, a batch of L terms at a time, each lane one term: gather the points' x, the
+// lanes' frames and rotations, u, K u and the gradient, then add the forces -dE/dx
+// (F^int of Eq. 20) into f one lane after the other (terms of a batch share CGPs).
+void CorotationalSheetForce::evaluate_group(const Group& g, const double* x, double* f,
+                                            double& energy) const {
+  const int nf = g.nf, m = g.m, np = g.np;
+  alignas(64) Lanes d[kMaxTermPoints][3];  // x - c of every point, scene axes
+  alignas(64) Lanes y[kMaxTermNodes][3];   // R^T (x_k - c) of the nodes, local axes
+  alignas(64) Lanes u[3 * kMaxTermNodes], kv[3 * kMaxTermNodes];
+  alignas(64) Lanes gl[kMaxTermNodes][3];  // K u of the nodes, local axes
+  alignas(64) Lanes h[kMaxTermPoints][3];  // -dE/dx of every point, local axes
+  alignas(64) Lanes ra[3][3];              // R A: the sheet's axes rotated with the frame
+  alignas(64) Lanes root[3], tr_root, det_root, e;
+  for (int b = 0; b < g.batches; ++b) {
+    const int* pts = g.points.data() + static_cast<std::ptrdiff_t>(b) * np * L;
+    const double* rf = g.ref_frame.data() + static_cast<std::ptrdiff_t>(b) * nf * 3 * L;
+    const double* rn = g.ref_nodes.data() + static_cast<std::ptrdiff_t>(b) * m * 3 * L;
+    const int valid = std::min(L, g.count - b * L);
+    for (int s = 0; s < np; ++s)
+      for (int l = 0; l < L; ++l) {
+        const double* xs = x + 3 * static_cast<std::ptrdiff_t>(pts[s * L + l]);
+        d[s][0][l] = xs[0];
+        d[s][1][l] = xs[1];
+        d[s][2][l] = xs[2];
+      }
+    if (nf == 0) {  // a term tied to the plate: evaluated in the fixed frame (c = 0)
+      for (int i = 0; i < 3; ++i)
+        for (int c = 0; c < 3; ++c)
+          for (int l = 0; l < L; ++l) ra[c][i][l] = g.axes(c, i);
+    } else {
+      Lanes cen[3];
+      for (int c = 0; c < 3; ++c) {
+        for (int l = 0; l < L; ++l) cen[c][l] = 0.0;
+        for (int s = 0; s < nf; ++s)
+          for (int l = 0; l < L; ++l) cen[c][l] += d[s][c][l];
+        for (int l = 0; l < L; ++l) cen[c][l] /= static_cast<double>(nf);
+        for (int s = 0; s < np; ++s)
+          for (int l = 0; l < L; ++l) d[s][c][l] -= cen[c][l];
+      }
+      // Polar decomposition of the flat frame's F = A P^T (see the header), with P = the
+      // sheet's (e_a, e_b): Q = A (A^T A)^(-1/2) are the rotated e_a, e_b.
+      Lanes a2[3][2];
+      for (int c = 0; c < 3; ++c)
+        for (int j = 0; j < 2; ++j) {
+          for (int l = 0; l < L; ++l) a2[c][j][l] = 0.0;
+          for (int s = 0; s < nf; ++s)
+            for (int l = 0; l < L; ++l) a2[c][j][l] += d[s][c][l] * rf[(s * 3 + j) * L + l];
+        }
+      for (int l = 0; l < L; ++l) {
+        const double m00 = a2[0][0][l] * a2[0][0][l] + a2[1][0][l] * a2[1][0][l] + a2[2][0][l] * a2[2][0][l];
+        const double m01 = a2[0][0][l] * a2[0][1][l] + a2[1][0][l] * a2[1][1][l] + a2[2][0][l] * a2[2][1][l];
+        const double m11 = a2[0][1][l] * a2[0][1][l] + a2[1][1][l] * a2[1][1][l] + a2[2][1][l] * a2[2][1][l];
+        const double dr = std::sqrt(m00 * m11 - m01 * m01);
+        const double sr = std::sqrt(m00 + m11 + 2.0 * dr);
+        // (A^T A)^(1/2) of a 2 x 2 SPD matrix, closed form: (M + sqrt(det M) I) / sqrt(...)
+        const double r00 = (m00 + dr) / sr, r01 = m01 / sr, r11 = (m11 + dr) / sr;
+        const double tr = r00 + r11, det = r00 * r11 - r01 * r01;
+        root[0][l] = r00;
+        root[1][l] = r01;
+        root[2][l] = r11;
+        tr_root[l] = tr;
+        det_root[l] = det;
+        // root^-1 = adj(root) / det(root), adj(M) = tr(M) I - M for a 2 x 2 M.
+        const double i00 = (tr - r00) / det, i01 = -r01 / det, i11 = (tr - r11) / det;
+        for (int c = 0; c < 3; ++c) {
+          ra[c][0][l] = a2[c][0][l] * i00 + a2[c][1][l] * i01;
+          ra[c][1][l] = a2[c][0][l] * i01 + a2[c][1][l] * i11;
+        }
+        // R n = q_a x q_b.
+        ra[0][2][l] = ra[1][0][l] * ra[2][1][l] - ra[2][0][l] * ra[1][1][l];
+        ra[1][2][l] = ra[2][0][l] * ra[0][1][l] - ra[0][0][l] * ra[2][1][l];
+        ra[2][2][l] = ra[0][0][l] * ra[1][1][l] - ra[1][0][l] * ra[0][1][l];
+      }
     }
-    apply_term(t.k, coupling, u, g, energy);
+    // u_k = R^T (x_k - c) - (X_k - C), packed for the coupling.
+    for (int p = 0; p < m; ++p) {
+      const int s = g.slot[static_cast<std::size_t>(p)];
+      for (int i = 0; i < 3; ++i)
+        for (int l = 0; l < L; ++l)
+          y[p][i][l] = ra[0][i][l] * d[s][0][l] + ra[1][i][l] * d[s][1][l] + ra[2][i][l] * d[s][2][l];
+    }
+    for (int l = 0; l < L; ++l) e[l] = 0.0;
+    const auto local_u = [&](int p, int i, int l) { return y[p][i][l] - rn[(p * 3 + i) * L + l]; };
+    if (g.coupling == Coupling::InPlane || g.coupling == Coupling::Split) {
+      for (int p = 0; p < m; ++p)
+        for (int i = 0; i < 2; ++i)
+          for (int l = 0; l < L; ++l) u[2 * p + i][l] = local_u(p, i, l);
+      apply_k(g.k_plane.data(), 2 * m, u, kv, e);
+      for (int p = 0; p < m; ++p)
+        for (int l = 0; l < L; ++l) {
+          gl[p][0][l] = kv[2 * p][l];
+          gl[p][1][l] = kv[2 * p + 1][l];
+          gl[p][2][l] = 0.0;
+        }
+    }
+    if (g.coupling == Coupling::Normal || g.coupling == Coupling::Split) {
+      for (int p = 0; p < m; ++p)
+        for (int l = 0; l < L; ++l) u[p][l] = local_u(p, 2, l);
+      apply_k(g.k_normal.data(), m, u, kv, e);
+      for (int p = 0; p < m; ++p)
+        for (int l = 0; l < L; ++l) {
+          if (g.coupling == Coupling::Normal) gl[p][0][l] = gl[p][1][l] = 0.0;
+          gl[p][2][l] = kv[p][l];
+        }
+    }
+    if (g.coupling == Coupling::All) {
+      for (int p = 0; p < m; ++p)
+        for (int i = 0; i < 3; ++i)
+          for (int l = 0; l < L; ++l) u[3 * p + i][l] = local_u(p, i, l);
+      apply_k(g.k_all.data(), 3 * m, u, kv, e);
+      for (int p = 0; p < m; ++p)
+        for (int i = 0; i < 3; ++i)
+          for (int l = 0; l < L; ++l) gl[p][i][l] = kv[3 * p + i][l];
+    }
+    for (int l = 0; l < valid; ++l) energy += e[l];
 
-    // dE = sum_k g_k . (RA)^T (dx_k - dc) - omega . tau,  tau = sum_k y_k x g_k (local
-    // axes; omega the frame's rotation rate in them). S in local axes is the 2 x 2 root
-    // padded with a zero normal row and column.
-    Eigen::Vector3d tau = Eigen::Vector3d::Zero();
-    Eigen::Vector3d g_sum = Eigen::Vector3d::Zero();
-    for (Eigen::Index p = 0; p < m; ++p) {
-      tau += y.col(p).cross(g.col(p));
-      g_sum += g.col(p);
-      f.col(t.nodes[static_cast<std::size_t>(p)]) -= ra * g.col(p);
+    // -dE/dx in local axes: -g_k on the nodes, and (frame) mu x b_f + sum_k g_k / n_f:
+    // dE = sum_k g_k . (RA)^T (dx_k - dc) - omega . tau,  tau = sum_k y_k x g_k (omega the
+    // frame's rotation rate in local axes), and (tr S I - S) mu = tau, block diagonal in
+    // local axes: the (a, b) block is tr(root) I - root = adj(root), whose inverse is
+    // root / det(root); the n entry tr(root).
+    for (int s = 0; s < np; ++s)
+      for (int i = 0; i < 3; ++i)
+        for (int l = 0; l < L; ++l) h[s][i][l] = 0.0;
+    for (int p = 0; p < m; ++p) {
+      const int s = g.slot[static_cast<std::size_t>(p)];
+      for (int i = 0; i < 3; ++i)
+        for (int l = 0; l < L; ++l) h[s][i][l] -= gl[p][i][l];
     }
-    // (tr S I - S) mu = tau, block diagonal in local axes: the (a, b) block is
-    // tr(root) I - root = adj(root), whose inverse is root / det(root); the n entry tr(root).
-    Eigen::Vector3d mu;
-    mu.head<2>() = root * tau.head<2>() / det_root_m;
-    mu(2) = tau(2) / tr_root;
-    const Eigen::Vector3d shift = ra * g_sum / static_cast<double>(nf);
-    for (Eigen::Index k = 0; k < nf; ++k) {
-      const Eigen::Index l = t.frame[static_cast<std::size_t>(k)];
-      // -dE/dx_f = RA (mu x b_f) + RA sum_k g_k / n_f
-      f.col(l) += ra * mu.cross(t.ref_frame.col(k)) + shift;
+    if (nf > 0) {
+      Lanes tau[3]{}, gsum[3]{}, mu[3];
+      for (int p = 0; p < m; ++p)
+        for (int l = 0; l < L; ++l) {
+          tau[0][l] += y[p][1][l] * gl[p][2][l] - y[p][2][l] * gl[p][1][l];
+          tau[1][l] += y[p][2][l] * gl[p][0][l] - y[p][0][l] * gl[p][2][l];
+          tau[2][l] += y[p][0][l] * gl[p][1][l] - y[p][1][l] * gl[p][0][l];
+          gsum[0][l] += gl[p][0][l];
+          gsum[1][l] += gl[p][1][l];
+          gsum[2][l] += gl[p][2][l];
+        }
+      for (int l = 0; l < L; ++l) {
+        mu[0][l] = (root[0][l] * tau[0][l] + root[1][l] * tau[1][l]) / det_root[l];
+        mu[1][l] = (root[1][l] * tau[0][l] + root[2][l] * tau[1][l]) / det_root[l];
+        mu[2][l] = tau[2][l] / tr_root[l];
+        for (int i = 0; i < 3; ++i) gsum[i][l] /= static_cast<double>(nf);
+      }
+      for (int s = 0; s < nf; ++s) {
+        const double* bs = rf + s * 3 * L;
+        for (int l = 0; l < L; ++l) {
+          h[s][0][l] += mu[1][l] * bs[2 * L + l] - mu[2][l] * bs[L + l] + gsum[0][l];
+          h[s][1][l] += mu[2][l] * bs[l] - mu[0][l] * bs[2 * L + l] + gsum[1][l];
+          h[s][2][l] += mu[0][l] * bs[L + l] - mu[1][l] * bs[l] + gsum[2][l];
+        }
+      }
+    }
+    // Back to the scene's axes, and into f.
+    for (int s = 0; s < np; ++s) {
+      Lanes fs[3];
+      for (int c = 0; c < 3; ++c)
+        for (int l = 0; l < L; ++l)
+          fs[c][l] = ra[c][0][l] * h[s][0][l] + ra[c][1][l] * h[s][1][l] + ra[c][2][l] * h[s][2][l];
+      for (int l = 0; l < valid; ++l) {
+        double* fp = f + 3 * static_cast<std::ptrdiff_t>(pts[s * L + l]);
+        fp[0] += fs[0][l];
+        fp[1] += fs[1][l];
+        fp[2] += fs[2][l];
+      }
     }
   }
-  return energy;
 }
 
 }  // namespace cosim::solid

@@ -3,6 +3,7 @@
 // item 7). Hartree atomic units.
 #pragma once
 
+#include <cstddef>
 #include <vector>
 
 #include <Eigen/Core>
@@ -59,21 +60,37 @@ class CorotationalSheetForce final : public SheetForce {
   explicit CorotationalSheetForce(const std::vector<SheetBlock>& sheets);
   double evaluate(const Eigen::Matrix3Xd& x, Eigen::Matrix3Xd& f) const override;
 
- private:
+  /// How many groups of terms (same shape, coupling and K) evaluate() runs.
+  std::size_t num_groups() const { return groups_.size(); }
+
   /// Which local components a term's stiffness couples. On a flat reference sheet the
   /// membrane (Q4) terms touch only the in-plane (a, b) components and the plate terms only
-  /// the normal one, so each is applied as a 2m x 2m or m x m matrix instead of 3m x 3m.
-  enum class Coupling { InPlane, Normal, All };
-  struct Term {
-    std::vector<Eigen::Index> nodes, frame;  ///< model-wide CGP indices
-    Coupling coupling = Coupling::All;
-    Eigen::MatrixXd k;                       ///< the coupled components, local axes
-    Eigen::Matrix3Xd ref_nodes;              ///< X - C of the nodes, local axes (a, b, n)
-    Eigen::Matrix2Xd ref_frame_ab;           ///< X - C of the frame in the sheet's (a, b)
-    Eigen::Matrix3Xd ref_frame;              ///< X - C of the frame, local axes
-    Eigen::Matrix3d axes;                    ///< the sheet's (a, b, n) -> scene axes
-  };
-  std::vector<Term> terms_;
-};
+  /// the normal one (a cell term both, in two uncoupled blocks), so each is applied as a
+  /// 2m x 2m and/or m x m matrix instead of 3m x 3m.
+  enum class Coupling { InPlane, Normal, Split, All };
 
+  /// Terms are evaluated in batches of this many, one term per SIMD lane.
+  static constexpr int kLanes = 8;
+
+ private:
+  /// Terms of one shape (frame size, node count, which frame point each node is), one
+  /// coupling and one stiffness matrix (bit-equal), stored structure-of-arrays by batch:
+  /// entry [batch][point or node][component][lane]. A term's points are its frame (in
+  /// the frame's order) followed by its nodes outside the frame.
+  struct Group {
+    int nf = 0, m = 0, np = 0;          ///< frame points, nodes, all points
+    Coupling coupling = Coupling::All;
+    std::vector<int> slot;              ///< m: the point of each node
+    std::vector<double> k_plane;        ///< 2m x 2m row-major, (a, b) of every node
+    std::vector<double> k_normal;       ///< m x m row-major, n of every node
+    std::vector<double> k_all;          ///< 3m x 3m row-major (coupling All)
+    Eigen::Matrix3d axes;               ///< the sheet's axes (used when nf == 0)
+    int count = 0, batches = 0;
+    std::vector<int> points;            ///< [batch][np][lane] model-wide CGP indices
+    std::vector<double> ref_frame;      ///< [batch][nf][3][lane] X - C of the frame, local axes
+    std::vector<double> ref_nodes;      ///< [batch][m][3][lane] X - C of the nodes, local axes
+  };
+  void evaluate_group(const Group& g, const double* x, double* f, double& energy) const;
+  std::vector<Group> groups_;
+};
 }  // namespace cosim::solid
