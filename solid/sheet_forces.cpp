@@ -66,22 +66,17 @@ std::vector<double> pick(const Eigen::MatrixXd& k, const std::vector<int>& comps
   return out;
 }
 
-/// Lane arrays: one value per term of a batch.
-using Lanes = double[L];
+using Lanes = CorotationalSheetForce::Lanes;
 
 /// kv = K v for the n-vector v of every lane (K n x n, row-major, the group's), and the
 /// lanes' energies e += 1/2 v . kv (E_t = 1/2 u^T K u, the U K U term of Eq. 4).
 inline void apply_k(const double* k, int n, const Lanes* v, Lanes* kv, Lanes& e) {
   for (int i = 0; i < n; ++i) {
-    Lanes acc{};
-    for (int j = 0; j < n; ++j) {
-      const double kij = k[i * n + j];
-      for (int l = 0; l < L; ++l) acc[l] += kij * v[j][l];
-    }
-    for (int l = 0; l < L; ++l) {
-      kv[i][l] = acc[l];
-      e[l] += 0.5 * v[i][l] * acc[l];
-    }
+    Lanes acc = Lanes::Zero();
+    for (int j = 0; j < n; ++j)
+      if (k[i * n + j] != 0.0) acc += k[i * n + j] * v[j];
+    kv[i] = acc;
+    e += 0.5 * v[i] * acc;
   }
 }
 
@@ -170,21 +165,21 @@ CorotationalSheetForce::CorotationalSheetForce(const std::vector<SheetBlock>& sh
     g.count = static_cast<int>(terms.size());
     g.batches = (g.count + L - 1) / L;
     const auto nb = static_cast<std::size_t>(g.batches);
-    g.points.resize(nb * static_cast<std::size_t>(g.np * L));
-    g.ref_frame.resize(nb * static_cast<std::size_t>(g.nf * 3 * L));
-    g.ref_nodes.resize(nb * static_cast<std::size_t>(g.m * 3 * L));
+    g.offsets.resize(nb * static_cast<std::size_t>(g.np * L));
+    g.ref_frame.resize(nb * static_cast<std::size_t>(g.nf * 3));
+    g.ref_nodes.resize(nb * static_cast<std::size_t>(g.m * 3));
     for (int b = 0; b < g.batches; ++b) {
       for (int l = 0; l < L; ++l) {
         const int ti = b * L + l < g.count ? b * L + l : b * L;
         const Pending& t = terms[static_cast<std::size_t>(ti)];
         for (int s = 0; s < g.np; ++s)
-          g.points[static_cast<std::size_t>((b * g.np + s) * L + l)] = t.points[static_cast<std::size_t>(s)];
+          g.offsets[static_cast<std::size_t>((b * g.np + s) * L + l)] = 3 * t.points[static_cast<std::size_t>(s)];
         for (int s = 0; s < g.nf; ++s)
           for (int c = 0; c < 3; ++c)
-            g.ref_frame[static_cast<std::size_t>(((b * g.nf + s) * 3 + c) * L + l)] = t.ref_frame(c, s);
+            g.ref_frame[static_cast<std::size_t>((b * g.nf + s) * 3 + c)][l] = t.ref_frame(c, s);
         for (int p = 0; p < g.m; ++p)
           for (int c = 0; c < 3; ++c)
-            g.ref_nodes[static_cast<std::size_t>(((b * g.m + p) * 3 + c) * L + l)] = t.ref_nodes(c, p);
+            g.ref_nodes[static_cast<std::size_t>((b * g.m + p) * 3 + c)][l] = t.ref_nodes(c, p);
       }
     }
   }
@@ -202,114 +197,95 @@ double CorotationalSheetForce::evaluate(const Eigen::Matrix3Xd& x, Eigen::Matrix
 // (F^int of Eq. 20) into f one lane after the other (terms of a batch share CGPs).
 void CorotationalSheetForce::evaluate_group(const Group& g, const double* x, double* f,
                                             double& energy) const {
+  using V = Lanes;
   const int nf = g.nf, m = g.m, np = g.np;
-  alignas(64) Lanes d[kMaxTermPoints][3];  // x - c of every point, scene axes
-  alignas(64) Lanes y[kMaxTermNodes][3];   // R^T (x_k - c) of the nodes, local axes
-  alignas(64) Lanes u[3 * kMaxTermNodes], kv[3 * kMaxTermNodes];
-  alignas(64) Lanes gl[kMaxTermNodes][3];  // K u of the nodes, local axes
-  alignas(64) Lanes h[kMaxTermPoints][3];  // -dE/dx of every point, local axes
-  alignas(64) Lanes ra[3][3];              // R A: the sheet's axes rotated with the frame
-  alignas(64) Lanes root[3], tr_root, det_root, e;
+  V d[kMaxTermPoints][3];  // x - c of every point, scene axes
+  V y[kMaxTermNodes][3];   // R^T (x_k - c) of the nodes, local axes
+  V u[3 * kMaxTermNodes], kv[3 * kMaxTermNodes];
+  V gl[kMaxTermNodes][3];  // K u of the nodes, local axes
+  V h[kMaxTermPoints][3];  // -dE/dx of every point, local axes
+  V ra[3][3];              // R A: the sheet's axes rotated with the frame
+  V r00, r01, r11, tr_root, det_root;
+  if (nf == 0)  // a term tied to the plate: evaluated in the fixed frame (c = 0)
+    for (int c = 0; c < 3; ++c)
+      for (int i = 0; i < 3; ++i) ra[c][i] = V::Constant(g.axes(c, i));
   for (int b = 0; b < g.batches; ++b) {
-    const int* pts = g.points.data() + static_cast<std::ptrdiff_t>(b) * np * L;
-    const double* rf = g.ref_frame.data() + static_cast<std::ptrdiff_t>(b) * nf * 3 * L;
-    const double* rn = g.ref_nodes.data() + static_cast<std::ptrdiff_t>(b) * m * 3 * L;
+    const int* off = g.offsets.data() + static_cast<std::ptrdiff_t>(b) * np * L;
+    const V* rf = g.ref_frame.data() + static_cast<std::ptrdiff_t>(b) * nf * 3;
+    const V* rn = g.ref_nodes.data() + static_cast<std::ptrdiff_t>(b) * m * 3;
     const int valid = std::min(L, g.count - b * L);
     for (int s = 0; s < np; ++s)
-      for (int l = 0; l < L; ++l) {
-        const double* xs = x + 3 * static_cast<std::ptrdiff_t>(pts[s * L + l]);
-        d[s][0][l] = xs[0];
-        d[s][1][l] = xs[1];
-        d[s][2][l] = xs[2];
-      }
-    if (nf == 0) {  // a term tied to the plate: evaluated in the fixed frame (c = 0)
-      for (int i = 0; i < 3; ++i)
-        for (int c = 0; c < 3; ++c)
-          for (int l = 0; l < L; ++l) ra[c][i][l] = g.axes(c, i);
-    } else {
-      Lanes cen[3];
+      for (int c = 0; c < 3; ++c)
+        for (int l = 0; l < L; ++l) d[s][c][l] = x[off[s * L + l] + c];
+    if (nf > 0) {
       for (int c = 0; c < 3; ++c) {
-        for (int l = 0; l < L; ++l) cen[c][l] = 0.0;
-        for (int s = 0; s < nf; ++s)
-          for (int l = 0; l < L; ++l) cen[c][l] += d[s][c][l];
-        for (int l = 0; l < L; ++l) cen[c][l] /= static_cast<double>(nf);
-        for (int s = 0; s < np; ++s)
-          for (int l = 0; l < L; ++l) d[s][c][l] -= cen[c][l];
+        V cen = d[0][c];
+        for (int s = 1; s < nf; ++s) cen += d[s][c];
+        cen /= static_cast<double>(nf);
+        for (int s = 0; s < np; ++s) d[s][c] -= cen;
       }
       // Polar decomposition of the flat frame's F = A P^T (see the header), with P = the
       // sheet's (e_a, e_b): Q = A (A^T A)^(-1/2) are the rotated e_a, e_b.
-      Lanes a2[3][2];
+      V a2[3][2];
       for (int c = 0; c < 3; ++c)
         for (int j = 0; j < 2; ++j) {
-          for (int l = 0; l < L; ++l) a2[c][j][l] = 0.0;
-          for (int s = 0; s < nf; ++s)
-            for (int l = 0; l < L; ++l) a2[c][j][l] += d[s][c][l] * rf[(s * 3 + j) * L + l];
+          a2[c][j] = d[0][c] * rf[j];
+          for (int s = 1; s < nf; ++s) a2[c][j] += d[s][c] * rf[s * 3 + j];
         }
-      for (int l = 0; l < L; ++l) {
-        const double m00 = a2[0][0][l] * a2[0][0][l] + a2[1][0][l] * a2[1][0][l] + a2[2][0][l] * a2[2][0][l];
-        const double m01 = a2[0][0][l] * a2[0][1][l] + a2[1][0][l] * a2[1][1][l] + a2[2][0][l] * a2[2][1][l];
-        const double m11 = a2[0][1][l] * a2[0][1][l] + a2[1][1][l] * a2[1][1][l] + a2[2][1][l] * a2[2][1][l];
-        const double dr = std::sqrt(m00 * m11 - m01 * m01);
-        const double sr = std::sqrt(m00 + m11 + 2.0 * dr);
-        // (A^T A)^(1/2) of a 2 x 2 SPD matrix, closed form: (M + sqrt(det M) I) / sqrt(...)
-        const double r00 = (m00 + dr) / sr, r01 = m01 / sr, r11 = (m11 + dr) / sr;
-        const double tr = r00 + r11, det = r00 * r11 - r01 * r01;
-        root[0][l] = r00;
-        root[1][l] = r01;
-        root[2][l] = r11;
-        tr_root[l] = tr;
-        det_root[l] = det;
-        // root^-1 = adj(root) / det(root), adj(M) = tr(M) I - M for a 2 x 2 M.
-        const double i00 = (tr - r00) / det, i01 = -r01 / det, i11 = (tr - r11) / det;
-        for (int c = 0; c < 3; ++c) {
-          ra[c][0][l] = a2[c][0][l] * i00 + a2[c][1][l] * i01;
-          ra[c][1][l] = a2[c][0][l] * i01 + a2[c][1][l] * i11;
-        }
-        // R n = q_a x q_b.
-        ra[0][2][l] = ra[1][0][l] * ra[2][1][l] - ra[2][0][l] * ra[1][1][l];
-        ra[1][2][l] = ra[2][0][l] * ra[0][1][l] - ra[0][0][l] * ra[2][1][l];
-        ra[2][2][l] = ra[0][0][l] * ra[1][1][l] - ra[1][0][l] * ra[0][1][l];
+      const V m00 = a2[0][0] * a2[0][0] + a2[1][0] * a2[1][0] + a2[2][0] * a2[2][0];
+      const V m01 = a2[0][0] * a2[0][1] + a2[1][0] * a2[1][1] + a2[2][0] * a2[2][1];
+      const V m11 = a2[0][1] * a2[0][1] + a2[1][1] * a2[1][1] + a2[2][1] * a2[2][1];
+      const V dr = (m00 * m11 - m01 * m01).sqrt();
+      // (A^T A)^(1/2) of a 2 x 2 SPD matrix, closed form: (M + sqrt(det M) I) / sqrt(...)
+      const V sr = (m00 + m11 + 2.0 * dr).sqrt();
+      r00 = (m00 + dr) / sr;
+      r01 = m01 / sr;
+      r11 = (m11 + dr) / sr;
+      tr_root = r00 + r11;
+      det_root = r00 * r11 - r01 * r01;
+      // root^-1 = adj(root) / det(root), adj(M) = tr(M) I - M for a 2 x 2 M.
+      const V i00 = (tr_root - r00) / det_root, i01 = -r01 / det_root,
+              i11 = (tr_root - r11) / det_root;
+      for (int c = 0; c < 3; ++c) {
+        ra[c][0] = a2[c][0] * i00 + a2[c][1] * i01;
+        ra[c][1] = a2[c][0] * i01 + a2[c][1] * i11;
       }
+      // R n = q_a x q_b.
+      ra[0][2] = ra[1][0] * ra[2][1] - ra[2][0] * ra[1][1];
+      ra[1][2] = ra[2][0] * ra[0][1] - ra[0][0] * ra[2][1];
+      ra[2][2] = ra[0][0] * ra[1][1] - ra[1][0] * ra[0][1];
     }
     // u_k = R^T (x_k - c) - (X_k - C), packed for the coupling.
     for (int p = 0; p < m; ++p) {
       const int s = g.slot[static_cast<std::size_t>(p)];
       for (int i = 0; i < 3; ++i)
-        for (int l = 0; l < L; ++l)
-          y[p][i][l] = ra[0][i][l] * d[s][0][l] + ra[1][i][l] * d[s][1][l] + ra[2][i][l] * d[s][2][l];
+        y[p][i] = ra[0][i] * d[s][0] + ra[1][i] * d[s][1] + ra[2][i] * d[s][2];
     }
-    for (int l = 0; l < L; ++l) e[l] = 0.0;
-    const auto local_u = [&](int p, int i, int l) { return y[p][i][l] - rn[(p * 3 + i) * L + l]; };
+    V e = V::Zero();
     if (g.coupling == Coupling::InPlane || g.coupling == Coupling::Split) {
       for (int p = 0; p < m; ++p)
-        for (int i = 0; i < 2; ++i)
-          for (int l = 0; l < L; ++l) u[2 * p + i][l] = local_u(p, i, l);
+        for (int i = 0; i < 2; ++i) u[2 * p + i] = y[p][i] - rn[p * 3 + i];
       apply_k(g.k_plane.data(), 2 * m, u, kv, e);
-      for (int p = 0; p < m; ++p)
-        for (int l = 0; l < L; ++l) {
-          gl[p][0][l] = kv[2 * p][l];
-          gl[p][1][l] = kv[2 * p + 1][l];
-          gl[p][2][l] = 0.0;
-        }
+      for (int p = 0; p < m; ++p) {
+        gl[p][0] = kv[2 * p];
+        gl[p][1] = kv[2 * p + 1];
+        gl[p][2] = V::Zero();
+      }
     }
     if (g.coupling == Coupling::Normal || g.coupling == Coupling::Split) {
-      for (int p = 0; p < m; ++p)
-        for (int l = 0; l < L; ++l) u[p][l] = local_u(p, 2, l);
+      for (int p = 0; p < m; ++p) u[p] = y[p][2] - rn[p * 3 + 2];
       apply_k(g.k_normal.data(), m, u, kv, e);
-      for (int p = 0; p < m; ++p)
-        for (int l = 0; l < L; ++l) {
-          if (g.coupling == Coupling::Normal) gl[p][0][l] = gl[p][1][l] = 0.0;
-          gl[p][2][l] = kv[p][l];
-        }
+      for (int p = 0; p < m; ++p) {
+        if (g.coupling == Coupling::Normal) gl[p][0] = gl[p][1] = V::Zero();
+        gl[p][2] = kv[p];
+      }
     }
     if (g.coupling == Coupling::All) {
       for (int p = 0; p < m; ++p)
-        for (int i = 0; i < 3; ++i)
-          for (int l = 0; l < L; ++l) u[3 * p + i][l] = local_u(p, i, l);
+        for (int i = 0; i < 3; ++i) u[3 * p + i] = y[p][i] - rn[p * 3 + i];
       apply_k(g.k_all.data(), 3 * m, u, kv, e);
       for (int p = 0; p < m; ++p)
-        for (int i = 0; i < 3; ++i)
-          for (int l = 0; l < L; ++l) gl[p][i][l] = kv[3 * p + i][l];
+        for (int i = 0; i < 3; ++i) gl[p][i] = kv[3 * p + i];
     }
     for (int l = 0; l < valid; ++l) energy += e[l];
 
@@ -319,47 +295,37 @@ void CorotationalSheetForce::evaluate_group(const Group& g, const double* x, dou
     // local axes: the (a, b) block is tr(root) I - root = adj(root), whose inverse is
     // root / det(root); the n entry tr(root).
     for (int s = 0; s < np; ++s)
-      for (int i = 0; i < 3; ++i)
-        for (int l = 0; l < L; ++l) h[s][i][l] = 0.0;
+      for (int i = 0; i < 3; ++i) h[s][i] = V::Zero();
     for (int p = 0; p < m; ++p) {
       const int s = g.slot[static_cast<std::size_t>(p)];
-      for (int i = 0; i < 3; ++i)
-        for (int l = 0; l < L; ++l) h[s][i][l] -= gl[p][i][l];
+      for (int i = 0; i < 3; ++i) h[s][i] -= gl[p][i];
     }
     if (nf > 0) {
-      Lanes tau[3]{}, gsum[3]{}, mu[3];
-      for (int p = 0; p < m; ++p)
-        for (int l = 0; l < L; ++l) {
-          tau[0][l] += y[p][1][l] * gl[p][2][l] - y[p][2][l] * gl[p][1][l];
-          tau[1][l] += y[p][2][l] * gl[p][0][l] - y[p][0][l] * gl[p][2][l];
-          tau[2][l] += y[p][0][l] * gl[p][1][l] - y[p][1][l] * gl[p][0][l];
-          gsum[0][l] += gl[p][0][l];
-          gsum[1][l] += gl[p][1][l];
-          gsum[2][l] += gl[p][2][l];
-        }
-      for (int l = 0; l < L; ++l) {
-        mu[0][l] = (root[0][l] * tau[0][l] + root[1][l] * tau[1][l]) / det_root[l];
-        mu[1][l] = (root[1][l] * tau[0][l] + root[2][l] * tau[1][l]) / det_root[l];
-        mu[2][l] = tau[2][l] / tr_root[l];
-        for (int i = 0; i < 3; ++i) gsum[i][l] /= static_cast<double>(nf);
+      V tau[3], gsum[3];
+      for (int i = 0; i < 3; ++i) tau[i] = gsum[i] = V::Zero();
+      for (int p = 0; p < m; ++p) {
+        tau[0] += y[p][1] * gl[p][2] - y[p][2] * gl[p][1];
+        tau[1] += y[p][2] * gl[p][0] - y[p][0] * gl[p][2];
+        tau[2] += y[p][0] * gl[p][1] - y[p][1] * gl[p][0];
+        for (int i = 0; i < 3; ++i) gsum[i] += gl[p][i];
       }
+      const V mu0 = (r00 * tau[0] + r01 * tau[1]) / det_root;
+      const V mu1 = (r01 * tau[0] + r11 * tau[1]) / det_root;
+      const V mu2 = tau[2] / tr_root;
+      for (int i = 0; i < 3; ++i) gsum[i] /= static_cast<double>(nf);
       for (int s = 0; s < nf; ++s) {
-        const double* bs = rf + s * 3 * L;
-        for (int l = 0; l < L; ++l) {
-          h[s][0][l] += mu[1][l] * bs[2 * L + l] - mu[2][l] * bs[L + l] + gsum[0][l];
-          h[s][1][l] += mu[2][l] * bs[l] - mu[0][l] * bs[2 * L + l] + gsum[1][l];
-          h[s][2][l] += mu[0][l] * bs[L + l] - mu[1][l] * bs[l] + gsum[2][l];
-        }
+        const V* bs = rf + s * 3;
+        h[s][0] += mu1 * bs[2] - mu2 * bs[1] + gsum[0];
+        h[s][1] += mu2 * bs[0] - mu0 * bs[2] + gsum[1];
+        h[s][2] += mu0 * bs[1] - mu1 * bs[0] + gsum[2];
       }
     }
     // Back to the scene's axes, and into f.
     for (int s = 0; s < np; ++s) {
-      Lanes fs[3];
-      for (int c = 0; c < 3; ++c)
-        for (int l = 0; l < L; ++l)
-          fs[c][l] = ra[c][0][l] * h[s][0][l] + ra[c][1][l] * h[s][1][l] + ra[c][2][l] * h[s][2][l];
+      V fs[3];
+      for (int c = 0; c < 3; ++c) fs[c] = ra[c][0] * h[s][0] + ra[c][1] * h[s][1] + ra[c][2] * h[s][2];
       for (int l = 0; l < valid; ++l) {
-        double* fp = f + 3 * static_cast<std::ptrdiff_t>(pts[s * L + l]);
+        double* fp = f + off[s * L + l];
         fp[0] += fs[0][l];
         fp[1] += fs[1][l];
         fp[2] += fs[2][l];

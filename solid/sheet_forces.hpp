@@ -71,6 +71,7 @@ class CorotationalSheetForce final : public SheetForce {
 
   /// Terms are evaluated in batches of this many, one term per SIMD lane.
   static constexpr int kLanes = 8;
+  using Lanes = Eigen::Array<double, kLanes, 1>;
 
  private:
   /// Terms of one shape (frame size, node count, which frame point each node is), one
@@ -86,9 +87,9 @@ class CorotationalSheetForce final : public SheetForce {
     std::vector<double> k_all;          ///< 3m x 3m row-major (coupling All)
     Eigen::Matrix3d axes;               ///< the sheet's axes (used when nf == 0)
     int count = 0, batches = 0;
-    std::vector<int> points;            ///< [batch][np][lane] model-wide CGP indices
-    std::vector<double> ref_frame;      ///< [batch][nf][3][lane] X - C of the frame, local axes
-    std::vector<double> ref_nodes;      ///< [batch][m][3][lane] X - C of the nodes, local axes
+    std::vector<int> offsets;           ///< [batch][np][lane] 3 x the model-wide CGP index
+    std::vector<Lanes> ref_frame;       ///< [batch][nf][3] X - C of the frame, local axes
+    std::vector<Lanes> ref_nodes;       ///< [batch][m][3] X - C of the nodes, local axes
   };
   void evaluate_group(const Group& g, const double* x, double* f, double& energy) const;
   std::vector<Group> groups_;
