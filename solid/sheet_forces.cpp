@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#if defined(__AVX512F__)
+#include <immintrin.h>
+#endif
 #include <stdexcept>
 #include <string>
 
@@ -69,16 +72,24 @@ std::vector<double> pick(const Eigen::MatrixXd& k, const std::vector<int>& comps
 using Lanes = CorotationalSheetForce::Lanes;
 
 /// kv = K v for the n-vector v of every lane (K n x n, row-major, the group's), and the
-/// lanes' energies e += 1/2 v . kv (E_t = 1/2 u^T K u, the U K U term of Eq. 4).
+/// lanes' energies e += 1/2 v . kv (E_t = 1/2 u^T K u, the U K U term of Eq. 4). kN: n
+/// when known at compile time (the loops unrolled), else -1 (K's zeros skipped).
+template <int kN>
 inline void apply_k(const double* k, int n, const Lanes* v, Lanes* kv, Lanes& e) {
+  if constexpr (kN >= 0) n = kN;
   for (int i = 0; i < n; ++i) {
     Lanes acc = Lanes::Zero();
     for (int j = 0; j < n; ++j)
-      if (k[i * n + j] != 0.0) acc += k[i * n + j] * v[j];
+      if (kN >= 0 || k[i * n + j] != 0.0) acc += k[i * n + j] * v[j];
     kv[i] = acc;
     e += 0.5 * v[i] * acc;
   }
 }
+
+constexpr int kInPlane = static_cast<int>(CorotationalSheetForce::Coupling::InPlane);
+constexpr int kNormal = static_cast<int>(CorotationalSheetForce::Coupling::Normal);
+constexpr int kSplit = static_cast<int>(CorotationalSheetForce::Coupling::Split);
+constexpr int kAll = static_cast<int>(CorotationalSheetForce::Coupling::All);
 
 }  // namespace
 
@@ -159,12 +170,18 @@ CorotationalSheetForce::CorotationalSheetForce(const std::vector<SheetBlock>& sh
   }
   // Structure of arrays by batch; the last batch's empty lanes repeat its first term (they
   // are computed, but neither their forces nor their energies are added).
+  std::size_t out_size = 0;
+  Eigen::Index num_cgps = 0;
+  for (const SheetBlock& s : sheets) num_cgps = std::max(num_cgps, s.first + s.count);
+  std::vector<std::vector<std::size_t>> contributions(static_cast<std::size_t>(num_cgps));
   for (std::size_t gi = 0; gi < groups_.size(); ++gi) {
     Group& g = groups_[gi];
     const std::vector<Pending>& terms = pending[gi];
     g.count = static_cast<int>(terms.size());
     g.batches = (g.count + L - 1) / L;
     const auto nb = static_cast<std::size_t>(g.batches);
+    g.first_out = out_size;
+    out_size += nb * static_cast<std::size_t>(g.np * 3);
     g.offsets.resize(nb * static_cast<std::size_t>(g.np * L));
     g.ref_frame.resize(nb * static_cast<std::size_t>(g.nf * 3));
     g.ref_nodes.resize(nb * static_cast<std::size_t>(g.m * 3));
@@ -172,8 +189,14 @@ CorotationalSheetForce::CorotationalSheetForce(const std::vector<SheetBlock>& sh
       for (int l = 0; l < L; ++l) {
         const int ti = b * L + l < g.count ? b * L + l : b * L;
         const Pending& t = terms[static_cast<std::size_t>(ti)];
-        for (int s = 0; s < g.np; ++s)
-          g.offsets[static_cast<std::size_t>((b * g.np + s) * L + l)] = 3 * t.points[static_cast<std::size_t>(s)];
+        for (int s = 0; s < g.np; ++s) {
+          const int cgp = t.points[static_cast<std::size_t>(s)];
+          g.offsets[static_cast<std::size_t>((b * g.np + s) * L + l)] = 3 * cgp;
+          if (b * L + l < g.count)
+            contributions[static_cast<std::size_t>(cgp)].push_back(
+                (g.first_out + static_cast<std::size_t>((b * g.np + s) * 3)) * L +
+                static_cast<std::size_t>(l));
+        }
         for (int s = 0; s < g.nf; ++s)
           for (int c = 0; c < 3; ++c)
             g.ref_frame[static_cast<std::size_t>((b * g.nf + s) * 3 + c)][l] = t.ref_frame(c, s);
@@ -183,29 +206,72 @@ CorotationalSheetForce::CorotationalSheetForce(const std::vector<SheetBlock>& sh
       }
     }
   }
+  for (Group& g : groups_) {
+    const auto is = [&g](int nf, int np, int m, Coupling c) {
+      return g.nf == nf && g.np == np && g.m == m && g.coupling == c;
+    };
+    // The terms of a rectangular sheet (sheet_stiffness.cpp): cells (Q4 and twist), the
+    // bulk's, an edge's and the free end's plate stencils, and the clamped row's.
+    if (is(4, 4, 4, Coupling::Split))
+      g.kernel = &CorotationalSheetForce::evaluate_batches<4, 4, 4, kSplit>;
+    else if (is(9, 9, 5, Coupling::Normal))
+      g.kernel = &CorotationalSheetForce::evaluate_batches<9, 9, 5, kNormal>;
+    else if (is(6, 6, 3, Coupling::Normal))
+      g.kernel = &CorotationalSheetForce::evaluate_batches<6, 6, 3, kNormal>;
+    else if (is(0, 2, 2, Coupling::Normal))
+      g.kernel = &CorotationalSheetForce::evaluate_batches<0, 2, 2, kNormal>;
+    else
+      g.kernel = &CorotationalSheetForce::evaluate_batches<-1, -1, -1, -1>;
+  }
+  out_.resize(out_size);
+  gather_start_.push_back(0);
+  for (const std::vector<std::size_t>& c : contributions) {
+    gather_.insert(gather_.end(), c.begin(), c.end());
+    gather_start_.push_back(gather_.size());
+  }
 }
 
 double CorotationalSheetForce::evaluate(const Eigen::Matrix3Xd& x, Eigen::Matrix3Xd& f) const {
-  f.setZero();
   double energy = 0.0;
-  for (const Group& g : groups_) evaluate_group(g, x.data(), f.data(), energy);
+  for (const Group& g : groups_) (this->*g.kernel)(g, x.data(), energy);
+  // Each CGP's force: the sum of what the terms of its frames and nodes give it.
+  f.setZero();
+  const double* out = out_.front().data();
+  const auto cgps = static_cast<Eigen::Index>(gather_start_.size()) - 1;
+  for (Eigen::Index l = 0; l < cgps; ++l) {
+    double fa = 0.0, fb = 0.0, fn = 0.0;
+    for (std::size_t k = gather_start_[static_cast<std::size_t>(l)];
+         k < gather_start_[static_cast<std::size_t>(l) + 1]; ++k) {
+      const double* o = out + gather_[k];
+      fa += o[0];
+      fb += o[L];
+      fn += o[2 * L];
+    }
+    f(0, l) = fa;
+    f(1, l) = fb;
+    f(2, l) = fn;
+  }
   return energy;
 }
 
 // One group, a batch of L terms at a time, each lane one term: gather the points' x, the
 // lanes' frames and rotations, u, K u and the gradient, then add the forces -dE/dx
 // (F^int of Eq. 20) into f one lane after the other (terms of a batch share CGPs).
-void CorotationalSheetForce::evaluate_group(const Group& g, const double* x, double* f,
-                                            double& energy) const {
+template <int kNf, int kNp, int kM, int kCoupling>
+void CorotationalSheetForce::evaluate_batches(const Group& g, const double* x,
+                                              double& energy) const {
   using V = Lanes;
-  const int nf = g.nf, m = g.m, np = g.np;
+  const int nf = kNf >= 0 ? kNf : g.nf, m = kM >= 0 ? kM : g.m, np = kNp >= 0 ? kNp : g.np;
+  const int coupling = kCoupling >= 0 ? kCoupling : static_cast<int>(g.coupling);
+  constexpr int kPlaneN = kM >= 0 ? 2 * kM : -1, kAllN = kM >= 0 ? 3 * kM : -1;
   V d[kMaxTermPoints][3];  // x - c of every point, scene axes
   V y[kMaxTermNodes][3];   // R^T (x_k - c) of the nodes, local axes
   V u[3 * kMaxTermNodes], kv[3 * kMaxTermNodes];
   V gl[kMaxTermNodes][3];  // K u of the nodes, local axes
   V h[kMaxTermPoints][3];  // -dE/dx of every point, local axes
   V ra[3][3];              // R A: the sheet's axes rotated with the frame
-  V r00, r01, r11, tr_root, det_root;
+  V r00, r01, r11, inv_tr_root, inv_det_root;
+  const double inv_nf = nf > 0 ? 1.0 / nf : 0.0;
   if (nf == 0)  // a term tied to the plate: evaluated in the fixed frame (c = 0)
     for (int c = 0; c < 3; ++c)
       for (int i = 0; i < 3; ++i) ra[c][i] = V::Constant(g.axes(c, i));
@@ -214,14 +280,20 @@ void CorotationalSheetForce::evaluate_group(const Group& g, const double* x, dou
     const V* rf = g.ref_frame.data() + static_cast<std::ptrdiff_t>(b) * nf * 3;
     const V* rn = g.ref_nodes.data() + static_cast<std::ptrdiff_t>(b) * m * 3;
     const int valid = std::min(L, g.count - b * L);
-    for (int s = 0; s < np; ++s)
+    for (int s = 0; s < np; ++s) {
+#if defined(__AVX512F__)
+      const __m256i idx = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(off + s * L));
+      for (int c = 0; c < 3; ++c) _mm512_store_pd(d[s][c].data(), _mm512_i32gather_pd(idx, x + c, 8));
+#else
       for (int c = 0; c < 3; ++c)
         for (int l = 0; l < L; ++l) d[s][c][l] = x[off[s * L + l] + c];
+#endif
+    }
     if (nf > 0) {
       for (int c = 0; c < 3; ++c) {
         V cen = d[0][c];
         for (int s = 1; s < nf; ++s) cen += d[s][c];
-        cen /= static_cast<double>(nf);
+        cen *= inv_nf;
         for (int s = 0; s < np; ++s) d[s][c] -= cen;
       }
       // Polar decomposition of the flat frame's F = A P^T (see the header), with P = the
@@ -237,15 +309,17 @@ void CorotationalSheetForce::evaluate_group(const Group& g, const double* x, dou
       const V m11 = a2[0][1] * a2[0][1] + a2[1][1] * a2[1][1] + a2[2][1] * a2[2][1];
       const V dr = (m00 * m11 - m01 * m01).sqrt();
       // (A^T A)^(1/2) of a 2 x 2 SPD matrix, closed form: (M + sqrt(det M) I) / sqrt(...)
-      const V sr = (m00 + m11 + 2.0 * dr).sqrt();
-      r00 = (m00 + dr) / sr;
-      r01 = m01 / sr;
-      r11 = (m11 + dr) / sr;
-      tr_root = r00 + r11;
-      det_root = r00 * r11 - r01 * r01;
+      // (One division per lane for each of 1/sqrt(...), 1/det(root) and 1/tr(root).)
+      const V inv_sr = (m00 + m11 + 2.0 * dr).sqrt().inverse();
+      r00 = (m00 + dr) * inv_sr;
+      r01 = m01 * inv_sr;
+      r11 = (m11 + dr) * inv_sr;
+      const V tr_root = r00 + r11;
+      inv_tr_root = tr_root.inverse();
+      inv_det_root = (r00 * r11 - r01 * r01).inverse();
       // root^-1 = adj(root) / det(root), adj(M) = tr(M) I - M for a 2 x 2 M.
-      const V i00 = (tr_root - r00) / det_root, i01 = -r01 / det_root,
-              i11 = (tr_root - r11) / det_root;
+      const V i00 = (tr_root - r00) * inv_det_root, i01 = -r01 * inv_det_root,
+              i11 = (tr_root - r11) * inv_det_root;
       for (int c = 0; c < 3; ++c) {
         ra[c][0] = a2[c][0] * i00 + a2[c][1] * i01;
         ra[c][1] = a2[c][0] * i01 + a2[c][1] * i11;
@@ -262,28 +336,28 @@ void CorotationalSheetForce::evaluate_group(const Group& g, const double* x, dou
         y[p][i] = ra[0][i] * d[s][0] + ra[1][i] * d[s][1] + ra[2][i] * d[s][2];
     }
     V e = V::Zero();
-    if (g.coupling == Coupling::InPlane || g.coupling == Coupling::Split) {
+    if (coupling == kInPlane || coupling == kSplit) {
       for (int p = 0; p < m; ++p)
         for (int i = 0; i < 2; ++i) u[2 * p + i] = y[p][i] - rn[p * 3 + i];
-      apply_k(g.k_plane.data(), 2 * m, u, kv, e);
+      apply_k<kPlaneN>(g.k_plane.data(), 2 * m, u, kv, e);
       for (int p = 0; p < m; ++p) {
         gl[p][0] = kv[2 * p];
         gl[p][1] = kv[2 * p + 1];
         gl[p][2] = V::Zero();
       }
     }
-    if (g.coupling == Coupling::Normal || g.coupling == Coupling::Split) {
+    if (coupling == kNormal || coupling == kSplit) {
       for (int p = 0; p < m; ++p) u[p] = y[p][2] - rn[p * 3 + 2];
-      apply_k(g.k_normal.data(), m, u, kv, e);
+      apply_k<kM>(g.k_normal.data(), m, u, kv, e);
       for (int p = 0; p < m; ++p) {
-        if (g.coupling == Coupling::Normal) gl[p][0] = gl[p][1] = V::Zero();
+        if (coupling == kNormal) gl[p][0] = gl[p][1] = V::Zero();
         gl[p][2] = kv[p];
       }
     }
-    if (g.coupling == Coupling::All) {
+    if (coupling == kAll) {
       for (int p = 0; p < m; ++p)
         for (int i = 0; i < 3; ++i) u[3 * p + i] = y[p][i] - rn[p * 3 + i];
-      apply_k(g.k_all.data(), 3 * m, u, kv, e);
+      apply_k<kAllN>(g.k_all.data(), 3 * m, u, kv, e);
       for (int p = 0; p < m; ++p)
         for (int i = 0; i < 3; ++i) gl[p][i] = kv[3 * p + i];
     }
@@ -296,11 +370,35 @@ void CorotationalSheetForce::evaluate_group(const Group& g, const double* x, dou
     // root / det(root); the n entry tr(root).
     for (int s = 0; s < np; ++s)
       for (int i = 0; i < 3; ++i) h[s][i] = V::Zero();
+    // (With the normal coupling alone, g_k = (0, 0, g_kn): the terms of its zero components,
+    // exact zeros, are left out below.)
     for (int p = 0; p < m; ++p) {
       const int s = g.slot[static_cast<std::size_t>(p)];
-      for (int i = 0; i < 3; ++i) h[s][i] -= gl[p][i];
+      if constexpr (kCoupling == kNormal) {
+        h[s][2] -= gl[p][2];
+      } else {
+        for (int i = 0; i < 3; ++i) h[s][i] -= gl[p][i];
+      }
     }
-    if (nf > 0) {
+    if constexpr (kCoupling == kNormal) {
+      if (nf > 0) {
+        V tau0 = V::Zero(), tau1 = V::Zero(), gsum2 = V::Zero();
+        for (int p = 0; p < m; ++p) {
+          tau0 += y[p][1] * gl[p][2];
+          tau1 -= y[p][0] * gl[p][2];
+          gsum2 += gl[p][2];
+        }
+        const V mu0 = (r00 * tau0 + r01 * tau1) * inv_det_root;
+        const V mu1 = (r01 * tau0 + r11 * tau1) * inv_det_root;
+        gsum2 *= inv_nf;
+        for (int s = 0; s < nf; ++s) {
+          const V* bs = rf + s * 3;
+          h[s][0] += mu1 * bs[2];
+          h[s][1] -= mu0 * bs[2];
+          h[s][2] += mu0 * bs[1] - mu1 * bs[0] + gsum2;
+        }
+      }
+    } else if (nf > 0) {
       V tau[3], gsum[3];
       for (int i = 0; i < 3; ++i) tau[i] = gsum[i] = V::Zero();
       for (int p = 0; p < m; ++p) {
@@ -309,10 +407,10 @@ void CorotationalSheetForce::evaluate_group(const Group& g, const double* x, dou
         tau[2] += y[p][0] * gl[p][1] - y[p][1] * gl[p][0];
         for (int i = 0; i < 3; ++i) gsum[i] += gl[p][i];
       }
-      const V mu0 = (r00 * tau[0] + r01 * tau[1]) / det_root;
-      const V mu1 = (r01 * tau[0] + r11 * tau[1]) / det_root;
-      const V mu2 = tau[2] / tr_root;
-      for (int i = 0; i < 3; ++i) gsum[i] /= static_cast<double>(nf);
+      const V mu0 = (r00 * tau[0] + r01 * tau[1]) * inv_det_root;
+      const V mu1 = (r01 * tau[0] + r11 * tau[1]) * inv_det_root;
+      const V mu2 = tau[2] * inv_tr_root;
+      for (int i = 0; i < 3; ++i) gsum[i] *= inv_nf;
       for (int s = 0; s < nf; ++s) {
         const V* bs = rf + s * 3;
         h[s][0] += mu1 * bs[2] - mu2 * bs[1] + gsum[0];
@@ -320,17 +418,11 @@ void CorotationalSheetForce::evaluate_group(const Group& g, const double* x, dou
         h[s][2] += mu0 * bs[1] - mu1 * bs[0] + gsum[2];
       }
     }
-    // Back to the scene's axes, and into f.
-    for (int s = 0; s < np; ++s) {
-      V fs[3];
-      for (int c = 0; c < 3; ++c) fs[c] = ra[c][0] * h[s][0] + ra[c][1] * h[s][1] + ra[c][2] * h[s][2];
-      for (int l = 0; l < valid; ++l) {
-        double* fp = f + off[s * L + l];
-        fp[0] += fs[0][l];
-        fp[1] += fs[1][l];
-        fp[2] += fs[2][l];
-      }
-    }
+    // Back to the scene's axes, into out_ (evaluate() adds them up per CGP).
+    V* out = out_.data() + g.first_out + static_cast<std::size_t>(b * np * 3);
+    for (int s = 0; s < np; ++s)
+      for (int c = 0; c < 3; ++c)
+        out[s * 3 + c] = ra[c][0] * h[s][0] + ra[c][1] * h[s][1] + ra[c][2] * h[s][2];
   }
 }
 

@@ -87,11 +87,25 @@ class CorotationalSheetForce final : public SheetForce {
     std::vector<double> k_all;          ///< 3m x 3m row-major (coupling All)
     Eigen::Matrix3d axes;               ///< the sheet's axes (used when nf == 0)
     int count = 0, batches = 0;
+    std::size_t first_out = 0;          ///< where its forces start in out_
+    /// evaluate_batches for its sizes and coupling: compiled for those of a rectangular
+    /// sheet's terms, the general one for any other.
+    void (CorotationalSheetForce::*kernel)(const Group&, const double*, double&) const = nullptr;
     std::vector<int> offsets;           ///< [batch][np][lane] 3 x the model-wide CGP index
     std::vector<Lanes> ref_frame;       ///< [batch][nf][3] X - C of the frame, local axes
     std::vector<Lanes> ref_nodes;       ///< [batch][m][3] X - C of the nodes, local axes
   };
-  void evaluate_group(const Group& g, const double* x, double* f, double& energy) const;
+  /// The batches of one group; a size or coupling of -1 is read from the group.
+  template <int kNf, int kNp, int kM, int kCoupling>
+  void evaluate_batches(const Group& g, const double* x, double& energy) const;
   std::vector<Group> groups_;
+  /// Each batch's forces on its points, [group's first_out + (batch np + point) 3 + c]
+  /// (scene axes, one lane per term); scratch of evaluate(), which is therefore not
+  /// reentrant.
+  mutable std::vector<Lanes> out_;
+  /// The entries of out_ (as doubles, component a; b and n follow kLanes and 2 kLanes
+  /// later) that add up to each CGP's force: CGP l sums those in
+  /// [gather_start_[l], gather_start_[l + 1]).
+  std::vector<std::size_t> gather_start_, gather_;
 };
 }  // namespace cosim::solid
