@@ -74,13 +74,46 @@ using Lanes = CorotationalSheetForce::Lanes;
 /// kv = K v for the n-vector v of every lane (K n x n, row-major, the group's), and the
 /// lanes' energies e += 1/2 v . kv (E_t = 1/2 u^T K u, the U K U term of Eq. 4). kN: n
 /// when known at compile time (the loops unrolled), else -1 (K's zeros skipped).
+/// a b + c and c - a b for every lane, fused where the machine has AVX-512 (they differ
+/// from the separate product and sum by round-off only).
+inline Lanes madd(const Lanes& a, const Lanes& b, const Lanes& c) {
+#if defined(__AVX512F__)
+  Lanes r;
+  _mm512_store_pd(r.data(), _mm512_fmadd_pd(_mm512_load_pd(a.data()), _mm512_load_pd(b.data()),
+                                            _mm512_load_pd(c.data())));
+  return r;
+#else
+  return a * b + c;
+#endif
+}
+inline Lanes madd(double a, const Lanes& b, const Lanes& c) {
+#if defined(__AVX512F__)
+  Lanes r;
+  _mm512_store_pd(r.data(), _mm512_fmadd_pd(_mm512_set1_pd(a), _mm512_load_pd(b.data()),
+                                            _mm512_load_pd(c.data())));
+  return r;
+#else
+  return a * b + c;
+#endif
+}
+inline Lanes nmadd(const Lanes& a, const Lanes& b, const Lanes& c) {
+#if defined(__AVX512F__)
+  Lanes r;
+  _mm512_store_pd(r.data(), _mm512_fnmadd_pd(_mm512_load_pd(a.data()), _mm512_load_pd(b.data()),
+                                             _mm512_load_pd(c.data())));
+  return r;
+#else
+  return c - a * b;
+#endif
+}
+
 template <int kN>
 inline void apply_k(const double* k, int n, const Lanes* v, Lanes* kv, Lanes& e) {
   if constexpr (kN >= 0) n = kN;
   for (int i = 0; i < n; ++i) {
     Lanes acc = Lanes::Zero();
     for (int j = 0; j < n; ++j)
-      if (kN >= 0 || k[i * n + j] != 0.0) acc += k[i * n + j] * v[j];
+      if (kN >= 0 || k[i * n + j] != 0.0) acc = madd(k[i * n + j], v[j], acc);
     kv[i] = acc;
     e += 0.5 * v[i] * acc;
   }
@@ -302,7 +335,7 @@ void CorotationalSheetForce::evaluate_batches(const Group& g, const double* x,
       for (int c = 0; c < 3; ++c)
         for (int j = 0; j < 2; ++j) {
           a2[c][j] = d[0][c] * rf[j];
-          for (int s = 1; s < nf; ++s) a2[c][j] += d[s][c] * rf[s * 3 + j];
+          for (int s = 1; s < nf; ++s) a2[c][j] = madd(d[s][c], rf[s * 3 + j], a2[c][j]);
         }
       const V m00 = a2[0][0] * a2[0][0] + a2[1][0] * a2[1][0] + a2[2][0] * a2[2][0];
       const V m01 = a2[0][0] * a2[0][1] + a2[1][0] * a2[1][1] + a2[2][0] * a2[2][1];
@@ -333,7 +366,7 @@ void CorotationalSheetForce::evaluate_batches(const Group& g, const double* x,
     for (int p = 0; p < m; ++p) {
       const int s = g.slot[static_cast<std::size_t>(p)];
       for (int i = 0; i < 3; ++i)
-        y[p][i] = ra[0][i] * d[s][0] + ra[1][i] * d[s][1] + ra[2][i] * d[s][2];
+        y[p][i] = madd(ra[2][i], d[s][2], madd(ra[1][i], d[s][1], ra[0][i] * d[s][0]));
     }
     V e = V::Zero();
     if (coupling == kInPlane || coupling == kSplit) {
@@ -384,8 +417,8 @@ void CorotationalSheetForce::evaluate_batches(const Group& g, const double* x,
       if (nf > 0) {
         V tau0 = V::Zero(), tau1 = V::Zero(), gsum2 = V::Zero();
         for (int p = 0; p < m; ++p) {
-          tau0 += y[p][1] * gl[p][2];
-          tau1 -= y[p][0] * gl[p][2];
+          tau0 = madd(y[p][1], gl[p][2], tau0);
+          tau1 = nmadd(y[p][0], gl[p][2], tau1);
           gsum2 += gl[p][2];
         }
         const V mu0 = (r00 * tau0 + r01 * tau1) * inv_det_root;
@@ -393,9 +426,9 @@ void CorotationalSheetForce::evaluate_batches(const Group& g, const double* x,
         gsum2 *= inv_nf;
         for (int s = 0; s < nf; ++s) {
           const V* bs = rf + s * 3;
-          h[s][0] += mu1 * bs[2];
-          h[s][1] -= mu0 * bs[2];
-          h[s][2] += mu0 * bs[1] - mu1 * bs[0] + gsum2;
+          h[s][0] = madd(mu1, bs[2], h[s][0]);
+          h[s][1] = nmadd(mu0, bs[2], h[s][1]);
+          h[s][2] = madd(mu0, bs[1], nmadd(mu1, bs[0], h[s][2] + gsum2));
         }
       }
     } else if (nf > 0) {
@@ -413,16 +446,16 @@ void CorotationalSheetForce::evaluate_batches(const Group& g, const double* x,
       for (int i = 0; i < 3; ++i) gsum[i] *= inv_nf;
       for (int s = 0; s < nf; ++s) {
         const V* bs = rf + s * 3;
-        h[s][0] += mu1 * bs[2] - mu2 * bs[1] + gsum[0];
-        h[s][1] += mu2 * bs[0] - mu0 * bs[2] + gsum[1];
-        h[s][2] += mu0 * bs[1] - mu1 * bs[0] + gsum[2];
+        h[s][0] = madd(mu1, bs[2], nmadd(mu2, bs[1], h[s][0] + gsum[0]));
+        h[s][1] = madd(mu2, bs[0], nmadd(mu0, bs[2], h[s][1] + gsum[1]));
+        h[s][2] = madd(mu0, bs[1], nmadd(mu1, bs[0], h[s][2] + gsum[2]));
       }
     }
     // Back to the scene's axes, into out_ (evaluate() adds them up per CGP).
     V* out = out_.data() + g.first_out + static_cast<std::size_t>(b * np * 3);
     for (int s = 0; s < np; ++s)
       for (int c = 0; c < 3; ++c)
-        out[s * 3 + c] = ra[c][0] * h[s][0] + ra[c][1] * h[s][1] + ra[c][2] * h[s][2];
+        out[s * 3 + c] = madd(ra[c][2], h[s][2], madd(ra[c][1], h[s][1], ra[c][0] * h[s][0]));
   }
 }
 
