@@ -79,8 +79,9 @@ using Lanes = CorotationalSheetForce::Lanes;
 inline Lanes madd(const Lanes& a, const Lanes& b, const Lanes& c) {
 #if defined(__AVX512F__)
   Lanes r;
-  _mm512_store_pd(r.data(), _mm512_fmadd_pd(_mm512_load_pd(a.data()), _mm512_load_pd(b.data()),
-                                            _mm512_load_pd(c.data())));
+  for (int o = 0; o < L; o += 8)
+    _mm512_store_pd(r.data() + o, _mm512_fmadd_pd(_mm512_load_pd(a.data() + o), _mm512_load_pd(b.data() + o),
+                                                  _mm512_load_pd(c.data() + o)));
   return r;
 #else
   return a * b + c;
@@ -89,8 +90,9 @@ inline Lanes madd(const Lanes& a, const Lanes& b, const Lanes& c) {
 inline Lanes madd(double a, const Lanes& b, const Lanes& c) {
 #if defined(__AVX512F__)
   Lanes r;
-  _mm512_store_pd(r.data(), _mm512_fmadd_pd(_mm512_set1_pd(a), _mm512_load_pd(b.data()),
-                                            _mm512_load_pd(c.data())));
+  for (int o = 0; o < L; o += 8)
+    _mm512_store_pd(r.data() + o, _mm512_fmadd_pd(_mm512_set1_pd(a), _mm512_load_pd(b.data() + o),
+                                                  _mm512_load_pd(c.data() + o)));
   return r;
 #else
   return a * b + c;
@@ -99,8 +101,9 @@ inline Lanes madd(double a, const Lanes& b, const Lanes& c) {
 inline Lanes nmadd(const Lanes& a, const Lanes& b, const Lanes& c) {
 #if defined(__AVX512F__)
   Lanes r;
-  _mm512_store_pd(r.data(), _mm512_fnmadd_pd(_mm512_load_pd(a.data()), _mm512_load_pd(b.data()),
-                                             _mm512_load_pd(c.data())));
+  for (int o = 0; o < L; o += 8)
+    _mm512_store_pd(r.data() + o, _mm512_fnmadd_pd(_mm512_load_pd(a.data() + o), _mm512_load_pd(b.data() + o),
+                                                   _mm512_load_pd(c.data() + o)));
   return r;
 #else
   return c - a * b;
@@ -315,8 +318,11 @@ void CorotationalSheetForce::evaluate_batches(const Group& g, const double* x,
     const int valid = std::min(L, g.count - b * L);
     for (int s = 0; s < np; ++s) {
 #if defined(__AVX512F__)
-      const __m256i idx = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(off + s * L));
-      for (int c = 0; c < 3; ++c) _mm512_store_pd(d[s][c].data(), _mm512_i32gather_pd(idx, x + c, 8));
+      for (int o = 0; o < L; o += 8) {
+        const __m256i idx = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(off + s * L + o));
+        for (int c = 0; c < 3; ++c)
+          _mm512_store_pd(d[s][c].data() + o, _mm512_i32gather_pd(idx, x + c, 8));
+      }
 #else
       for (int c = 0; c < 3; ++c)
         for (int l = 0; l < L; ++l) d[s][c][l] = x[off[s * L + l] + c];
