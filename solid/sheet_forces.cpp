@@ -308,6 +308,7 @@ void CorotationalSheetForce::evaluate_batches(const Group& g, const double* x,
   V ra[3][3];              // R A: the sheet's axes rotated with the frame
   V r00, r01, r11, inv_tr_root, inv_det_root;
   const double inv_nf = nf > 0 ? 1.0 / nf : 0.0;
+  V e_sum = V::Zero();  // the group's energy per lane
   if (nf == 0)  // a term tied to the plate: evaluated in the fixed frame (c = 0)
     for (int c = 0; c < 3; ++c)
       for (int i = 0; i < 3; ++i) ra[c][i] = V::Constant(g.axes(c, i));
@@ -400,7 +401,11 @@ void CorotationalSheetForce::evaluate_batches(const Group& g, const double* x,
       for (int p = 0; p < m; ++p)
         for (int i = 0; i < 3; ++i) gl[p][i] = kv[3 * p + i];
     }
-    for (int l = 0; l < valid; ++l) energy += e[l];
+    if (valid == L) {
+      e_sum += e;
+    } else {
+      for (int l = 0; l < valid; ++l) e_sum[l] += e[l];
+    }
 
     // -dE/dx in local axes: -g_k on the nodes, and (frame) mu x b_f + sum_k g_k / n_f:
     // dE = sum_k g_k . (RA)^T (dx_k - dc) - omega . tau,  tau = sum_k y_k x g_k (omega the
@@ -463,6 +468,7 @@ void CorotationalSheetForce::evaluate_batches(const Group& g, const double* x,
       for (int c = 0; c < 3; ++c)
         out[s * 3 + c] = madd(ra[c][2], h[s][2], madd(ra[c][1], h[s][1], ra[c][0] * h[s][0]));
   }
+  for (int l = 0; l < L; ++l) energy += e_sum[l];  // (Eigen's sum() trips GCC 12's bug 105593)
 }
 
 }  // namespace cosim::solid
