@@ -259,11 +259,15 @@ CorotationalSheetForce::CorotationalSheetForce(const std::vector<SheetBlock>& sh
     else
       g.kernel = &CorotationalSheetForce::evaluate_batches<-1, -1, -1, -1>;
   }
-  out_.resize(out_size);
-  gather_start_.push_back(0);
+  // Every CGP's list padded to the longest with a record of zeros past the batches' (a
+  // fixed trip count: the loop's exit is not mispredicted at every CGP).
+  out_.assign(out_size + 3, Lanes::Zero());
+  std::size_t longest = 0;
+  for (const std::vector<std::size_t>& c : contributions) longest = std::max(longest, c.size());
+  gather_per_cgp_ = longest;
   for (const std::vector<std::size_t>& c : contributions) {
     gather_.insert(gather_.end(), c.begin(), c.end());
-    gather_start_.push_back(gather_.size());
+    gather_.insert(gather_.end(), longest - c.size(), out_size * L);
   }
 }
 
@@ -273,12 +277,12 @@ double CorotationalSheetForce::evaluate(const Eigen::Matrix3Xd& x, Eigen::Matrix
   // Each CGP's force: the sum of what the terms of its frames and nodes give it.
   f.setZero();
   const double* out = out_.front().data();
-  const auto cgps = static_cast<Eigen::Index>(gather_start_.size()) - 1;
+  const std::size_t* entry = gather_.data();
+  const auto cgps = gather_per_cgp_ > 0 ? static_cast<Eigen::Index>(gather_.size() / gather_per_cgp_) : 0;
   for (Eigen::Index l = 0; l < cgps; ++l) {
     double fa = 0.0, fb = 0.0, fn = 0.0;
-    for (std::size_t k = gather_start_[static_cast<std::size_t>(l)];
-         k < gather_start_[static_cast<std::size_t>(l) + 1]; ++k) {
-      const double* o = out + gather_[k];
+    for (std::size_t k = 0; k < gather_per_cgp_; ++k) {
+      const double* o = out + *entry++;
       fa += o[0];
       fb += o[L];
       fn += o[2 * L];

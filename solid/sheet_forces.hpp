@@ -105,8 +105,9 @@ class CorotationalSheetForce final : public SheetForce {
   /// reentrant.
   mutable std::vector<Lanes> out_;
   /// The entries of out_ (as doubles, component a; b and n follow kLanes and 2 kLanes
-  /// later) that add up to each CGP's force: CGP l sums those in
-  /// [gather_start_[l], gather_start_[l + 1]).
-  std::vector<std::size_t> gather_start_, gather_;
+  /// later) that add up to each CGP's force: CGP l sums gather_per_cgp_ of them from
+  /// gather_[l gather_per_cgp_] on (the shorter lists padded with zeros).
+  std::vector<std::size_t> gather_;
+  std::size_t gather_per_cgp_ = 0;
 };
 }  // namespace cosim::solid
