@@ -71,9 +71,10 @@ std::vector<double> pick(const Eigen::MatrixXd& k, const std::vector<int>& comps
 
 using Lanes = CorotationalSheetForce::Lanes;
 
-/// kv = K v for the n-vector v of every lane (K n x n, row-major, the group's), and the
-/// lanes' energies e += 1/2 v . kv (E_t = 1/2 u^T K u, the U K U term of Eq. 4). kN: n
-/// when known at compile time (the loops unrolled), else -1 (K's zeros skipped).
+#if defined(__AVX512F__)
+static_assert(L % 8 == 0, "whole AVX-512 registers of lanes");
+#endif
+
 /// a b + c and c - a b for every lane, fused where the machine has AVX-512 (they differ
 /// from the separate product and sum by round-off only).
 inline Lanes madd(const Lanes& a, const Lanes& b, const Lanes& c) {
@@ -110,6 +111,9 @@ inline Lanes nmadd(const Lanes& a, const Lanes& b, const Lanes& c) {
 #endif
 }
 
+/// kv = K v for the n-vector v of every lane (K n x n, row-major, the group's), and the
+/// lanes' energies e += 1/2 v . kv (E_t = 1/2 u^T K u, the U K U term of Eq. 4). kN: n
+/// when known at compile time (the loops unrolled), else -1 (K's zeros skipped).
 template <int kN>
 inline void apply_k(const double* k, int n, const Lanes* v, Lanes* kv, Lanes& e) {
   if constexpr (kN >= 0) n = kN;

@@ -55,6 +55,9 @@ class LinearSheetForce final : public SheetForce {
 /// force is its exact gradient, dR included (a term with an empty frame, tied to the
 /// plate, is evaluated in the fixed frame): with R^T dR = Omega (axial omega),
 ///   (tr S I - S) omega = sum_f (X_f - C) x R^T dx_f.
+/// The terms are evaluated in groups of equal shape and stiffness, kLanes terms at a time
+/// (one SIMD lane each); the per-term evaluation it replaced is kept as the reference of
+/// the tests (tests/support/corotational_reference.hpp), which it matches to round-off.
 class CorotationalSheetForce final : public SheetForce {
  public:
   explicit CorotationalSheetForce(const std::vector<SheetBlock>& sheets);
@@ -110,4 +113,5 @@ class CorotationalSheetForce final : public SheetForce {
   std::vector<std::size_t> gather_;
   std::size_t gather_per_cgp_ = 0;
 };
+
 }  // namespace cosim::solid
