@@ -133,7 +133,8 @@ constexpr int kAll = static_cast<int>(CorotationalSheetForce::Coupling::All);
 
 }  // namespace
 
-CorotationalSheetForce::CorotationalSheetForce(const std::vector<SheetBlock>& sheets) {
+CorotationalSheetForce::CorotationalSheetForce(const std::vector<SheetBlock>& sheets,
+                                               Kernels kernels) {
   // One term, before it is batched: its points (model-wide), reference geometry and the
   // group it belongs to.
   struct Pending {
@@ -247,8 +248,9 @@ CorotationalSheetForce::CorotationalSheetForce(const std::vector<SheetBlock>& sh
     }
   }
   for (Group& g : groups_) {
-    const auto is = [&g](int nf, int np, int m, Coupling c) {
-      return g.nf == nf && g.np == np && g.m == m && g.coupling == c;
+    const auto is = [&g, kernels](int nf, int np, int m, Coupling c) {
+      return kernels == Kernels::Compiled && g.nf == nf && g.np == np && g.m == m &&
+             g.coupling == c;
     };
     // The terms of a rectangular sheet (sheet_stiffness.cpp): cells (Q4 and twist), the
     // bulk's, an edge's and the free end's plate stencils, and the clamped row's.

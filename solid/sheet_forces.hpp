@@ -60,7 +60,12 @@ class LinearSheetForce final : public SheetForce {
 /// the tests (tests/support/corotational_reference.hpp), which it matches to round-off.
 class CorotationalSheetForce final : public SheetForce {
  public:
-  explicit CorotationalSheetForce(const std::vector<SheetBlock>& sheets);
+  /// Which kernels evaluate the groups: those compiled for a rectangular sheet's term
+  /// shapes where they fit (the default), or the general one for every group (for the
+  /// tests: the same forces to round-off).
+  enum class Kernels { Compiled, General };
+  explicit CorotationalSheetForce(const std::vector<SheetBlock>& sheets,
+                                  Kernels kernels = Kernels::Compiled);
   double evaluate(const Eigen::Matrix3Xd& x, Eigen::Matrix3Xd& f) const override;
 
   /// How many groups of terms (same shape, coupling and K) evaluate() runs.

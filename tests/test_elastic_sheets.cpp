@@ -128,7 +128,8 @@ TEST(ElasticSheets, RigidRotationGivesZeroForce) {
 // The batched corotational force (terms grouped by shape and K, evaluated a batch of terms
 // at a time) against the per-term evaluation it replaced (support/corotational_reference.hpp)
 // on sheets under a large rotation, a stretch and a random strain: the same forces and
-// energy up to round-off (the sums run in another order).
+// energy up to round-off (the sums run in another order), with the kernels compiled for a
+// rectangular sheet's terms and with the general one (also on couplings those do not cover).
 TEST(CorotationalForce, MatchesPerTermReference) {
   std::vector<SolidConfig> configs;
   configs.push_back(one_sheet(5, 40, 90.0));  // the paper's sheet, clamped
@@ -146,11 +147,32 @@ TEST(CorotationalForce, MatchesPerTermReference) {
   pair.sheets.push_back(second);
   configs.push_back(pair);
   std::mt19937 rng(23);
-  for (std::size_t ci = 0; ci < configs.size(); ++ci) {
-    ElasticSheetModel m(configs[ci], SheetKinematics::Corotational);
-    const CorotationalSheetForce batched(m.sheets());
-    const reference::CorotationalPerTerm per_term(m.sheets());
-    const double h = configs[ci].sheets[0].width_spacing_bohr;
+  for (std::size_t ci = 0; ci < 2 * configs.size(); ++ci) {
+    // The second time round: every group through the general kernel, and the terms of the
+    // first sheet changed to couplings and shapes the compiled kernels do not cover.
+    const bool general = ci >= configs.size();
+    ElasticSheetModel m(configs[ci % configs.size()], SheetKinematics::Corotational);
+    std::vector<SheetBlock> sheets = m.sheets();
+    if (general) {
+      std::uniform_real_distribution<double> coupling(-0.2, 0.2);
+      for (std::size_t t = 0; t < sheets[0].terms.size(); t += 3) {
+        StiffnessTerm& term = sheets[0].terms[t];
+        if (term.frame.size() == 4 && t % 2 == 0) {  // a cell, in-plane only
+          for (Eigen::Index i = 2; i < term.k.rows(); i += 3) {
+            term.k.row(i).setZero();
+            term.k.col(i).setZero();
+          }
+        } else {  // any term: plus a rank-one w w^T coupling every component to every other
+          Eigen::VectorXd w(term.k.rows());
+          for (Eigen::Index i = 0; i < w.size(); ++i) w[i] = coupling(rng);
+          term.k += term.k.cwiseAbs().maxCoeff() * w * w.transpose();
+        }
+      }
+    }
+    const CorotationalSheetForce batched(
+        sheets, general ? CorotationalSheetForce::Kernels::General : CorotationalSheetForce::Kernels::Compiled);
+    const reference::CorotationalPerTerm per_term(sheets);
+    const double h = configs[ci % configs.size()].sheets[0].width_spacing_bohr;
     std::normal_distribution<double> n(0.0, 0.05 * h);
     for (const double angle : {0.0, 0.4, 1.3, 2.9}) {
       const Eigen::Matrix3d q =
