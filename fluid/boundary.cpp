@@ -92,17 +92,16 @@ void fill_outflow(PopulationField& f, const GridLayout& layout, int face, double
     for (int y = r.lo[1]; y <= r.hi[1]; ++y)
       for (int x = r.lo[0]; x <= r.hi[0]; ++x) {
         const std::ptrdiff_t g = layout.index(x, y, z), b = g + src_off;
-        // Moments of the stored (post-collision) populations of the boundary cell b: the
-        // collision conserves rho and j (Eqs. 7-8), so these are the cell's own moments.
         double fb[D3Q19::Q];
         for (int q = 0; q < D3Q19::Q; ++q) fb[q] = f.q(q)[b];
-        const Moments m = moments(fb);
-        const double ux = m.jx / m.rho, uy = m.jy / m.rho, uz = m.jz / m.rho;
-        for (int q = 0; q < D3Q19::Q; ++q) {
-          if (D3Q19::c(q, axis) != inward) continue;
-          f.q(q)[g] = equilibrium(q, rho_out, ux, uy, uz) + fb[q] - equilibrium(q, m.rho, ux, uy, uz);
-        }
+        const OutflowCell cell(fb);
+        for (int q = 0; q < D3Q19::Q; ++q)
+          if (D3Q19::c(q, axis) == inward) f.q(q)[g] = cell.ghost(q, fb, rho_out);
       }
+}
+
+bool is_kernel_outflow(const FaceSpec& spec, int face) {
+  return spec.kind == FaceKind::Outflow && face_axis(face) == 0;
 }
 
 }  // namespace
@@ -112,6 +111,43 @@ void BoundaryConditions::fill_ghosts(PopulationField& f) const {
     if (is_copy(faces_[face].kind)) fill_copy_face(f, face);
   for (int face = 0; face < kFaces; ++face)
     if (!is_copy(faces_[face].kind)) fill_reflect_face(f, face);
+}
+
+void BoundaryConditions::fill_static_ghosts(PopulationField& f) const {
+  for (int face = 0; face < kFaces; ++face)
+    if (faces_[face].kind == FaceKind::Inlet) fill_copy_face(f, face);
+}
+
+void BoundaryConditions::fill_step_ghosts(PopulationField& f) const {
+  for (int face = 0; face < kFaces; ++face)
+    if (is_copy(faces_[face].kind) && faces_[face].kind != FaceKind::Inlet &&
+        !is_kernel_outflow(faces_[face], face))
+      fill_copy_face(f, face);
+  for (int face = 0; face < kFaces; ++face)
+    if (!is_copy(faces_[face].kind)) fill_reflect_face(f, face);
+}
+
+KernelOutflow BoundaryConditions::kernel_outflow() const {
+  KernelOutflow k;
+  k.x_min = is_kernel_outflow(faces_[XMin], XMin);
+  k.x_max = is_kernel_outflow(faces_[XMax], XMax);
+  k.rho_x_min = faces_[XMin].outflow_density;
+  k.rho_x_max = faces_[XMax].outflow_density;
+  return k;
+}
+
+void BoundaryConditions::fill_outflow_ghost(PopulationField& f, int x, int y, int z) const {
+  for (const int face : {XMin, XMax}) {
+    if (!is_kernel_outflow(faces_[face], face)) continue;
+    const int side = face_side(face), inward = side == 0 ? 1 : -1;
+    if (x != (side == 0 ? 0 : layout_.nx() - 1)) continue;
+    const std::ptrdiff_t b = layout_.index(x, y, z), g = b - inward;
+    double fb[D3Q19::Q];
+    for (int q = 0; q < D3Q19::Q; ++q) fb[q] = f.q(q)[b];
+    const OutflowCell cell(fb);
+    for (int q = 0; q < D3Q19::Q; ++q)
+      if (D3Q19::cx[q] == inward) f.q(q)[g] = cell.ghost(q, fb, faces_[face].outflow_density);
+  }
 }
 
 void BoundaryConditions::fill_copy_face(PopulationField& f, int face) const {

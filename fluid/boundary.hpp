@@ -4,8 +4,10 @@
 #include <array>
 #include <string>
 
+#include "fluid/equilibrium.hpp"
 #include "fluid/grid_layout.hpp"
 #include "fluid/population_field.hpp"
+#include "fluid/stream_collide.hpp"
 
 namespace cosim::fluid {
 
@@ -41,6 +43,22 @@ struct FaceSpec {
 /// Blasius layer, U (2 e - 2 e^3 + e^4) with e = (y + 1/2) / delta, smooth (C^2 at e = 1).
 double inlet_profile(const FaceSpec& face, double y);
 
+/// The outflow ghost of one boundary cell b by non-equilibrium extrapolation at a reference
+/// density (Guo, Zheng and Shi 2002): from the 19 post-collision populations f*(b), whose
+/// moments are the cell's own (the collision conserves rho and j, Eqs. 7-8),
+///   ghost_q = f_eq_q(rho_out, u_b) + f*_q(b) - f_eq_q(rho_b, u_b)     (f_eq: Eq. 11).
+/// One function for the ghost-fill pass and the kernel that writes x outflows on the fly
+/// (stream_collide), so that both give the same bits.
+struct OutflowCell {
+  Moments m;
+  double ux, uy, uz;
+  explicit OutflowCell(const double* fb)
+      : m(moments(fb)), ux(m.jx / m.rho), uy(m.jy / m.rho), uz(m.jz / m.rho) {}
+  double ghost(int q, const double* fb, double rho_out) const {
+    return equilibrium(q, rho_out, ux, uy, uz) + fb[q] - equilibrium(q, m.rho, ux, uy, uz);
+  }
+};
+
 /// Fills the ghost layer of a field of post-collision populations so that a pull
 /// (f_q(x) = f*_q(x - c_q)) at every interior cell realises the boundary conditions:
 ///  - Periodic: copy from the opposite face.
@@ -65,7 +83,25 @@ class BoundaryConditions {
   /// Empty string if the set is consistent, else a sentence naming the problem.
   static std::string check(const std::array<FaceSpec, kFaces>& faces);
 
+  /// Every ghost of `f`, face by face as described above.
   void fill_ghosts(PopulationField& f) const;
+
+  /// What a step needs, split (fluid_solver.cpp): the inlet ghosts are equilibria at a fixed
+  /// density and velocity, the same at every step, so fill_static_ghosts writes them once
+  /// per field; the outflows on x faces are written by the kernel as it stores each row's
+  /// boundary cell (kernel_outflow()); fill_step_ghosts fills the rest, in the order of
+  /// fill_ghosts. Together they leave every ghost that a pull reads with the bits that
+  /// fill_ghosts gives (test_lbm_invariants: FusedStepMatchesGhostFillStep).
+  void fill_static_ghosts(PopulationField& f) const;
+  /// @pre fill_static_ghosts(f) (or fill_ghosts(f)) was called once on this field, and the
+  ///      kernel that wrote f's interior was given kernel_outflow()
+  void fill_step_ghosts(PopulationField& f) const;
+  KernelOutflow kernel_outflow() const;
+  /// The x-outflow ghost of one boundary cell (x = 0 or nx - 1 next to an outflow face;
+  /// nothing elsewhere), after the cell's populations were changed (a collision with an
+  /// immersed-boundary force).
+  void fill_outflow_ghost(PopulationField& f, int x, int y, int z) const;
+
   const FaceSpec& face(int f) const { return faces_[f]; }
 
  private:

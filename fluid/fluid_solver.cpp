@@ -29,6 +29,7 @@ void FluidSolver::initialize(const InitialState& state) {
         for (int q = 0; q < D3Q19::Q; ++q) f_.q(q)[i] = equilibrium(q, c.rho, c.ux, c.uy, c.uz);
       }
   bc_.fill_ghosts(f_);
+  bc_.fill_static_ghosts(g_);
 }
 
 void FluidSolver::initialize_uniform(double rho, const std::array<double, 3>& u) {
@@ -49,10 +50,12 @@ void FluidSolver::add_force(int x, int y, int z, double fx, double fy, double fz
 }
 
 void FluidSolver::step() {
-  stream_collide(f_, g_, params_.tau, params_.body_force);
+  // Boundaries (BoundaryConditions): the kernel writes the x outflows, the inlets stay from
+  // fill_static_ghosts, the rest is filled after the swap.
+  stream_collide(f_, g_, params_.tau, params_.body_force, Stores::Auto, bc_.kernel_outflow());
   apply_local_forces();
   std::swap(f_, g_);
-  bc_.fill_ghosts(f_);
+  bc_.fill_step_ghosts(f_);
   ++steps_;
 }
 
@@ -71,6 +74,13 @@ void FluidSolver::apply_local_forces() {
       f[q] = f_.q(q)[i - layout_.offset(D3Q19::cx[q], D3Q19::cy[q], D3Q19::cz[q])];
     bgk.collide(f, F[0] + fx_[i], F[1] + fy_[i], F[2] + fz_[i]);
     for (int q = 0; q < D3Q19::Q; ++q) g_.q(q)[i] = f[q];
+  }
+  // The kernel wrote the x-outflow ghosts from the cells as it collided them.
+  const std::ptrdiff_t sx = layout_.row_stride(), plane = layout_.plane_stride();
+  for (const std::ptrdiff_t i : forced_) {
+    const int x = int(i % sx) - GridLayout::kFrontPad;
+    if (x == 0 || x == layout_.nx() - 1)
+      bc_.fill_outflow_ghost(g_, x, int(i % plane / sx) - 1, int(i / plane) - 1);
   }
   for (const std::ptrdiff_t i : forced_) fx_[i] = fy_[i] = fz_[i] = 0.0;
   forced_.clear();

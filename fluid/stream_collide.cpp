@@ -3,6 +3,7 @@
 #include <cstddef>
 #include <utility>
 
+#include "fluid/boundary.hpp"
 #include "fluid/d3q19.hpp"
 #include "fluid/lanes.hpp"
 
@@ -171,11 +172,24 @@ template <bool kForce>
   relax_pairs<kForce>(f, v, k, pairs);
 }
 
+/// The outflow ghost (fluid/boundary.hpp, OutflowCell) of the cell in lane `lane` of the
+/// post-collision group f: populations entering through the face (c_x = inward) stored at
+/// g + q stride, g the ghost cell in population 0 of dst.
+inline void store_outflow_ghost(const Lanes (&f)[L::Q], int lane, double* g,
+                                std::ptrdiff_t stride, int inward, double rho_out) {
+  double fb[L::Q];
+  for (int q = 0; q < L::Q; ++q) fb[q] = f[q][lane];
+  const OutflowCell cell(fb);
+  for (int q = 0; q < L::Q; ++q)
+    if (L::cx[q] == inward) g[q * stride] = cell.ghost(q, fb, rho_out);
+}
+
 /// The interior of the block row by row (OpenMP), kLanes cells of x at a time; the last,
-/// partial group of a row goes through a padded copy.
+/// partial group of a row goes through a padded copy. Outflow ghosts on x faces as the row's
+/// first and last cells are stored (KernelOutflow).
 template <bool kForce, bool kStream>
 void update_rows(const PopulationField& src, PopulationField& dst, double tau,
-                 const std::array<double, 3>& F) {
+                 const std::array<double, 3>& F, const KernelOutflow& out) {
   const GridLayout& lay = src.layout();
   const int nx = lay.nx(), ny = lay.ny();
   const std::ptrdiff_t rows = std::ptrdiff_t(ny) * lay.nz();
@@ -200,6 +214,7 @@ void update_rows(const PopulationField& src, PopulationField& dst, double tau,
 #pragma GCC unroll 19
         for (int q = 0; q < L::Q; ++q) f[q] = load(s + pull[q] + x);
         collide<kForce>(f, k);
+        if (out.x_min && x == 0) store_outflow_ghost(f, 0, d - 1, stride, 1, out.rho_x_min);
 #pragma GCC unroll 19
         for (int q = 0; q < L::Q; ++q) {
           if constexpr (kStream) store_stream(d + q * stride + x, f[q]);
@@ -210,7 +225,13 @@ void update_rows(const PopulationField& src, PopulationField& dst, double tau,
         const int n = nx - full;
         for (int q = 0; q < L::Q; ++q) f[q] = load_partial(s + pull[q] + full, n);
         collide<kForce>(f, k);
+        if (out.x_min && full == 0) store_outflow_ghost(f, 0, d - 1, stride, 1, out.rho_x_min);
         for (int q = 0; q < L::Q; ++q) store_partial(d + q * stride + full, f[q], n);
+      }
+      // f still holds the row's last group, the one with x = nx - 1.
+      if (out.x_max) {
+        const int last = full < nx ? full : full - kLanes;
+        store_outflow_ghost(f, nx - 1 - last, d + nx, stride, -1, out.rho_x_max);
       }
     }
     if constexpr (kStream) store_fence();  // before the barrier: others read dst next
@@ -226,14 +247,15 @@ bool uses_streaming_stores(const GridLayout& layout, Stores stores) {
 }
 
 void stream_collide(const PopulationField& src, PopulationField& dst, double tau,
-                    const std::array<double, 3>& force, Stores stores) {
+                    const std::array<double, 3>& force, Stores stores,
+                    const KernelOutflow& outflow) {
   const bool nt = uses_streaming_stores(src.layout(), stores);
   if (force[0] == 0.0 && force[1] == 0.0 && force[2] == 0.0)
-    nt ? update_rows<false, true>(src, dst, tau, force)
-       : update_rows<false, false>(src, dst, tau, force);
+    nt ? update_rows<false, true>(src, dst, tau, force, outflow)
+       : update_rows<false, false>(src, dst, tau, force, outflow);
   else
-    nt ? update_rows<true, true>(src, dst, tau, force)
-       : update_rows<true, false>(src, dst, tau, force);
+    nt ? update_rows<true, true>(src, dst, tau, force, outflow)
+       : update_rows<true, false>(src, dst, tau, force, outflow);
 }
 
 }  // namespace cosim::fluid

@@ -20,8 +20,21 @@ enum class Stores {
   Cached,     ///< ordinary stores
   Streaming,  ///< non-temporal stores (ordinary where the target has none)
 };
+
+/// Outflow faces normal to x whose ghosts the kernel writes itself: when it stores a row's
+/// boundary cell (x = 0 or nx - 1) it also stores the outflow ghost of that row (x = -1 or
+/// nx) from the post-collision populations still in registers (OutflowCell in
+/// fluid/boundary.hpp, the arithmetic of the ghost fill), instead of a separate pass that
+/// reads the boundary cells back from memory. BoundaryConditions::kernel_outflow() says
+/// which faces; default: none.
+struct KernelOutflow {
+  bool x_min = false, x_max = false;
+  double rho_x_min = 1.0, rho_x_max = 1.0;  ///< reference densities (FaceSpec::outflow_density)
+};
+
 void stream_collide(const PopulationField& src, PopulationField& dst, double tau,
-                    const std::array<double, 3>& force, Stores stores = Stores::Auto);
+                    const std::array<double, 3>& force, Stores stores = Stores::Auto,
+                    const KernelOutflow& outflow = {});
 
 /// Population fields from this size on (bytes, 19 populations with ghosts) are written with
 /// non-temporal stores: they cannot stay in cache between steps, and skipping the read for
