@@ -83,7 +83,8 @@ PlaneRange plane_range(const GridLayout& L, int axis, bool all_ghosts) {
 
 /// Outflow ghost plane (see BoundaryConditions): non-equilibrium extrapolation at the
 /// reference density, from the boundary cell b = g + src_off.
-void fill_outflow(PopulationField& f, const GridLayout& layout, int face, double rho_out,
+template <class T>
+void fill_outflow(BasicPopulationField<T>& f, const GridLayout& layout, int face, double rho_out,
                   const PlaneRange& r, std::ptrdiff_t src_off) {
   const int axis = face_axis(face);
   const int inward = face_side(face) == 0 ? 1 : -1;
@@ -96,7 +97,7 @@ void fill_outflow(PopulationField& f, const GridLayout& layout, int face, double
         for (int q = 0; q < D3Q19::Q; ++q) fb[q] = f.q(q)[b];
         const OutflowCell cell(fb);
         for (int q = 0; q < D3Q19::Q; ++q)
-          if (D3Q19::c(q, axis) == inward) f.q(q)[g] = cell.ghost(q, fb, rho_out);
+          if (D3Q19::c(q, axis) == inward) f.q(q)[g] = static_cast<T>(cell.ghost(q, fb, rho_out));
       }
 }
 
@@ -106,19 +107,22 @@ bool is_kernel_outflow(const FaceSpec& spec, int face) {
 
 }  // namespace
 
-void BoundaryConditions::fill_ghosts(PopulationField& f) const {
+template <class T>
+void BoundaryConditions::fill_ghosts(BasicPopulationField<T>& f) const {
   for (int face = 0; face < kFaces; ++face)
     if (is_copy(faces_[face].kind)) fill_copy_face(f, face);
   for (int face = 0; face < kFaces; ++face)
     if (!is_copy(faces_[face].kind)) fill_reflect_face(f, face);
 }
 
-void BoundaryConditions::fill_static_ghosts(PopulationField& f) const {
+template <class T>
+void BoundaryConditions::fill_static_ghosts(BasicPopulationField<T>& f) const {
   for (int face = 0; face < kFaces; ++face)
     if (faces_[face].kind == FaceKind::Inlet) fill_copy_face(f, face);
 }
 
-void BoundaryConditions::fill_step_ghosts(PopulationField& f) const {
+template <class T>
+void BoundaryConditions::fill_step_ghosts(BasicPopulationField<T>& f) const {
   for (int face = 0; face < kFaces; ++face)
     if (is_copy(faces_[face].kind) && faces_[face].kind != FaceKind::Inlet &&
         !is_kernel_outflow(faces_[face], face))
@@ -136,7 +140,8 @@ KernelOutflow BoundaryConditions::kernel_outflow() const {
   return k;
 }
 
-void BoundaryConditions::fill_outflow_ghost(PopulationField& f, int x, int y, int z) const {
+template <class T>
+void BoundaryConditions::fill_outflow_ghost(BasicPopulationField<T>& f, int x, int y, int z) const {
   for (const int face : {XMin, XMax}) {
     if (!is_kernel_outflow(faces_[face], face)) continue;
     const int side = face_side(face), inward = side == 0 ? 1 : -1;
@@ -146,11 +151,13 @@ void BoundaryConditions::fill_outflow_ghost(PopulationField& f, int x, int y, in
     for (int q = 0; q < D3Q19::Q; ++q) fb[q] = f.q(q)[b];
     const OutflowCell cell(fb);
     for (int q = 0; q < D3Q19::Q; ++q)
-      if (D3Q19::cx[q] == inward) f.q(q)[g] = cell.ghost(q, fb, faces_[face].outflow_density);
+      if (D3Q19::cx[q] == inward)
+        f.q(q)[g] = static_cast<T>(cell.ghost(q, fb, faces_[face].outflow_density));
   }
 }
 
-void BoundaryConditions::fill_copy_face(PopulationField& f, int face) const {
+template <class T>
+void BoundaryConditions::fill_copy_face(BasicPopulationField<T>& f, int face) const {
   const FaceSpec& spec = faces_[face];
   const int axis = face_axis(face), side = face_side(face);
   const int n[3] = {layout_.nx(), layout_.ny(), layout_.nz()};
@@ -183,14 +190,16 @@ void BoundaryConditions::fill_copy_face(PopulationField& f, int face) const {
           double vel[3] = {0.0, 0.0, 0.0};
           vel[axis] = inward * inlet_profile(spec, y);
           for (int i = 0; i < nq; ++i)
-            f.q(qs[i])[g] = equilibrium(qs[i], spec.inlet_density, vel[0], vel[1], vel[2]);
+            f.q(qs[i])[g] =
+                static_cast<T>(equilibrium(qs[i], spec.inlet_density, vel[0], vel[1], vel[2]));
         } else {  // Periodic
           for (int i = 0; i < nq; ++i) f.q(qs[i])[g] = f.q(qs[i])[g + src_off];
         }
       }
 }
 
-void BoundaryConditions::fill_reflect_face(PopulationField& f, int face) const {
+template <class T>
+void BoundaryConditions::fill_reflect_face(BasicPopulationField<T>& f, int face) const {
   const FaceSpec& spec = faces_[face];
   const int axis = face_axis(face), side = face_side(face);
   const int n[3] = {layout_.nx(), layout_.ny(), layout_.nz()};
@@ -213,14 +222,14 @@ void BoundaryConditions::fill_reflect_face(PopulationField& f, int face) const {
       const double moving = 6.0 * D3Q19::w[q] *
                             (D3Q19::cx[q] * U[0] + D3Q19::cy[q] * U[1] + D3Q19::cz[q] * U[2]);
       const std::ptrdiff_t back = layout_.offset(-D3Q19::cx[q], -D3Q19::cy[q], -D3Q19::cz[q]);
-      double* fq = f.q(q);
-      const double* fo = f.q(o);
+      T* fq = f.q(q);
+      const T* fo = f.q(o);
 #pragma omp parallel for collapse(2) schedule(static)
       for (int z = r.lo[2]; z <= r.hi[2]; ++z)
         for (int y = r.lo[1]; y <= r.hi[1]; ++y)
           for (int x = r.lo[0]; x <= r.hi[0]; ++x) {
             const std::ptrdiff_t c = layout_.index(x, y, z);
-            fq[c + back] = fo[c] + moving;
+            fq[c + back] = static_cast<T>(fo[c] + moving);
           }
     }
   } else {  // FreeSlip
@@ -231,8 +240,8 @@ void BoundaryConditions::fill_reflect_face(PopulationField& f, int face) const {
     const std::ptrdiff_t in_off = layout_.offset(in[0], in[1], in[2]);
     for (int i = 0; i < nq; ++i) {
       const int q = qs[i], m = D3Q19::mirror(q, axis);
-      double* fq = f.q(q);
-      const double* fm = f.q(m);
+      T* fq = f.q(q);
+      const T* fm = f.q(m);
 #pragma omp parallel for collapse(2) schedule(static)
       for (int z = r.lo[2]; z <= r.hi[2]; ++z)
         for (int y = r.lo[1]; y <= r.hi[1]; ++y)
@@ -243,5 +252,14 @@ void BoundaryConditions::fill_reflect_face(PopulationField& f, int face) const {
     }
   }
 }
+
+template void BoundaryConditions::fill_ghosts(PopulationField&) const;
+template void BoundaryConditions::fill_static_ghosts(PopulationField&) const;
+template void BoundaryConditions::fill_step_ghosts(PopulationField&) const;
+template void BoundaryConditions::fill_outflow_ghost(PopulationField&, int, int, int) const;
+template void BoundaryConditions::fill_ghosts(PopulationFieldSingle&) const;
+template void BoundaryConditions::fill_static_ghosts(PopulationFieldSingle&) const;
+template void BoundaryConditions::fill_step_ghosts(PopulationFieldSingle&) const;
+template void BoundaryConditions::fill_outflow_ghost(PopulationFieldSingle&, int, int, int) const;
 
 }  // namespace cosim::fluid

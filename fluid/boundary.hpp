@@ -74,7 +74,8 @@ struct OutflowCell {
 ///  - FreeSlip: specular reflection, f_q(x) = f*_mirror(q)(x - c_q + c_q,n n).
 /// Copy-type faces are filled axis by axis (x, y, z), each over the ghosts of the axes
 /// before it, so edges and corners come out right; reflecting faces go last and read only
-/// what is already valid.
+/// what is already valid. Either store precision (T = double or float): values are computed
+/// in double from the stored ones and rounded once when stored.
 class BoundaryConditions {
  public:
   BoundaryConditions() = default;
@@ -84,7 +85,8 @@ class BoundaryConditions {
   static std::string check(const std::array<FaceSpec, kFaces>& faces);
 
   /// Every ghost of `f`, face by face as described above.
-  void fill_ghosts(PopulationField& f) const;
+  template <class T>
+  void fill_ghosts(BasicPopulationField<T>& f) const;
 
   /// What a step needs, split (fluid_solver.cpp): the inlet ghosts are equilibria at a fixed
   /// density and velocity, the same at every step, so fill_static_ghosts writes them once
@@ -92,21 +94,26 @@ class BoundaryConditions {
   /// boundary cell (kernel_outflow()); fill_step_ghosts fills the rest, in the order of
   /// fill_ghosts. Together they leave every ghost that a pull reads with the bits that
   /// fill_ghosts gives (test_lbm_invariants: FusedStepMatchesGhostFillStep).
-  void fill_static_ghosts(PopulationField& f) const;
+  template <class T>
+  void fill_static_ghosts(BasicPopulationField<T>& f) const;
   /// @pre fill_static_ghosts(f) (or fill_ghosts(f)) was called once on this field, and the
   ///      kernel that wrote f's interior was given kernel_outflow()
-  void fill_step_ghosts(PopulationField& f) const;
+  template <class T>
+  void fill_step_ghosts(BasicPopulationField<T>& f) const;
   KernelOutflow kernel_outflow() const;
   /// The x-outflow ghost of one boundary cell (x = 0 or nx - 1 next to an outflow face;
   /// nothing elsewhere), after the cell's populations were changed (a collision with an
   /// immersed-boundary force).
-  void fill_outflow_ghost(PopulationField& f, int x, int y, int z) const;
+  template <class T>
+  void fill_outflow_ghost(BasicPopulationField<T>& f, int x, int y, int z) const;
 
   const FaceSpec& face(int f) const { return faces_[f]; }
 
  private:
-  void fill_copy_face(PopulationField& f, int face) const;
-  void fill_reflect_face(PopulationField& f, int face) const;
+  template <class T>
+  void fill_copy_face(BasicPopulationField<T>& f, int face) const;
+  template <class T>
+  void fill_reflect_face(BasicPopulationField<T>& f, int face) const;
 
   GridLayout layout_;
   std::array<FaceSpec, kFaces> faces_{};

@@ -35,8 +35,13 @@ struct KernelOutflow {
 void stream_collide(const PopulationField& src, PopulationField& dst, double tau,
                     const std::array<double, 3>& force, Stores stores = Stores::Auto,
                     const KernelOutflow& outflow = {});
+/// The same for the single-precision store: loads convert to double, the collision is the
+/// double one, stores round to float.
+void stream_collide(const PopulationFieldSingle& src, PopulationFieldSingle& dst, double tau,
+                    const std::array<double, 3>& force, Stores stores = Stores::Auto,
+                    const KernelOutflow& outflow = {});
 
-/// Population fields from this size on (bytes, 19 populations with ghosts) are written with
+/// Population fields from this size on (bytes, 19 populations with ghosts, either precision) are written with
 /// non-temporal stores: they cannot stay in cache between steps, and skipping the read for
 /// ownership cuts the traffic per update from 456 to 304 bytes. Smaller fields are reused
 /// from cache, where ordinary stores are faster (measured: docs/performance.md).
@@ -44,6 +49,7 @@ constexpr std::size_t kStreamingStoresFrom = std::size_t(32) << 20;
 
 /// Whether stream_collide(..., stores) writes fields of this layout with non-temporal
 /// stores (never where the target has none, see kHasStreamingStores in fluid/lanes.hpp).
-bool uses_streaming_stores(const GridLayout& layout, Stores stores = Stores::Auto);
+bool uses_streaming_stores(const GridLayout& layout, Stores stores = Stores::Auto,
+                           std::size_t value_bytes = sizeof(double));
 
 }  // namespace cosim::fluid
