@@ -28,7 +28,7 @@ class GridLayout {
   explicit GridLayout(GridShape s, int values_per_line = kLineBytes / 8)
       : shape_(s),
         align_(values_per_line),
-        sx_(round_up(align_ + s.nx + 1, align_)),
+        sx_(row_values(s.nx, values_per_line)),
         sy_(s.ny + 2),
         sz_(s.nz + 2) {}
 
@@ -44,7 +44,9 @@ class GridLayout {
   /// populations of a cell sit on 19 different line offsets within a 4 KiB page (fewer
   /// 4K-aliasing and cache-set conflicts between the kernel's streams; docs/performance.md).
   std::size_t stride() const {
-    const std::size_t lines = std::size_t(sx_) * sy_ * sz_ / align_;
+    // The compact rows (row_values) need one line more after the last row for its x = nx.
+    const std::size_t tail = align_ == kLineBytes / 8 ? 0 : 1;
+    const std::size_t lines = std::size_t(sx_) * sy_ * sz_ / align_ + tail;
     return (lines | 1) * align_;
   }
   std::ptrdiff_t row_stride() const { return sx_; }
@@ -61,6 +63,15 @@ class GridLayout {
 
  private:
   static int round_up(int v, int m) { return (v + m - 1) / m * m; }
+  /// Values from one row's x = 0 to the next's. A row needs nx + 2 (two ghosts); the x = nx
+  /// ghost may share a line with the next row's x = -1 ghost, so nx + 2 rounded up to whole
+  /// lines is enough, and the single store takes that (half the double store's bytes on
+  /// small grids too). The double store keeps one line more (its first layout), so that its
+  /// checkpoints keep their size.
+  static int row_values(int nx, int per_line) {
+    return per_line == kLineBytes / 8 ? round_up(per_line + nx + 1, per_line)
+                                      : round_up(nx + 2, per_line);
+  }
   GridShape shape_;
   int align_ = kLineBytes / 8;
   int sx_ = 0, sy_ = 0, sz_ = 0;
