@@ -91,6 +91,21 @@ inline void store_stream(float* p, LanesSingle w) {
 #endif
 }
 
+inline LanesSingle to_single(Lanes v) { return __builtin_convertvector(v, LanesSingle); }
+
+inline LanesSingle load_aligned_single(const float* p) {
+  return *static_cast<const LanesSingle*>(__builtin_assume_aligned(p, sizeof(LanesSingle)));
+}
+
+#if defined(__AVX512F__)
+/// Two groups of 8 floats, lo then hi, as one 64-byte non-temporal store to an aligned p.
+inline void store_stream_pair(float* p, LanesSingle lo, LanesSingle hi) {
+  using Line = float __attribute__((vector_size(64)));
+  const Line v = __builtin_shufflevector(lo, hi, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+  _mm512_stream_ps(p, reinterpret_cast<__m512>(v));
+}
+#endif
+
 /// One 64-byte line of floats from an aligned buffer to an aligned address p, with the
 /// widest non-temporal store the target has (AVX-512: one, AVX: two, SSE2: four).
 inline void store_stream_line(float* p, const float* line) {

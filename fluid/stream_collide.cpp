@@ -238,11 +238,25 @@ void update_rows(const BasicPopulationField<T>& src, BasicPopulationField<T>& ds
             for (int q = 0; q < L::Q; ++q) f[q] = load(s + pull[q] + xg);
             collide<kForce>(f, k);
             edges(xg, kLanes);
+            if (g + 1 < kLineGroups) {
 #pragma GCC unroll 19
-            for (int q = 0; q < L::Q; ++q) store_aligned(line[q] + g * kLanes, f[q]);
+              for (int q = 0; q < L::Q; ++q) store_aligned(line[q] + g * kLanes, f[q]);
+            }
           }
+          // The last group goes from registers: a 64-byte load of a line that was just
+          // stored as two halves would wait for the stores (no store forwarding).
+#if defined(__AVX512F__)
+          static_assert(kLineGroups == 2);
 #pragma GCC unroll 19
-          for (int q = 0; q < L::Q; ++q) store_stream_line(d + q * stride + x, line[q]);
+          for (int q = 0; q < L::Q; ++q)
+            store_stream_pair(d + q * stride + x, load_aligned_single(line[q]), to_single(f[q]));
+#else
+#pragma GCC unroll 19
+          for (int q = 0; q < L::Q; ++q) {
+            store_aligned(line[q] + (kLineGroups - 1) * kLanes, f[q]);
+            store_stream_line(d + q * stride + x, line[q]);
+          }
+#endif
         }
       }
       for (; x + kLanes <= nx; x += kLanes) {
