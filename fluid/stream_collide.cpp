@@ -192,10 +192,11 @@ inline void store_outflow_ghost(const Lanes (&f)[L::Q], int lane, T* g, std::ptr
 /// first and last cells are stored (KernelOutflow).
 ///
 /// Non-temporal stores must fill whole 64-byte lines back to back, or the write-combining
-/// buffers, shared by the 19 streams, flush partial lines (measured: the single store ran
-/// at a third of its roofline). A group of kLanes doubles is one line with AVX-512; a group
-/// of floats is half a line, so the single store collides the groups of a line first, keeps
-/// their results in a small buffer (L1) and then streams each population's line in one go.
+/// buffers, shared by the 19 streams, flush partial lines (a first single store that wrote
+/// half lines was slower than the double one). A group of kLanes doubles is one line with
+/// AVX-512; a group of floats is half a line, so the single store collides the groups of a
+/// line first, keeps all but the last in a small buffer (L1) and then streams each
+/// population's line in one go.
 template <class T, bool kForce, bool kStream>
 void update_rows(const BasicPopulationField<T>& src, BasicPopulationField<T>& dst, double tau,
                  const std::array<double, 3>& F, const KernelOutflow& out) {
