@@ -88,7 +88,7 @@ void fill_outflow(BasicPopulationField<T>& f, const GridLayout& layout, int face
                   const PlaneRange& r, std::ptrdiff_t src_off) {
   const int axis = face_axis(face);
   const int inward = face_side(face) == 0 ? 1 : -1;
-#pragma omp for collapse(2) schedule(static)
+#pragma omp for collapse(2) schedule(static) nowait
   for (int z = r.lo[2]; z <= r.hi[2]; ++z)
     for (int y = r.lo[1]; y <= r.hi[1]; ++y)
       for (int x = r.lo[0]; x <= r.hi[0]; ++x) {
@@ -109,13 +109,20 @@ bool is_kernel_outflow(const FaceSpec& spec, int face) {
 
 template <class T>
 void BoundaryConditions::fill_ghosts(BasicPopulationField<T>& f) const {
-  // One parallel region; each plane is a worksharing loop, whose barrier orders the faces.
+  // One parallel region; the loops of a face (one per population) run without waiting for
+  // each other, and one barrier after each face keeps the faces in order.
 #pragma omp parallel
   {
     for (int face = 0; face < kFaces; ++face)
-      if (is_copy(faces_[face].kind)) fill_copy_face(f, face);
+      if (is_copy(faces_[face].kind)) {
+        fill_copy_face(f, face);
+#pragma omp barrier
+      }
     for (int face = 0; face < kFaces; ++face)
-      if (!is_copy(faces_[face].kind)) fill_reflect_face(f, face);
+      if (!is_copy(faces_[face].kind)) {
+        fill_reflect_face(f, face);
+#pragma omp barrier
+      }
   }
 }
 
@@ -123,7 +130,10 @@ template <class T>
 void BoundaryConditions::fill_static_ghosts(BasicPopulationField<T>& f) const {
 #pragma omp parallel
   for (int face = 0; face < kFaces; ++face)
-    if (faces_[face].kind == FaceKind::Inlet) fill_copy_face(f, face);
+    if (faces_[face].kind == FaceKind::Inlet) {
+      fill_copy_face(f, face);
+#pragma omp barrier
+    }
 }
 
 template <class T>
@@ -132,10 +142,15 @@ void BoundaryConditions::fill_step_ghosts(BasicPopulationField<T>& f) const {
   {
     for (int face = 0; face < kFaces; ++face)
       if (is_copy(faces_[face].kind) && faces_[face].kind != FaceKind::Inlet &&
-          !is_kernel_outflow(faces_[face], face))
+          !is_kernel_outflow(faces_[face], face)) {
         fill_copy_face(f, face);
+#pragma omp barrier
+      }
     for (int face = 0; face < kFaces; ++face)
-      if (!is_copy(faces_[face].kind)) fill_reflect_face(f, face);
+      if (!is_copy(faces_[face].kind)) {
+        fill_reflect_face(f, face);
+#pragma omp barrier
+      }
   }
 }
 
@@ -189,7 +204,7 @@ void BoundaryConditions::fill_copy_face(BasicPopulationField<T>& f, int face) co
     return;
   }
 
-#pragma omp for collapse(2) schedule(static)
+#pragma omp for collapse(2) schedule(static) nowait
   for (int z = r.lo[2]; z <= r.hi[2]; ++z)
     for (int y = r.lo[1]; y <= r.hi[1]; ++y)
       for (int x = r.lo[0]; x <= r.hi[0]; ++x) {
@@ -232,7 +247,7 @@ void BoundaryConditions::fill_reflect_face(BasicPopulationField<T>& f, int face)
       const std::ptrdiff_t back = layout_.offset(-D3Q19::cx[q], -D3Q19::cy[q], -D3Q19::cz[q]);
       T* fq = f.q(q);
       const T* fo = f.q(o);
-#pragma omp for collapse(2) schedule(static)
+#pragma omp for collapse(2) schedule(static) nowait
       for (int z = r.lo[2]; z <= r.hi[2]; ++z)
         for (int y = r.lo[1]; y <= r.hi[1]; ++y)
           for (int x = r.lo[0]; x <= r.hi[0]; ++x) {
@@ -250,7 +265,7 @@ void BoundaryConditions::fill_reflect_face(BasicPopulationField<T>& f, int face)
       const int q = qs[i], m = D3Q19::mirror(q, axis);
       T* fq = f.q(q);
       const T* fm = f.q(m);
-#pragma omp for collapse(2) schedule(static)
+#pragma omp for collapse(2) schedule(static) nowait
       for (int z = r.lo[2]; z <= r.hi[2]; ++z)
         for (int y = r.lo[1]; y <= r.hi[1]; ++y)
           for (int x = r.lo[0]; x <= r.hi[0]; ++x) {

@@ -110,8 +110,8 @@ class BoundaryConditions {
   const FaceSpec& face(int f) const { return faces_[f]; }
 
  private:
-  // Called inside a parallel region: their plane loops are worksharing loops (each ends
-  // with a barrier, which orders the faces).
+  // Called inside a parallel region: their plane loops are worksharing loops without a
+  // barrier (the loops of one face are independent); the caller puts one after each face.
   template <class T>
   void fill_copy_face(BasicPopulationField<T>& f, int face) const;
   template <class T>
