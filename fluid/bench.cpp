@@ -1,7 +1,9 @@
 // Fluid throughput benchmark (DESIGN 7): million lattice updates per second (MLUPS) of
 // FluidSolver::step() on a periodic box and on the paper's channel grid, beside the STREAM
 // copy bandwidth measured in the same run, and the fraction of the memory-bandwidth
-// roofline reached. Prints a plain table of medians; see docs/performance.md.
+// roofline reached; the immersed boundary of the paper's sheet (200 markers: interpolation,
+// spreading and a step with the spread forces) timed on its own; double or single precision
+// store. Prints a plain table of medians; see docs/performance.md.
 #include <omp.h>
 
 #include <CLI/CLI.hpp>
@@ -14,20 +16,23 @@
 #include <memory>
 #include <new>
 #include <string>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
 #include "fluid/d3q19.hpp"
 #include "fluid/fluid_solver.hpp"
+#include "fluid/immersed_boundary.hpp"
 #include "fluid/lanes.hpp"
 #include "fluid/stream_collide.hpp"
 
 namespace cosim::fluid {
 namespace {
 
-/// Bytes per lattice update counted the way STREAM counts copy traffic: 19 doubles read
-/// and 19 doubles written (write-allocate not counted, as STREAM does not count it).
-constexpr double kBytesPerUpdate = 2.0 * D3Q19::Q * sizeof(double);
+/// Bytes per lattice update counted the way STREAM counts copy traffic: 19 values read and
+/// 19 written (write-allocate not counted, as STREAM does not count it): 304 for the double
+/// store, 152 for the single one.
+double bytes_per_update(Precision p) { return 2.0 * D3Q19::Q * double(bytes_per_value(p)); }
 
 using Clock = std::chrono::steady_clock;
 
@@ -72,8 +77,21 @@ Case paper_channel() {
 }
 
 /// Bytes of one population field (19 populations with ghosts) of a grid.
-std::size_t field_bytes(const Case& c) {
-  return std::size_t(D3Q19::Q) * GridLayout(c.params.shape).stride() * sizeof(double);
+std::size_t field_bytes(const Case& c, Precision p) {
+  return std::size_t(D3Q19::Q) * layout_of(c.params.shape, p).stride() * bytes_per_value(p);
+}
+
+/// The paper's single sheet at 90 deg as immersed-boundary markers (lattice units): 5 x 40
+/// CGPs, spacing 0.24 um across (z) and 0.22 um up (y) at dx = 0.2561 um, the bottom row on
+/// the plate (y = -1/2), a quarter of the way down the channel, centred in z
+/// (scenes/paper/single_theta90_re40.toml).
+std::vector<Vec3> paper_sheet_markers(const GridShape& g) {
+  constexpr double dx_um = 0.2561, across = 0.24 / dx_um, up = 0.22 / dx_um;
+  std::vector<Vec3> X;
+  for (int j = 0; j < 40; ++j)
+    for (int i = 0; i < 5; ++i)
+      X.push_back({0.25 * g.nx, -0.5 + up * (j + 0.5), 0.5 * g.nz + across * (i - 2)});
+  return X;
 }
 
 /// STREAM "copy" b[i] = a[i], kLanes doubles at a time with the kernel's loads and stores
@@ -135,29 +153,50 @@ struct Options {
   int repeat = 5;
   std::vector<int> threads{1, 2};
   std::vector<std::string> grids{"box", "paper"};
+  std::vector<Precision> precisions{Precision::Double};
   Stores stores = Stores::Auto;
+  bool ib = true;
 };
 
 struct Row {
   std::string grid;
   int threads = 0;
+  Precision precision = Precision::Double;
   bool streaming = false;  ///< the kernel's stores (and so the roofline's copy)
   double step_mlups = 0, kernel_mlups = 0, copy_gbs = 0, copy_nt_gbs = 0;
+  double ib_interp_us = 0, ib_spread_us = 0, step_ib_mlups = 0;  ///< 0: not measured
 };
 
-Row measure(const Case& c, int threads, const Options& opt) {
+template <class T>
+BasicPopulationField<T>& state_of(FluidSolver& s) {
+  if constexpr (std::is_same_v<T, double>)
+    return s.mutable_state();
+  else
+    return s.mutable_state_single();
+}
+
+template <class T>
+Row measure(const Case& base, int threads, Precision precision, const Options& opt) {
   omp_set_num_threads(threads);
+  Case c = base;
+  c.params.precision = precision;
   FluidSolver solver(c.params);
   const FaceSpec& in = c.params.faces[XMin];
   solver.initialize_uniform(1.0, {in.kind == FaceKind::Inlet ? in.inlet_speed : 0.01, 0, 0});
-  PopulationField scratch(solver.layout());
-  CopyBench copy(field_bytes(c) / sizeof(double));
+  BasicPopulationField<T> scratch(solver.layout());
+  solver.boundaries().fill_static_ghosts(scratch);
+  CopyBench copy(field_bytes(c, precision) / sizeof(double));
+  // The immersed boundary of the paper's sheet: markers, their samples and impulses.
+  const ImmersedBoundary ib(solver);
+  const std::vector<Vec3> X = paper_sheet_markers(solver.shape());
+  std::vector<MarkerSample> samples(X.size());
+  std::vector<Vec3> J(X.size());
 
   const double updates = double(solver.shape().cells()) * opt.steps;
   for (int s = 0; s < 2; ++s) solver.step();  // warm-up: page faults, caches
   copy.run(false);
   copy.run(true);
-  std::vector<double> step, kernel, bw, bw_nt;
+  std::vector<double> step, kernel, bw, bw_nt, interp, spread, step_ib;
   // Interleaved, so that noise from other processes touches all of them alike.
   for (int r = 0; r < opt.repeat; ++r) {
     bw.push_back(std::max(copy.run(false), copy.run(false)));
@@ -169,63 +208,114 @@ Row measure(const Case& c, int threads, const Options& opt) {
     }
     // The kernel alone, ping-ponging two fields as step() does (a field just written
     // with non-temporal stores is not in cache); the ghost fill in between is not timed.
-    PopulationField* from = &solver.mutable_state();
-    PopulationField* to = &scratch;
+    // The kernel includes the x-outflow ghosts it writes in a step (KernelOutflow).
+    BasicPopulationField<T>* from = &state_of<T>(solver);
+    BasicPopulationField<T>* to = &scratch;
+    const KernelOutflow outflow = solver.boundaries().kernel_outflow();
     double seconds = 0;
     for (int s = 0; s < opt.steps; ++s) {
       t0 = Clock::now();
-      stream_collide(*from, *to, solver.tau(), solver.body_force(), opt.stores);
+      stream_collide(*from, *to, solver.tau(), solver.body_force(), opt.stores, outflow);
       seconds += seconds_since(t0);
       solver.boundaries().fill_ghosts(*to);
       std::swap(from, to);
     }
     kernel.push_back(updates / seconds * 1e-6);
+    if (!opt.ib || opt.stores != Stores::Auto) continue;
+    // A coupled step's fluid side (DESIGN 2.1): interpolate rho and u at the markers
+    // (Eq. 17), spread the momentum-exchange impulses of a sheet at rest (g = 2 rho (U_B - u),
+    // dA = 1; Eqs. 19, 21-24), step with the spread forces (the forced cells are collided
+    // again, Eq. 26). Each timed apart.
+    double t_interp = 0, t_spread = 0, t_step = 0;
+    for (int s = 0; s < opt.steps; ++s) {
+      t0 = Clock::now();
+      ib.sample(solver, X, samples);
+      t_interp += seconds_since(t0);
+      for (std::size_t l = 0; l < X.size(); ++l)
+        J[l] = momentum_exchange_force(samples[l].rho, samples[l].u, {0.0, 0.0, 0.0});
+      t0 = Clock::now();
+      ib.spread(solver, X, J);
+      t_spread += seconds_since(t0);
+      t0 = Clock::now();
+      solver.step();
+      t_step += seconds_since(t0);
+    }
+    interp.push_back(t_interp / opt.steps * 1e6);
+    spread.push_back(t_spread / opt.steps * 1e6);
+    step_ib.push_back(updates / t_step * 1e-6);
   }
   Row row;
   row.grid = c.name;
   row.threads = threads;
-  row.streaming = uses_streaming_stores(solver.layout(), opt.stores);
+  row.precision = precision;
+  row.streaming = uses_streaming_stores(solver.layout(), opt.stores, sizeof(T));
   row.step_mlups = step.empty() ? 0.0 : median(step);
   row.kernel_mlups = median(kernel);
   row.copy_gbs = median(bw) * 1e-9;
   row.copy_nt_gbs = median(bw_nt) * 1e-9;
+  if (!interp.empty()) {
+    row.ib_interp_us = median(interp);
+    row.ib_spread_us = median(spread);
+    row.step_ib_mlups = median(step_ib);
+  }
   return row;
 }
 
 void print_header(const Options& opt, const std::vector<Case>& cases) {
-  std::printf("cosim fluid bench: D3Q19 BGK-Guo, double precision, two grids (SoA)\n");
+  std::printf("cosim fluid bench: D3Q19 BGK-Guo, arithmetic in double, populations stored in");
+  for (const Precision p : opt.precisions) std::printf(" %s", precision_name(p));
+  std::printf(", two grids (SoA)\n");
   std::printf("medians of %d repeats of %d steps; OMP_PROC_BIND=%s\n", opt.repeat, opt.steps,
               std::getenv("OMP_PROC_BIND") ? std::getenv("OMP_PROC_BIND") : "(unset)");
-  std::printf("B = bytes/update = 2 x 19 x 8 = %.0f (19 doubles read + 19 written, counted as\n"
-              "    STREAM counts copy; ordinary stores also move 19 x 8 write-allocate reads)\n",
-              kBytesPerUpdate);
+  std::printf("B = bytes/update = 2 x 19 x 8 = %.0f for the double store, 2 x 19 x 4 = %.0f for\n"
+              "    the single one (19 values read + 19 written, counted as STREAM counts copy;\n"
+              "    ordinary stores also move 19 write-allocate reads)\n",
+              bytes_per_update(Precision::Double), bytes_per_update(Precision::Single));
   std::printf("copy = STREAM copy b[i] = a[i], two arrays each the size of one population field\n"
-              "    of the grid (");
+              "    of the grid in the row's precision (");
   for (std::size_t i = 0; i < cases.size(); ++i)
-    std::printf("%s%s: %.0f MiB", i ? ", " : "", cases[i].name.c_str(),
-                double(field_bytes(cases[i])) / (1 << 20));
+    for (const Precision p : opt.precisions)
+      std::printf("%s%s %s: %.0f MiB", i || p != opt.precisions[0] ? ", " : "",
+                  cases[i].name.c_str(), precision_name(p),
+                  double(field_bytes(cases[i], p)) / (1 << 20));
   std::printf("),\n    best of 2 per repeat; 'plain' with ordinary stores, 'NT' with "
               "non-temporal stores\n");
   std::printf("roofline MLUPS = copy bandwidth with the kernel's kind of stores / B\n");
-  std::printf("step = FluidSolver::step() (kernel + ghost fill); kernel = stream_collide only\n");
+  std::printf("step = FluidSolver::step() (kernel + ghost fill); kernel = stream_collide only\n"
+              "    (with the x-outflow ghosts it writes)\n");
+  if (opt.ib && opt.stores == Stores::Auto)
+    std::printf("IB = the paper's sheet, 5 x 40 = 200 markers: interp = Eq. 17 at every marker\n"
+                "    (ImmersedBoundary::sample), spread = Eqs. 21-24 (ImmersedBoundary::spread),\n"
+                "    us per LB step; step+IB = step() with the spread forces (forced cells\n"
+                "    collided again), MLUPS\n");
   std::printf("note: a shared machine; other processes add noise\n\n");
-  std::printf("%-20s %3s %6s %6s %7s %10s %10s %9s %6s %6s\n", "grid", "thr", "stores", "step",
-              "kernel", "copy plain", "copy NT", "roofline", "step", "kernel");
-  std::printf("%-20s %3s %6s %6s %7s %10s %10s %9s %6s %6s\n", "", "", "", "MLUPS", "MLUPS",
-              "GB/s", "GB/s", "MLUPS", "/roof", "/roof");
+  std::printf("%-20s %3s %6s %6s %6s %7s %10s %10s %9s %6s %6s %8s %8s %7s\n", "grid", "thr",
+              "store", "stores", "step", "kernel", "copy plain", "copy NT", "roofline", "step",
+              "kernel", "IB", "IB", "step");
+  std::printf("%-20s %3s %6s %6s %6s %7s %10s %10s %9s %6s %6s %8s %8s %7s\n", "", "", "", "",
+              "MLUPS", "MLUPS", "GB/s", "GB/s", "MLUPS", "/roof", "/roof", "interp", "spread",
+              "+IB");
+  std::printf("%-20s %3s %6s %6s %6s %7s %10s %10s %9s %6s %6s %8s %8s %7s\n", "", "", "", "", "",
+              "", "", "", "", "", "", "us", "us", "MLUPS");
 }
 
 void print_row(const Row& r) {
   const double copy = r.streaming ? r.copy_nt_gbs : r.copy_gbs;
-  const double roof = copy * 1e9 / kBytesPerUpdate * 1e-6;
-  char step[16] = "-", step_ratio[16] = "-";
+  const double roof = copy * 1e9 / bytes_per_update(r.precision) * 1e-6;
+  char step[16] = "-", step_ratio[16] = "-", interp[16] = "-", spread[16] = "-", ib[16] = "-";
   if (r.step_mlups > 0) {
     std::snprintf(step, sizeof step, "%.1f", r.step_mlups);
     std::snprintf(step_ratio, sizeof step_ratio, "%.0f%%", 100.0 * r.step_mlups / roof);
   }
-  std::printf("%-20s %3d %6s %6s %7.1f %10.1f %10.1f %9.1f %6s %5.0f%%\n", r.grid.c_str(),
-              r.threads, r.streaming ? "NT" : "plain", step, r.kernel_mlups, r.copy_gbs,
-              r.copy_nt_gbs, roof, step_ratio, 100.0 * r.kernel_mlups / roof);
+  if (r.step_ib_mlups > 0) {
+    std::snprintf(interp, sizeof interp, "%.0f", r.ib_interp_us);
+    std::snprintf(spread, sizeof spread, "%.0f", r.ib_spread_us);
+    std::snprintf(ib, sizeof ib, "%.1f", r.step_ib_mlups);
+  }
+  std::printf("%-20s %3d %6s %6s %6s %7.1f %10.1f %10.1f %9.1f %6s %5.0f%% %8s %8s %7s\n",
+              r.grid.c_str(), r.threads, precision_name(r.precision), r.streaming ? "NT" : "plain",
+              step, r.kernel_mlups, r.copy_gbs, r.copy_nt_gbs, roof, step_ratio,
+              100.0 * r.kernel_mlups / roof, interp, spread, ib);
   std::fflush(stdout);
 }
 
@@ -249,13 +339,24 @@ int main(int argc, char** argv) {
   app.add_option("--stores", opt.stores,
                  "kernel stores: auto (as the solver), plain or nt; not auto: kernel only")
       ->transform(CLI::CheckedTransformer(stores, CLI::ignore_case));
+  const std::map<std::string, Precision> precisions{{"double", Precision::Double},
+                                                    {"single", Precision::Single}};
+  app.add_option("--precision", opt.precisions,
+                 "population stores to run: double, single (arithmetic is double either way)")
+      ->transform(CLI::CheckedTransformer(precisions, CLI::ignore_case));
+  bool no_ib = false;
+  app.add_flag("--no-ib", no_ib, "skip the immersed-boundary columns");
   CLI11_PARSE(app, argc, argv);
+  opt.ib = !no_ib;
 
   std::vector<Case> cases;
   for (const std::string& g : opt.grids)
     cases.push_back(g == "box" ? periodic_box(opt.box) : paper_channel());
   print_header(opt, cases);
   for (const Case& c : cases)
-    for (const int t : opt.threads) print_row(measure(c, t, opt));
+    for (const Precision p : opt.precisions)
+      for (const int t : opt.threads)
+        print_row(p == Precision::Double ? measure<double>(c, t, p, opt)
+                                         : measure<float>(c, t, p, opt));
   return 0;
 }

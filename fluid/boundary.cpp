@@ -82,39 +82,105 @@ PlaneRange plane_range(const GridLayout& L, int axis, bool all_ghosts) {
 }
 
 /// Outflow ghost plane (see BoundaryConditions): non-equilibrium extrapolation at the
-/// reference density, from the boundary cell b = g + src_off.
-void fill_outflow(PopulationField& f, const GridLayout& layout, int face, double rho_out,
+/// reference density, from the boundary cell b = g + src_off. Inside a parallel region.
+template <class T>
+void fill_outflow(BasicPopulationField<T>& f, const GridLayout& layout, int face, double rho_out,
                   const PlaneRange& r, std::ptrdiff_t src_off) {
   const int axis = face_axis(face);
   const int inward = face_side(face) == 0 ? 1 : -1;
-#pragma omp parallel for collapse(2) schedule(static)
+#pragma omp for collapse(2) schedule(static) nowait
   for (int z = r.lo[2]; z <= r.hi[2]; ++z)
     for (int y = r.lo[1]; y <= r.hi[1]; ++y)
       for (int x = r.lo[0]; x <= r.hi[0]; ++x) {
         const std::ptrdiff_t g = layout.index(x, y, z), b = g + src_off;
-        // Moments of the stored (post-collision) populations of the boundary cell b: the
-        // collision conserves rho and j (Eqs. 7-8), so these are the cell's own moments.
         double fb[D3Q19::Q];
         for (int q = 0; q < D3Q19::Q; ++q) fb[q] = f.q(q)[b];
-        const Moments m = moments(fb);
-        const double ux = m.jx / m.rho, uy = m.jy / m.rho, uz = m.jz / m.rho;
-        for (int q = 0; q < D3Q19::Q; ++q) {
-          if (D3Q19::c(q, axis) != inward) continue;
-          f.q(q)[g] = equilibrium(q, rho_out, ux, uy, uz) + fb[q] - equilibrium(q, m.rho, ux, uy, uz);
-        }
+        const OutflowCell cell(fb);
+        for (int q = 0; q < D3Q19::Q; ++q)
+          if (D3Q19::c(q, axis) == inward) f.q(q)[g] = static_cast<T>(cell.ghost(q, fb, rho_out));
       }
+}
+
+bool is_kernel_outflow(const FaceSpec& spec, int face) {
+  return spec.kind == FaceKind::Outflow && face_axis(face) == 0;
 }
 
 }  // namespace
 
-void BoundaryConditions::fill_ghosts(PopulationField& f) const {
-  for (int face = 0; face < kFaces; ++face)
-    if (is_copy(faces_[face].kind)) fill_copy_face(f, face);
-  for (int face = 0; face < kFaces; ++face)
-    if (!is_copy(faces_[face].kind)) fill_reflect_face(f, face);
+template <class T>
+void BoundaryConditions::fill_ghosts(BasicPopulationField<T>& f) const {
+  // One parallel region; the loops of a face (one per population) run without waiting for
+  // each other, and one barrier after each face keeps the faces in order.
+#pragma omp parallel
+  {
+    for (int face = 0; face < kFaces; ++face)
+      if (is_copy(faces_[face].kind)) {
+        fill_copy_face(f, face);
+#pragma omp barrier
+      }
+    for (int face = 0; face < kFaces; ++face)
+      if (!is_copy(faces_[face].kind)) {
+        fill_reflect_face(f, face);
+#pragma omp barrier
+      }
+  }
 }
 
-void BoundaryConditions::fill_copy_face(PopulationField& f, int face) const {
+template <class T>
+void BoundaryConditions::fill_static_ghosts(BasicPopulationField<T>& f) const {
+#pragma omp parallel
+  for (int face = 0; face < kFaces; ++face)
+    if (faces_[face].kind == FaceKind::Inlet) {
+      fill_copy_face(f, face);
+#pragma omp barrier
+    }
+}
+
+template <class T>
+void BoundaryConditions::fill_step_ghosts(BasicPopulationField<T>& f) const {
+#pragma omp parallel
+  {
+    for (int face = 0; face < kFaces; ++face)
+      if (is_copy(faces_[face].kind) && faces_[face].kind != FaceKind::Inlet &&
+          !is_kernel_outflow(faces_[face], face)) {
+        fill_copy_face(f, face);
+#pragma omp barrier
+      }
+    for (int face = 0; face < kFaces; ++face)
+      if (!is_copy(faces_[face].kind)) {
+        fill_reflect_face(f, face);
+#pragma omp barrier
+      }
+  }
+}
+
+KernelOutflow BoundaryConditions::kernel_outflow() const {
+  KernelOutflow k;
+  k.x_min = is_kernel_outflow(faces_[XMin], XMin);
+  k.x_max = is_kernel_outflow(faces_[XMax], XMax);
+  k.rho_x_min = faces_[XMin].outflow_density;
+  k.rho_x_max = faces_[XMax].outflow_density;
+  return k;
+}
+
+template <class T>
+void BoundaryConditions::fill_outflow_ghost(BasicPopulationField<T>& f, int x, int y, int z) const {
+  for (const int face : {XMin, XMax}) {
+    if (!is_kernel_outflow(faces_[face], face)) continue;
+    const int side = face_side(face), inward = side == 0 ? 1 : -1;
+    if (x != (side == 0 ? 0 : layout_.nx() - 1)) continue;
+    const std::ptrdiff_t b = layout_.index(x, y, z), g = b - inward;
+    double fb[D3Q19::Q];
+    for (int q = 0; q < D3Q19::Q; ++q) fb[q] = f.q(q)[b];
+    const OutflowCell cell(fb);
+    for (int q = 0; q < D3Q19::Q; ++q)
+      if (D3Q19::cx[q] == inward)
+        f.q(q)[g] = static_cast<T>(cell.ghost(q, fb, faces_[face].outflow_density));
+  }
+}
+
+template <class T>
+void BoundaryConditions::fill_copy_face(BasicPopulationField<T>& f, int face) const {
   const FaceSpec& spec = faces_[face];
   const int axis = face_axis(face), side = face_side(face);
   const int n[3] = {layout_.nx(), layout_.ny(), layout_.nz()};
@@ -138,7 +204,7 @@ void BoundaryConditions::fill_copy_face(PopulationField& f, int face) const {
     return;
   }
 
-#pragma omp parallel for collapse(2) schedule(static)
+#pragma omp for collapse(2) schedule(static) nowait
   for (int z = r.lo[2]; z <= r.hi[2]; ++z)
     for (int y = r.lo[1]; y <= r.hi[1]; ++y)
       for (int x = r.lo[0]; x <= r.hi[0]; ++x) {
@@ -147,14 +213,16 @@ void BoundaryConditions::fill_copy_face(PopulationField& f, int face) const {
           double vel[3] = {0.0, 0.0, 0.0};
           vel[axis] = inward * inlet_profile(spec, y);
           for (int i = 0; i < nq; ++i)
-            f.q(qs[i])[g] = equilibrium(qs[i], spec.inlet_density, vel[0], vel[1], vel[2]);
+            f.q(qs[i])[g] =
+                static_cast<T>(equilibrium(qs[i], spec.inlet_density, vel[0], vel[1], vel[2]));
         } else {  // Periodic
           for (int i = 0; i < nq; ++i) f.q(qs[i])[g] = f.q(qs[i])[g + src_off];
         }
       }
 }
 
-void BoundaryConditions::fill_reflect_face(PopulationField& f, int face) const {
+template <class T>
+void BoundaryConditions::fill_reflect_face(BasicPopulationField<T>& f, int face) const {
   const FaceSpec& spec = faces_[face];
   const int axis = face_axis(face), side = face_side(face);
   const int n[3] = {layout_.nx(), layout_.ny(), layout_.nz()};
@@ -177,14 +245,14 @@ void BoundaryConditions::fill_reflect_face(PopulationField& f, int face) const {
       const double moving = 6.0 * D3Q19::w[q] *
                             (D3Q19::cx[q] * U[0] + D3Q19::cy[q] * U[1] + D3Q19::cz[q] * U[2]);
       const std::ptrdiff_t back = layout_.offset(-D3Q19::cx[q], -D3Q19::cy[q], -D3Q19::cz[q]);
-      double* fq = f.q(q);
-      const double* fo = f.q(o);
-#pragma omp parallel for collapse(2) schedule(static)
+      T* fq = f.q(q);
+      const T* fo = f.q(o);
+#pragma omp for collapse(2) schedule(static) nowait
       for (int z = r.lo[2]; z <= r.hi[2]; ++z)
         for (int y = r.lo[1]; y <= r.hi[1]; ++y)
           for (int x = r.lo[0]; x <= r.hi[0]; ++x) {
             const std::ptrdiff_t c = layout_.index(x, y, z);
-            fq[c + back] = fo[c] + moving;
+            fq[c + back] = static_cast<T>(fo[c] + moving);
           }
     }
   } else {  // FreeSlip
@@ -195,9 +263,9 @@ void BoundaryConditions::fill_reflect_face(PopulationField& f, int face) const {
     const std::ptrdiff_t in_off = layout_.offset(in[0], in[1], in[2]);
     for (int i = 0; i < nq; ++i) {
       const int q = qs[i], m = D3Q19::mirror(q, axis);
-      double* fq = f.q(q);
-      const double* fm = f.q(m);
-#pragma omp parallel for collapse(2) schedule(static)
+      T* fq = f.q(q);
+      const T* fm = f.q(m);
+#pragma omp for collapse(2) schedule(static) nowait
       for (int z = r.lo[2]; z <= r.hi[2]; ++z)
         for (int y = r.lo[1]; y <= r.hi[1]; ++y)
           for (int x = r.lo[0]; x <= r.hi[0]; ++x) {
@@ -207,5 +275,14 @@ void BoundaryConditions::fill_reflect_face(PopulationField& f, int face) const {
     }
   }
 }
+
+template void BoundaryConditions::fill_ghosts(PopulationField&) const;
+template void BoundaryConditions::fill_static_ghosts(PopulationField&) const;
+template void BoundaryConditions::fill_step_ghosts(PopulationField&) const;
+template void BoundaryConditions::fill_outflow_ghost(PopulationField&, int, int, int) const;
+template void BoundaryConditions::fill_ghosts(PopulationFieldSingle&) const;
+template void BoundaryConditions::fill_static_ghosts(PopulationFieldSingle&) const;
+template void BoundaryConditions::fill_step_ghosts(PopulationFieldSingle&) const;
+template void BoundaryConditions::fill_outflow_ghost(PopulationFieldSingle&, int, int, int) const;
 
 }  // namespace cosim::fluid

@@ -4,8 +4,10 @@
 #include <array>
 #include <string>
 
+#include "fluid/equilibrium.hpp"
 #include "fluid/grid_layout.hpp"
 #include "fluid/population_field.hpp"
+#include "fluid/stream_collide.hpp"
 
 namespace cosim::fluid {
 
@@ -41,6 +43,22 @@ struct FaceSpec {
 /// Blasius layer, U (2 e - 2 e^3 + e^4) with e = (y + 1/2) / delta, smooth (C^2 at e = 1).
 double inlet_profile(const FaceSpec& face, double y);
 
+/// The outflow ghost of one boundary cell b by non-equilibrium extrapolation at a reference
+/// density (Guo, Zheng and Shi 2002): from the 19 post-collision populations f*(b), whose
+/// moments are the cell's own (the collision conserves rho and j, Eqs. 7-8),
+///   ghost_q = f_eq_q(rho_out, u_b) + f*_q(b) - f_eq_q(rho_b, u_b)     (f_eq: Eq. 11).
+/// One function for the ghost-fill pass and the kernel that writes x outflows on the fly
+/// (stream_collide), so that both give the same bits.
+struct OutflowCell {
+  Moments m;
+  double ux, uy, uz;
+  explicit OutflowCell(const double* fb)
+      : m(moments(fb)), ux(m.jx / m.rho), uy(m.jy / m.rho), uz(m.jz / m.rho) {}
+  double ghost(int q, const double* fb, double rho_out) const {
+    return equilibrium(q, rho_out, ux, uy, uz) + fb[q] - equilibrium(q, m.rho, ux, uy, uz);
+  }
+};
+
 /// Fills the ghost layer of a field of post-collision populations so that a pull
 /// (f_q(x) = f*_q(x - c_q)) at every interior cell realises the boundary conditions:
 ///  - Periodic: copy from the opposite face.
@@ -56,7 +74,8 @@ double inlet_profile(const FaceSpec& face, double y);
 ///  - FreeSlip: specular reflection, f_q(x) = f*_mirror(q)(x - c_q + c_q,n n).
 /// Copy-type faces are filled axis by axis (x, y, z), each over the ghosts of the axes
 /// before it, so edges and corners come out right; reflecting faces go last and read only
-/// what is already valid.
+/// what is already valid. Either store precision (T = double or float): values are computed
+/// in double from the stored ones and rounded once when stored.
 class BoundaryConditions {
  public:
   BoundaryConditions() = default;
@@ -65,12 +84,38 @@ class BoundaryConditions {
   /// Empty string if the set is consistent, else a sentence naming the problem.
   static std::string check(const std::array<FaceSpec, kFaces>& faces);
 
-  void fill_ghosts(PopulationField& f) const;
+  /// Every ghost of `f`, face by face as described above.
+  template <class T>
+  void fill_ghosts(BasicPopulationField<T>& f) const;
+
+  /// What a step needs, split (fluid_solver.cpp): the inlet ghosts are equilibria at a fixed
+  /// density and velocity, the same at every step, so fill_static_ghosts writes them once
+  /// per field; the outflows on x faces are written by the kernel as it stores each row's
+  /// boundary cell (kernel_outflow()); fill_step_ghosts fills the rest, in the order of
+  /// fill_ghosts. Together they leave every ghost that a pull reads with the bits that
+  /// fill_ghosts gives (test_lbm_invariants: FusedStepMatchesGhostFillStep).
+  template <class T>
+  void fill_static_ghosts(BasicPopulationField<T>& f) const;
+  /// @pre fill_static_ghosts(f) (or fill_ghosts(f)) was called once on this field, and the
+  ///      kernel that wrote f's interior was given kernel_outflow()
+  template <class T>
+  void fill_step_ghosts(BasicPopulationField<T>& f) const;
+  KernelOutflow kernel_outflow() const;
+  /// The x-outflow ghost of one boundary cell (x = 0 or nx - 1 next to an outflow face;
+  /// nothing elsewhere), after the cell's populations were changed (a collision with an
+  /// immersed-boundary force).
+  template <class T>
+  void fill_outflow_ghost(BasicPopulationField<T>& f, int x, int y, int z) const;
+
   const FaceSpec& face(int f) const { return faces_[f]; }
 
  private:
-  void fill_copy_face(PopulationField& f, int face) const;
-  void fill_reflect_face(PopulationField& f, int face) const;
+  // Called inside a parallel region: their plane loops are worksharing loops without a
+  // barrier (the loops of one face are independent); the caller puts one after each face.
+  template <class T>
+  void fill_copy_face(BasicPopulationField<T>& f, int face) const;
+  template <class T>
+  void fill_reflect_face(BasicPopulationField<T>& f, int face) const;
 
   GridLayout layout_;
   std::array<FaceSpec, kFaces> faces_{};

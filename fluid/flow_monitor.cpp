@@ -45,11 +45,12 @@ struct Partial {
 
 /// rho (Eq. 7) and rho u = sum_a c_a f_a + F/2 (Eq. 8 with Guo's shift) of the cell x of a
 /// row whose pulled populations f_q(x) = state_q(x - c_q) start at s[q].
-inline Moments pulled_moments(const double* const* s, int x, const double* hF) {
+template <class T>
+inline Moments pulled_moments(const T* const* s, int x, const double* hF) {
   Moments m;
 #pragma GCC unroll 19
   for (int q = 0; q < L::Q; ++q) {
-    const double v = s[q][x];
+    const double v = static_cast<double>(s[q][x]);
     m.rho += v;
     m.jx += L::cx[q] * v;
     m.jy += L::cy[q] * v;
@@ -63,7 +64,8 @@ inline Moments pulled_moments(const double* const* s, int x, const double* hF) {
 
 /// The reference: one row cell by cell into the thread's extrema and first non-finite cell
 /// (the row's sums come from the vectorised pass alone, see summarize()).
-void scan_row(Partial& p, const double* const* s, int nx, std::int64_t row0, const double* hF) {
+template <class T>
+void scan_row(Partial& p, const T* const* s, int nx, std::int64_t row0, const double* hF) {
   for (int x = 0; x < nx; ++x) {
     const Moments c = pulled_moments(s, x, hF);
     const double inv = 1.0 / c.rho;
@@ -100,10 +102,8 @@ const char* non_finite_name(double v) {
   return v > 0 ? "+inf" : "-inf";
 }
 
-}  // namespace
-
-FlowSummary summarize(const FluidSolver& solver) {
-  const PopulationField& f = solver.state();
+template <class T>
+FlowSummary summarize_field(const FluidSolver& solver, const BasicPopulationField<T>& f) {
   const GridLayout& lay = f.layout();
   const GridShape& shape = solver.shape();
   const int nx = shape.nx, ny = shape.ny;
@@ -126,7 +126,7 @@ FlowSummary summarize(const FluidSolver& solver) {
       const int y = int(r % ny), z = int(r / ny);
       const std::ptrdiff_t base = lay.index(0, y, z);
       // Pull: f_q(x) = state_q(x - c_q), as in the stream-collide kernel.
-      const double* s[L::Q];
+      const T* s[L::Q];
 #pragma GCC unroll 19
       for (int q = 0; q < L::Q; ++q) s[q] = f.q(q) + base - lay.offset(L::cx[q], L::cy[q], L::cz[q]);
       const std::int64_t row0 = std::int64_t(r) * nx;
@@ -189,6 +189,13 @@ FlowSummary summarize(const FluidSolver& solver) {
   out.nan_cell = cell_of(total.nan_index, shape);
   out.nan_state = total.nan_state;
   return out;
+}
+
+}  // namespace
+
+FlowSummary summarize(const FluidSolver& solver) {
+  return solver.precision() == Precision::Double ? summarize_field(solver, solver.state())
+                                                 : summarize_field(solver, solver.state_single());
 }
 
 std::string health_problem(const FlowSummary& s, const HealthLimits& limits) {

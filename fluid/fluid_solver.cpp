@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <stdexcept>
+#include <string>
 #include <utility>
 
 #include "fluid/bgk_guo.hpp"
@@ -11,26 +12,83 @@
 
 namespace cosim::fluid {
 
+namespace {
+
+[[noreturn]] void wrong_precision(const char* call, Precision stored) {
+  throw std::logic_error(std::string(__FILE__) + ": FluidSolver::" + call +
+                         ": the populations are stored in " + precision_name(stored) +
+                         " precision; use the accessor of that precision, or populations_at()");
+}
+
+}  // namespace
+
 FluidSolver::FluidSolver(const FluidParams& params)
     : params_(params),
-      layout_(params.shape),
-      bc_(layout_, params.faces),
-      f_(layout_),
-      g_(layout_) {
+      layout_(layout_of(params.shape, params.precision)),
+      bc_(layout_, params.faces) {
+  if (params.precision == Precision::Double) {
+    f_ = PopulationField(layout_);
+    g_ = PopulationField(layout_);
+  } else {
+    fs_ = PopulationFieldSingle(layout_);
+    gs_ = PopulationFieldSingle(layout_);
+  }
   initialize_uniform(1.0, {0.0, 0.0, 0.0});
+}
+
+std::size_t FluidSolver::population_bytes() const {
+  return 2 * std::size_t(D3Q19::Q) * layout_.stride() * bytes_per_value(params_.precision);
+}
+
+const PopulationField& FluidSolver::state() const {
+  if (params_.precision != Precision::Double) wrong_precision("state()", params_.precision);
+  return f_;
+}
+PopulationField& FluidSolver::mutable_state() {
+  if (params_.precision != Precision::Double) wrong_precision("mutable_state()", params_.precision);
+  return f_;
+}
+const PopulationFieldSingle& FluidSolver::state_single() const {
+  if (params_.precision != Precision::Single) wrong_precision("state_single()", params_.precision);
+  return fs_;
+}
+PopulationFieldSingle& FluidSolver::mutable_state_single() {
+  if (params_.precision != Precision::Single)
+    wrong_precision("mutable_state_single()", params_.precision);
+  return fs_;
+}
+
+void FluidSolver::refresh_ghosts() {
+  if (params_.precision == Precision::Double)
+    bc_.fill_ghosts(f_);
+  else
+    bc_.fill_ghosts(fs_);
 }
 
 void FluidSolver::initialize(const InitialState& state) {
   const GridShape& s = layout_.shape();
+  const bool dbl = params_.precision == Precision::Double;
 #pragma omp parallel for collapse(2) schedule(static)
   for (int z = 0; z < s.nz; ++z)
     for (int y = 0; y < s.ny; ++y)
       for (int x = 0; x < s.nx; ++x) {
         const CellState c = state(x, y, z);
         const std::ptrdiff_t i = layout_.index(x, y, z);
-        for (int q = 0; q < D3Q19::Q; ++q) f_.q(q)[i] = equilibrium(q, c.rho, c.ux, c.uy, c.uz);
+        for (int q = 0; q < D3Q19::Q; ++q) {
+          const double feq = equilibrium(q, c.rho, c.ux, c.uy, c.uz);  // Eq. 11
+          if (dbl)
+            f_.q(q)[i] = feq;
+          else
+            fs_.q(q)[i] = static_cast<float>(feq);
+        }
       }
-  bc_.fill_ghosts(f_);
+  if (dbl) {
+    bc_.fill_ghosts(f_);
+    bc_.fill_static_ghosts(g_);
+  } else {
+    bc_.fill_ghosts(fs_);
+    bc_.fill_static_ghosts(gs_);
+  }
 }
 
 void FluidSolver::initialize_uniform(double rho, const std::array<double, 3>& u) {
@@ -51,30 +109,44 @@ void FluidSolver::add_force(int x, int y, int z, double fx, double fy, double fz
 }
 
 void FluidSolver::step() {
-  stream_collide(f_, g_, params_.tau, params_.body_force);
-  apply_local_forces();
-  std::swap(f_, g_);
-  bc_.fill_ghosts(f_);
+  if (params_.precision == Precision::Double)
+    step_fields(f_, g_);
+  else
+    step_fields(fs_, gs_);
   ++steps_;
 }
 
 void FluidSolver::copy_state(PopulationField& to) const {
+  const PopulationField& f = state();  // the double store (std::logic_error otherwise)
   if (to.layout().stride() != layout_.stride()) to = PopulationField(layout_);
   const std::size_t size = std::size_t(D3Q19::Q) * layout_.stride();
-  std::copy(f_.q(0), f_.q(0) + size, to.q(0));
+  std::copy(f.q(0), f.q(0) + size, to.q(0));
 }
 
 void FluidSolver::restore_state(const PopulationField& from, std::int64_t steps) {
   if (from.layout().stride() != layout_.stride())
     throw std::invalid_argument("FluidSolver::restore_state: a population field of another layout");
+  PopulationField& f = mutable_state();
   const std::size_t size = std::size_t(D3Q19::Q) * layout_.stride();
-  std::copy(from.q(0), from.q(0) + size, f_.q(0));
+  std::copy(from.q(0), from.q(0) + size, f.q(0));
   steps_ = steps;
 }
 
-void FluidSolver::apply_local_forces() {
+template <class T>
+void FluidSolver::step_fields(BasicPopulationField<T>& f, BasicPopulationField<T>& g) {
+  // Boundaries (BoundaryConditions): the kernel writes the x outflows, the inlets stay from
+  // fill_static_ghosts, the rest is filled after the swap.
+  stream_collide(f, g, params_.tau, params_.body_force, Stores::Auto, bc_.kernel_outflow());
+  apply_local_forces(f, g);
+  std::swap(f, g);
+  bc_.fill_step_ghosts(f);
+}
+
+template <class T>
+void FluidSolver::apply_local_forces(const BasicPopulationField<T>& f,
+                                     BasicPopulationField<T>& g) {
   // Cells that received an IB force are collided again from the same pulled populations
-  // with the total force; the bulk kernel stays free of a per-cell force array.
+  // with the total force (Eq. 26); the bulk kernel stays free of a per-cell force array.
   if (forced_.empty()) return;
   const BgkGuo bgk(params_.tau);
   const auto& F = params_.body_force;
@@ -82,20 +154,36 @@ void FluidSolver::apply_local_forces() {
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t k = 0; k < n; ++k) {
     const std::ptrdiff_t i = forced_[k];
-    double f[D3Q19::Q];
+    double fc[D3Q19::Q];
     for (int q = 0; q < D3Q19::Q; ++q)
-      f[q] = f_.q(q)[i - layout_.offset(D3Q19::cx[q], D3Q19::cy[q], D3Q19::cz[q])];
-    bgk.collide(f, F[0] + fx_[i], F[1] + fy_[i], F[2] + fz_[i]);
-    for (int q = 0; q < D3Q19::Q; ++q) g_.q(q)[i] = f[q];
+      fc[q] = f.q(q)[i - layout_.offset(D3Q19::cx[q], D3Q19::cy[q], D3Q19::cz[q])];
+    bgk.collide(fc, F[0] + fx_[i], F[1] + fy_[i], F[2] + fz_[i]);
+    for (int q = 0; q < D3Q19::Q; ++q) g.q(q)[i] = static_cast<T>(fc[q]);
+  }
+  // The kernel wrote the x-outflow ghosts from the cells as it collided them.
+  const std::ptrdiff_t sx = layout_.row_stride(), plane = layout_.plane_stride();
+  for (const std::ptrdiff_t i : forced_) {
+    const int x = int(i % sx) - layout_.front_pad();
+    if (x == 0 || x == layout_.nx() - 1)
+      bc_.fill_outflow_ghost(g, x, int(i % plane / sx) - 1, int(i / plane) - 1);
   }
   for (const std::ptrdiff_t i : forced_) fx_[i] = fy_[i] = fz_[i] = 0.0;
   forced_.clear();
 }
 
-void FluidSolver::populations_at(int x, int y, int z, double* f) const {
+template <class T>
+void FluidSolver::populations_of(const BasicPopulationField<T>& f, int x, int y, int z,
+                                 double* out) const {
   const std::ptrdiff_t i = layout_.index(x, y, z);
   for (int q = 0; q < D3Q19::Q; ++q)
-    f[q] = f_.q(q)[i - layout_.offset(D3Q19::cx[q], D3Q19::cy[q], D3Q19::cz[q])];
+    out[q] = f.q(q)[i - layout_.offset(D3Q19::cx[q], D3Q19::cy[q], D3Q19::cz[q])];
+}
+
+void FluidSolver::populations_at(int x, int y, int z, double* f) const {
+  if (params_.precision == Precision::Double)
+    populations_of(f_, x, y, z, f);
+  else
+    populations_of(fs_, x, y, z, f);
 }
 
 CellState FluidSolver::cell(int x, int y, int z) const {

@@ -1,4 +1,5 @@
-// The lattice Boltzmann fluid of one block: two population grids, boundaries, forcing.
+// The lattice Boltzmann fluid of one block: two population grids (double or single
+// precision store), boundaries, forcing.
 #pragma once
 
 #include <array>
@@ -18,6 +19,8 @@ struct FluidParams {
   double tau = 1.0;                            ///< BGK relaxation time (the paper's phi)
   std::array<FaceSpec, kFaces> faces{};        ///< x_min, x_max, y_min, y_max, z_min, z_max
   std::array<double, 3> body_force{0, 0, 0};   ///< uniform force density (e.g. a pressure drop)
+  /// How the populations are stored (fluid/population_field.hpp); arithmetic is double.
+  Precision precision = Precision::Double;
 };
 
 /// rho and the velocity u = (sum_a c_a f_a + F_body / 2) / rho of one cell (Eqs. 7-8 with
@@ -68,11 +71,19 @@ class FluidSolver {
   const std::array<double, 3>& body_force() const { return params_.body_force; }
   std::int64_t step_count() const { return steps_; }
 
+  Precision precision() const { return params_.precision; }
+  /// Bytes of the two population grids (19 values per cell, with ghosts and padding).
+  std::size_t population_bytes() const;
+
   /// The current post-collision field (ghosts filled); for checkpoints and tests.
-  const PopulationField& state() const { return f_; }
-  PopulationField& mutable_state() { return f_; }
-  /// Call after changing mutable_state() by hand.
-  void refresh_ghosts() { bc_.fill_ghosts(f_); }
+  /// @pre precision() == Precision::Double (else std::logic_error)
+  const PopulationField& state() const;
+  PopulationField& mutable_state();
+  /// The same for the single-precision store. @pre precision() == Precision::Single
+  const PopulationFieldSingle& state_single() const;
+  PopulationFieldSingle& mutable_state_single();
+  /// Call after changing mutable_state() or mutable_state_single() by hand.
+  void refresh_ghosts();
   /// A restart from a checkpoint (DESIGN 2.4): the step count the restored state is at.
   void set_step_count(std::int64_t steps) { steps_ = steps; }
 
@@ -84,12 +95,20 @@ class FluidSolver {
   void restore_state(const PopulationField& from, std::int64_t steps);
 
  private:
-  void apply_local_forces();
+  template <class T>
+  void step_fields(BasicPopulationField<T>& f, BasicPopulationField<T>& g);
+  template <class T>
+  void apply_local_forces(const BasicPopulationField<T>& f, BasicPopulationField<T>& g);
+  template <class T>
+  void populations_of(const BasicPopulationField<T>& f, int x, int y, int z, double* out) const;
 
   FluidParams params_;
   GridLayout layout_;
   BoundaryConditions bc_;
-  PopulationField f_, g_;  // current (post-collision, ghosts valid) and scratch
+  // Current (post-collision, ghosts valid) and scratch; only the pair of the precision is
+  // allocated.
+  PopulationField f_, g_;
+  PopulationFieldSingle fs_, gs_;
   std::int64_t steps_ = 0;
 
   // Sparse forcing: allocated on first use, so a scene without IB pays nothing.

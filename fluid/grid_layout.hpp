@@ -14,19 +14,21 @@ struct GridShape {
 
 /// Layout of one population array: x fastest, one ghost layer on every face, rows padded
 /// so that the interior cell x = 0 of every row sits on a 64-byte boundary (aligned vector
-/// stores). Interior coordinates run 0..n-1, ghosts are -1 and n.
+/// stores, whole cache lines for the non-temporal ones). Interior coordinates run 0..n-1,
+/// ghosts are -1 and n. Offsets count values: 8 per 64-byte line for the double store, 16
+/// for the single one (values_per_line).
 ///
 /// The ghost layer is also what makes the grid decomposable into blocks (DESIGN 8): a
 /// neighbour block's halo is one more kind of ghost fill.
 class GridLayout {
  public:
-  static constexpr int kAlign = 8;       ///< doubles per 64 bytes
-  static constexpr int kFrontPad = kAlign;
+  static constexpr int kLineBytes = 64;
 
   GridLayout() = default;
-  explicit GridLayout(GridShape s)
+  explicit GridLayout(GridShape s, int values_per_line = kLineBytes / 8)
       : shape_(s),
-        sx_(round_up(kFrontPad + s.nx + 1, kAlign)),
+        align_(values_per_line),
+        sx_(row_values(s.nx, values_per_line)),
         sy_(s.ny + 2),
         sz_(s.nz + 2) {}
 
@@ -34,20 +36,25 @@ class GridLayout {
   int nx() const { return shape_.nx; }
   int ny() const { return shape_.ny; }
   int nz() const { return shape_.nz; }
+  /// Values per 64-byte line; also the padding in front of x = -1 ... x = 0 of a row.
+  int values_per_line() const { return align_; }
+  int front_pad() const { return align_; }
 
   /// Allocated entries of one population: an odd number of 64-byte lines, so that the 19
   /// populations of a cell sit on 19 different line offsets within a 4 KiB page (fewer
   /// 4K-aliasing and cache-set conflicts between the kernel's streams; docs/performance.md).
   std::size_t stride() const {
-    const std::size_t lines = std::size_t(sx_) * sy_ * sz_ / kAlign;
-    return (lines | 1) * kAlign;
+    // The compact rows (row_values) need one line more after the last row for its x = nx.
+    const std::size_t tail = align_ == kLineBytes / 8 ? 0 : 1;
+    const std::size_t lines = std::size_t(sx_) * sy_ * sz_ / align_ + tail;
+    return (lines | 1) * align_;
   }
   std::ptrdiff_t row_stride() const { return sx_; }
   std::ptrdiff_t plane_stride() const { return std::ptrdiff_t(sx_) * sy_; }
 
   /// Offset of cell (x, y, z); ghosts included (-1 <= x <= nx, ...).
   std::ptrdiff_t index(int x, int y, int z) const {
-    return (std::ptrdiff_t(z + 1) * sy_ + (y + 1)) * sx_ + kFrontPad + x;
+    return (std::ptrdiff_t(z + 1) * sy_ + (y + 1)) * sx_ + align_ + x;
   }
   /// Offset of a lattice vector (dx, dy, dz).
   std::ptrdiff_t offset(int dx, int dy, int dz) const {
@@ -56,7 +63,17 @@ class GridLayout {
 
  private:
   static int round_up(int v, int m) { return (v + m - 1) / m * m; }
+  /// Values from one row's x = 0 to the next's. A row needs nx + 2 (two ghosts); the x = nx
+  /// ghost may share a line with the next row's x = -1 ghost, so nx + 2 rounded up to whole
+  /// lines is enough, and the single store takes that (half the double store's bytes on
+  /// small grids too). The double store keeps one line more (its first layout), so that its
+  /// checkpoints keep their size.
+  static int row_values(int nx, int per_line) {
+    return per_line == kLineBytes / 8 ? round_up(per_line + nx + 1, per_line)
+                                      : round_up(nx + 2, per_line);
+  }
   GridShape shape_;
+  int align_ = kLineBytes / 8;
   int sx_ = 0, sy_ = 0, sz_ = 0;
 };
 

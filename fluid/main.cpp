@@ -100,8 +100,9 @@ void print_header(const FluidScene& s, const protocol::UnitConverter& units) {
   const auto& F = s.params.body_force;
   if (F[0] != 0 || F[1] != 0 || F[2] != 0)
     std::printf("  force    body force density (%.4g, %.4g, %.4g) lattice units\n", F[0], F[1], F[2]);
-  std::printf("  memory   %.1f MiB of populations (2 x 19 doubles per cell, with ghosts)\n",
-              double(population_bytes(g)) / (1024.0 * 1024.0));
+  std::printf("  memory   %.1f MiB of populations (2 x 19 %s per cell, with ghosts)\n",
+              double(population_bytes(g, s.params.precision)) / (1024.0 * 1024.0),
+              s.params.precision == Precision::Double ? "doubles" : "floats (single precision store)");
   std::printf("  run      %lld steps = %.4g us; initial %s; monitor every %lld; ",
               static_cast<long long>(s.steps), units.time_s(double(s.steps)) * 1e6,
               s.initial == InitialFlow::Inlet ? "inlet profile" : "at rest",

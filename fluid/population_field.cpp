@@ -5,18 +5,27 @@
 
 namespace cosim::fluid {
 
-void PopulationField::FreeDeleter::operator()(double* p) const { std::free(p); }
+const char* precision_name(Precision p) { return p == Precision::Double ? "double" : "single"; }
 
-PopulationField::PopulationField(const GridLayout& layout) : layout_(layout) {
-  const std::size_t bytes = std::size_t(D3Q19::Q) * layout.stride() * sizeof(double);
+template <class T>
+void BasicPopulationField<T>::FreeDeleter::operator()(T* p) const {
+  std::free(p);
+}
+
+template <class T>
+BasicPopulationField<T>::BasicPopulationField(const GridLayout& layout) : layout_(layout) {
+  const std::size_t bytes = std::size_t(D3Q19::Q) * layout.stride() * sizeof(T);
   void* p = std::aligned_alloc(64, bytes);
   if (p == nullptr) throw std::bad_alloc();
-  data_.reset(static_cast<double*>(p));
+  data_.reset(static_cast<T*>(p));
   // First touch in parallel so that pages land near the threads that use them.
-  double* d = data_.get();
+  T* d = data_.get();
   const std::ptrdiff_t n = std::ptrdiff_t(D3Q19::Q * layout.stride());
 #pragma omp parallel for schedule(static)
-  for (std::ptrdiff_t i = 0; i < n; ++i) d[i] = 0.0;
+  for (std::ptrdiff_t i = 0; i < n; ++i) d[i] = T(0);
 }
+
+template class BasicPopulationField<double>;
+template class BasicPopulationField<float>;
 
 }  // namespace cosim::fluid

@@ -1,4 +1,6 @@
-// Aligned structure-of-arrays storage for the 19 populations of one lattice block.
+// Aligned structure-of-arrays storage for the 19 populations of one lattice block, in double
+// precision (the default) or single precision (a store of floats, arithmetic in double:
+// FluidParams::precision).
 #pragma once
 
 #include <cstddef>
@@ -9,23 +11,47 @@
 
 namespace cosim::fluid {
 
-class PopulationField {
- public:
-  PopulationField() = default;
-  explicit PopulationField(const GridLayout& layout);
+/// How the populations are stored. The kernels compute in double either way; Single halves
+/// the memory and the bytes moved per update (304 -> 152) at the cost of rounding every
+/// stored population to float (docs/performance.md, docs/error-vs-runtime.md).
+enum class Precision { Double, Single };
+const char* precision_name(Precision p);
+constexpr std::size_t bytes_per_value(Precision p) {
+  return p == Precision::Double ? sizeof(double) : sizeof(float);
+}
 
-  double* q(int q) { return data_.get() + std::size_t(q) * layout_.stride(); }
-  const double* q(int q) const { return data_.get() + std::size_t(q) * layout_.stride(); }
-  double& at(int q, int x, int y, int z) { return this->q(q)[layout_.index(x, y, z)]; }
-  double at(int q, int x, int y, int z) const { return this->q(q)[layout_.index(x, y, z)]; }
+/// The layout of a population array of a grid in a precision (64-byte lines of 8 doubles or
+/// 16 floats).
+inline GridLayout layout_of(const GridShape& shape, Precision p) {
+  return GridLayout(shape, GridLayout::kLineBytes / int(bytes_per_value(p)));
+}
+
+template <class T>
+class BasicPopulationField {
+ public:
+  using value_type = T;
+  BasicPopulationField() = default;
+  explicit BasicPopulationField(const GridLayout& layout);
+
+  T* q(int q) { return data_.get() + std::size_t(q) * layout_.stride(); }
+  const T* q(int q) const { return data_.get() + std::size_t(q) * layout_.stride(); }
+  T& at(int q, int x, int y, int z) { return this->q(q)[layout_.index(x, y, z)]; }
+  T at(int q, int x, int y, int z) const { return this->q(q)[layout_.index(x, y, z)]; }
   const GridLayout& layout() const { return layout_; }
+  bool empty() const { return data_ == nullptr; }
 
  private:
   struct FreeDeleter {
-    void operator()(double* p) const;
+    void operator()(T* p) const;
   };
   GridLayout layout_;
-  std::unique_ptr<double, FreeDeleter> data_;
+  std::unique_ptr<T, FreeDeleter> data_;
 };
+
+using PopulationField = BasicPopulationField<double>;
+using PopulationFieldSingle = BasicPopulationField<float>;
+
+extern template class BasicPopulationField<double>;
+extern template class BasicPopulationField<float>;
 
 }  // namespace cosim::fluid

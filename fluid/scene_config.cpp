@@ -75,7 +75,7 @@ const std::vector<Section>& schema() {
       {"boundaries", {"x_min", "x_max", "y_min", "y_max", "z_min", "z_max"}},
       {"wall_velocity", {"x_min", "x_max", "y_min", "y_max", "z_min", "z_max"}},
       {"body_force", {"x", "y", "z"}},
-      {"run", {"steps", "monitor_every", "mach_limit", "threads", "initial"}},
+      {"run", {"steps", "monitor_every", "mach_limit", "threads", "initial", "precision"}},
       // sheets_every belongs to the solid (snapshots of its CGPs) in coupled scenes.
       {"output", {"directory", "fields_every", "planes_every", "planes_y", "sheets_every"}},
       {"coupling",
@@ -395,7 +395,12 @@ void load_grid(const Reader& r, FluidScene& s) {
       r.bad(*r.node("grid", "dx_um"), "grid.dx_um", "must be in [1e-9, 1e6] micrometres per cell");
     s.dx_um = *dx;
   }
-  const std::size_t need = population_bytes(s.params.shape), have = machine_memory_bytes();
+}
+
+/// The population grids of the grid and run.precision must fit in this machine's memory.
+void check_memory(const Reader& r, const FluidScene& s) {
+  const std::size_t need = population_bytes(s.params.shape, s.params.precision);
+  const std::size_t have = machine_memory_bytes();
   if (have > 0 && need > have)
     r.fail(r.section_line("grid"),
            "grid = " + std::to_string(s.params.shape.nx) + " x " +
@@ -540,6 +545,9 @@ void load_run(const Reader& r, FluidScene& s) {
             "must be in [0, 1024]; 0 leaves the choice to OpenMP (OMP_NUM_THREADS)");
     s.threads = int(*t);
   }
+  // How the populations are stored; the arithmetic is double either way.
+  if (const auto p = r.choice("run", "precision", {"double", "single"}))
+    s.params.precision = *p == 0 ? Precision::Double : Precision::Single;
 }
 
 void load_boundaries(const Reader& r, FluidScene& s) {
@@ -788,8 +796,9 @@ void load_output_and_initial(const Reader& r, FluidScene& s) {
 
 }  // namespace
 
-std::size_t population_bytes(const GridShape& shape) {
-  return 2 * std::size_t(D3Q19::Q) * GridLayout(shape).stride() * sizeof(double);
+std::size_t population_bytes(const GridShape& shape, Precision precision) {
+  return 2 * std::size_t(D3Q19::Q) * layout_of(shape, precision).stride() *
+         bytes_per_value(precision);
 }
 
 double reference_speed(const FluidParams& params) {
@@ -823,6 +832,7 @@ FluidScene load_scene(const std::string& path) {
 
   load_grid(r, s);
   load_run(r, s);
+  check_memory(r, s);
   load_boundaries(r, s);
   load_wall_velocity(r, s);
   load_inlet(r, s);
@@ -831,6 +841,10 @@ FluidScene load_scene(const std::string& path) {
   load_output_and_initial(r, s);
   load_coupling(r, s);
   load_watchdog(r, s);
+  if (s.coupling && s.params.precision != Precision::Double)
+    r.bad(*r.node("run", "precision"), "run.precision",
+          "a coupled scene runs with \"double\" only (its checkpoints and replay hold double "
+          "populations); \"single\" is for fluid-only scenes");
 
   // What the solver itself would refuse; the checks above should have caught all of it.
   const std::string err = BoundaryConditions::check(s.params.faces);

@@ -1,8 +1,10 @@
 #include "fluid/stream_collide.hpp"
 
 #include <cstddef>
+#include <type_traits>
 #include <utility>
 
+#include "fluid/boundary.hpp"
 #include "fluid/d3q19.hpp"
 #include "fluid/lanes.hpp"
 
@@ -171,11 +173,37 @@ template <bool kForce>
   relax_pairs<kForce>(f, v, k, pairs);
 }
 
+/// The outflow ghost (fluid/boundary.hpp, OutflowCell) of the cell in lane `lane` of the
+/// post-collision group f: populations entering through the face (c_x = inward) stored at
+/// g + q stride, g the ghost cell in population 0 of dst. From the values as stored (T), as
+/// the ghost fill reads them back.
+template <class T>
+inline void store_outflow_ghost(const Lanes (&f)[L::Q], int lane, T* g, std::ptrdiff_t stride,
+                                int inward, double rho_out) {
+  double fb[L::Q];
+  for (int q = 0; q < L::Q; ++q) fb[q] = static_cast<double>(static_cast<T>(f[q][lane]));
+  const OutflowCell cell(fb);
+  for (int q = 0; q < L::Q; ++q)
+    if (L::cx[q] == inward) g[q * stride] = static_cast<T>(cell.ghost(q, fb, rho_out));
+}
+
 /// The interior of the block row by row (OpenMP), kLanes cells of x at a time; the last,
-/// partial group of a row goes through a padded copy.
-template <bool kForce, bool kStream>
-void update_rows(const PopulationField& src, PopulationField& dst, double tau,
-                 const std::array<double, 3>& F) {
+/// partial group of a row goes through a padded copy. Outflow ghosts on x faces as the row's
+/// first and last cells are stored (KernelOutflow).
+///
+/// Non-temporal stores must fill whole 64-byte lines back to back, or the write-combining
+/// buffers, shared by the 19 streams, flush partial lines (a first single store that wrote
+/// half lines was slower than the double one). A group of kLanes doubles is one line with
+/// AVX-512; a group of floats is half a line, so the single store collides the groups of a
+/// line first, keeps all but the last in a small buffer (L1) and then streams each
+/// population's line in one go.
+template <class T, bool kForce, bool kStream>
+void update_rows(const BasicPopulationField<T>& src, BasicPopulationField<T>& dst, double tau,
+                 const std::array<double, 3>& F, const KernelOutflow& out) {
+  constexpr int kLineGroups = std::is_same_v<T, float> && kStream
+                                  ? GridLayout::kLineBytes / int(sizeof(LanesSingle))
+                                  : 1;
+  constexpr int kLineCells = kLineGroups * kLanes;
   const GridLayout& lay = src.layout();
   const int nx = lay.nx(), ny = lay.ny();
   const std::ptrdiff_t rows = std::ptrdiff_t(ny) * lay.nz();
@@ -184,56 +212,108 @@ void update_rows(const PopulationField& src, PopulationField& dst, double tau,
   // Pull (Eq. 9): population q of cell i comes from src(q) at i - c_q.
   std::ptrdiff_t pull[L::Q];
   for (int q = 0; q < L::Q; ++q) pull[q] = q * stride - lay.offset(L::cx[q], L::cy[q], L::cz[q]);
-  const double* const s0 = src.q(0);
-  double* const d0 = dst.q(0);
-  const int full = nx / kLanes * kLanes;
+  const T* const s0 = src.q(0);
+  T* const d0 = dst.q(0);
 
 #pragma omp parallel
   {
+    alignas(GridLayout::kLineBytes) T line[kLineGroups > 1 ? L::Q : 1][kLineCells];
 #pragma omp for schedule(static) nowait
     for (std::ptrdiff_t r = 0; r < rows; ++r) {
       const std::ptrdiff_t base = lay.index(0, int(r % ny), int(r / ny));
-      const double* const s = s0 + base;
-      double* const d = d0 + base;
+      const T* const s = s0 + base;
+      T* const d = d0 + base;
       Lanes f[L::Q];
-      for (int x = 0; x < full; x += kLanes) {
+      // Outflow ghosts of the cells x0 .. x0 + n - 1 of f, where the row ends.
+      const auto edges = [&](int x0, int n) {
+        if (out.x_min && x0 == 0) store_outflow_ghost(f, 0, d - 1, stride, 1, out.rho_x_min);
+        if (out.x_max && x0 + n == nx)
+          store_outflow_ghost(f, n - 1, d + nx, stride, -1, out.rho_x_max);
+      };
+      int x = 0;
+      if constexpr (kLineGroups > 1) {
+        for (; x + kLineCells <= nx; x += kLineCells) {
+          for (int g = 0; g < kLineGroups; ++g) {
+            const int xg = x + g * kLanes;
+#pragma GCC unroll 19
+            for (int q = 0; q < L::Q; ++q) f[q] = load(s + pull[q] + xg);
+            collide<kForce>(f, k);
+            edges(xg, kLanes);
+            if (g + 1 < kLineGroups) {
+#pragma GCC unroll 19
+              for (int q = 0; q < L::Q; ++q) store_aligned(line[q] + g * kLanes, f[q]);
+            }
+          }
+          // The last group goes from registers: a 64-byte load of a line that was just
+          // stored as two halves would wait for the stores (no store forwarding).
+#if defined(__AVX512F__)
+          static_assert(kLineGroups == 2);
+#pragma GCC unroll 19
+          for (int q = 0; q < L::Q; ++q)
+            store_stream_pair(d + q * stride + x, load_aligned_single(line[q]), to_single(f[q]));
+#else
+#pragma GCC unroll 19
+          for (int q = 0; q < L::Q; ++q) {
+            store_aligned(line[q] + (kLineGroups - 1) * kLanes, f[q]);
+            store_stream_line(d + q * stride + x, line[q]);
+          }
+#endif
+        }
+      }
+      for (; x + kLanes <= nx; x += kLanes) {
 #pragma GCC unroll 19
         for (int q = 0; q < L::Q; ++q) f[q] = load(s + pull[q] + x);
         collide<kForce>(f, k);
+        edges(x, kLanes);
 #pragma GCC unroll 19
         for (int q = 0; q < L::Q; ++q) {
-          if constexpr (kStream) store_stream(d + q * stride + x, f[q]);
+          // The single store's last group of a row (half a line) takes an ordinary store.
+          if constexpr (kStream && kLineGroups == 1) store_stream(d + q * stride + x, f[q]);
           else store_aligned(d + q * stride + x, f[q]);
         }
       }
-      if (full < nx) {
-        const int n = nx - full;
-        for (int q = 0; q < L::Q; ++q) f[q] = load_partial(s + pull[q] + full, n);
+      if (x < nx) {
+        const int n = nx - x;
+        for (int q = 0; q < L::Q; ++q) f[q] = load_partial(s + pull[q] + x, n);
         collide<kForce>(f, k);
-        for (int q = 0; q < L::Q; ++q) store_partial(d + q * stride + full, f[q], n);
+        edges(x, n);
+        for (int q = 0; q < L::Q; ++q) store_partial(d + q * stride + x, f[q], n);
       }
     }
     if constexpr (kStream) store_fence();  // before the barrier: others read dst next
   }
 }
 
+template <class T>
+void dispatch(const BasicPopulationField<T>& src, BasicPopulationField<T>& dst, double tau,
+              const std::array<double, 3>& force, Stores stores, const KernelOutflow& outflow) {
+  const bool nt = uses_streaming_stores(src.layout(), stores, sizeof(T));
+  if (force[0] == 0.0 && force[1] == 0.0 && force[2] == 0.0)
+    nt ? update_rows<T, false, true>(src, dst, tau, force, outflow)
+       : update_rows<T, false, false>(src, dst, tau, force, outflow);
+  else
+    nt ? update_rows<T, true, true>(src, dst, tau, force, outflow)
+       : update_rows<T, true, false>(src, dst, tau, force, outflow);
+}
+
 }  // namespace
 
-bool uses_streaming_stores(const GridLayout& layout, Stores stores) {
+bool uses_streaming_stores(const GridLayout& layout, Stores stores, std::size_t value_bytes) {
   if (!kHasStreamingStores || stores == Stores::Cached) return false;
   return stores == Stores::Streaming ||
-         D3Q19::Q * layout.stride() * sizeof(double) >= kStreamingStoresFrom;
+         D3Q19::Q * layout.stride() * value_bytes >= kStreamingStoresFrom;
 }
 
 void stream_collide(const PopulationField& src, PopulationField& dst, double tau,
-                    const std::array<double, 3>& force, Stores stores) {
-  const bool nt = uses_streaming_stores(src.layout(), stores);
-  if (force[0] == 0.0 && force[1] == 0.0 && force[2] == 0.0)
-    nt ? update_rows<false, true>(src, dst, tau, force)
-       : update_rows<false, false>(src, dst, tau, force);
-  else
-    nt ? update_rows<true, true>(src, dst, tau, force)
-       : update_rows<true, false>(src, dst, tau, force);
+                    const std::array<double, 3>& force, Stores stores,
+                    const KernelOutflow& outflow) {
+  dispatch(src, dst, tau, force, stores, outflow);
+}
+
+void stream_collide(const PopulationFieldSingle& src, PopulationFieldSingle& dst, double tau,
+                    const std::array<double, 3>& force, Stores stores,
+                    const KernelOutflow& outflow) {
+  dispatch(src, dst, tau, force, stores, outflow);
 }
 
 }  // namespace cosim::fluid

@@ -20,10 +20,28 @@ enum class Stores {
   Cached,     ///< ordinary stores
   Streaming,  ///< non-temporal stores (ordinary where the target has none)
 };
-void stream_collide(const PopulationField& src, PopulationField& dst, double tau,
-                    const std::array<double, 3>& force, Stores stores = Stores::Auto);
 
-/// Population fields from this size on (bytes, 19 populations with ghosts) are written with
+/// Outflow faces normal to x whose ghosts the kernel writes itself: when it stores a row's
+/// boundary cell (x = 0 or nx - 1) it also stores the outflow ghost of that row (x = -1 or
+/// nx) from the post-collision populations still in registers (OutflowCell in
+/// fluid/boundary.hpp, the arithmetic of the ghost fill), instead of a separate pass that
+/// reads the boundary cells back from memory. BoundaryConditions::kernel_outflow() says
+/// which faces; default: none.
+struct KernelOutflow {
+  bool x_min = false, x_max = false;
+  double rho_x_min = 1.0, rho_x_max = 1.0;  ///< reference densities (FaceSpec::outflow_density)
+};
+
+void stream_collide(const PopulationField& src, PopulationField& dst, double tau,
+                    const std::array<double, 3>& force, Stores stores = Stores::Auto,
+                    const KernelOutflow& outflow = {});
+/// The same for the single-precision store: loads convert to double, the collision is the
+/// double one, stores round to float.
+void stream_collide(const PopulationFieldSingle& src, PopulationFieldSingle& dst, double tau,
+                    const std::array<double, 3>& force, Stores stores = Stores::Auto,
+                    const KernelOutflow& outflow = {});
+
+/// Population fields from this size on (bytes, 19 populations with ghosts, either precision) are written with
 /// non-temporal stores: they cannot stay in cache between steps, and skipping the read for
 /// ownership cuts the traffic per update from 456 to 304 bytes. Smaller fields are reused
 /// from cache, where ordinary stores are faster (measured: docs/performance.md).
@@ -31,6 +49,7 @@ constexpr std::size_t kStreamingStoresFrom = std::size_t(32) << 20;
 
 /// Whether stream_collide(..., stores) writes fields of this layout with non-temporal
 /// stores (never where the target has none, see kHasStreamingStores in fluid/lanes.hpp).
-bool uses_streaming_stores(const GridLayout& layout, Stores stores = Stores::Auto);
+bool uses_streaming_stores(const GridLayout& layout, Stores stores = Stores::Auto,
+                           std::size_t value_bytes = sizeof(double));
 
 }  // namespace cosim::fluid

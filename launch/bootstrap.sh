@@ -10,6 +10,7 @@ packages=(
   libgtest-dev libbenchmark-dev
   python3 python3-h5py python3-matplotlib python3-numpy
   iproute2 util-linux
+  time
 )
 
 missing=()

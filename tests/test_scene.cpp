@@ -97,6 +97,10 @@ const std::vector<BadCase> kBadCases = {
     {"watchdog_unknown_key.toml",
      {":36: watchdog.max_cgp_sped = 0.3: unknown key in [watchdog]; allowed: health_every, rho_min,",
       "did you mean \"max_cgp_speed\""}},
+    {"precision_unknown.toml",
+     {":30: run.precision = \"half\": must be one of \"double\", \"single\""}},
+    {"precision_coupled.toml",
+     {"run.precision = \"single\": a coupled scene runs with \"double\" only"}},
 };
 
 TEST(Scene, BadSceneFilesAreRejected) {

@@ -1,0 +1,167 @@
+// The single-precision population store (FluidParams::precision, scene key run.precision):
+// a run that stores its populations as float stays within the round-off bound derived below
+// of the same run in double, and as close to the analytic solution.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <string>
+#include <numbers>
+#include <vector>
+
+#include "fluid/fluid_solver.hpp"
+#include "fluid/scene_config.hpp"
+
+namespace {
+
+using namespace cosim::fluid;
+
+/// Unit round-off of float (round to nearest): |fl(v) - v| <= 2^-24 |v|.
+constexpr double kFloatRoundoff = 0x1p-24;
+
+/// The tolerance, from float round-off alone (no fitted constant):
+///  - every step stores each population once, so the single run's f_q is the double run's
+///    value of that step up to |delta f_q| <= 2^-24 f_q, plus what earlier steps carried in;
+///  - a velocity u_x = (sum_a c_ax f_a + F_x / 2) / rho (Eqs. 7-8 with Guo's shift) then
+///    moves by at most 2^-24 (sum over c_x != 0 of f_q + |u_x| sum_a f_a) / rho per step.
+///    Near equilibrium f_q = E_q rho (1 + 3 c.u + O(u^2)) (Eq. 11) and the weights of the
+///    directions with c_x != 0 add up to 2/18 + 8/36 = 1/3 (Eq. 12), the odd terms cancel in
+///    the pairs (q, opp q): the sum is rho (1/3 + O(u^2)); with |u| <= u_max the step's bound
+///    is 2^-24 (1/3 + 2 u_max), the 2 u_max covering |u_x| and the O(u^2) terms (u_max < 0.1);
+///  - the errors of n steps add at most linearly: streaming and bounce-back only permute
+///    populations, and the BGK collision (Eq. 10) keeps rho and j and multiplies the rest of a
+///    perturbation by 1 - 1/tau, |1 - 1/tau| < 1 for tau > 1/2: the update does not amplify
+///    it. The initial state (Eq. 11, rounded once) is one more rounding.
+/// Rounding to nearest errs both ways, so the errors rather grow as sqrt(n); the linear sum
+/// is the worst case.
+double roundoff_bound(int steps, double u_max) {
+  return (steps + 1) * kFloatRoundoff * (1.0 / 3.0 + 2.0 * u_max);
+}
+
+/// Start-up of plane Poiseuille flow (as launch/error_study.py's resolution row): walls at
+/// y = -1/2 and N - 1/2, periodic x and z, body force G = 8 nu U / N^2 from t = 0, compared at
+/// t nu / H^2 = 0.1 with u(y, t) = G y'(H - y') / (2 nu) - sum over odd n of
+/// 4 G H^2 / (nu n^3 pi^3) sin(n pi y'/H) exp(-nu n^2 pi^2 t / H^2), y' = y + 1/2, H = N.
+struct Poiseuille {
+  int cells = 32;
+  double tau = 0.8, u_max = 0.05;
+  double nu() const { return (tau - 0.5) / 3.0; }
+  double force() const { return 8.0 * nu() * u_max / (cells * cells); }
+  int steps() const { return int(std::lround(0.1 * cells * cells / nu())); }
+  double exact(int y) const {
+    const double h = cells, yp = y + 0.5, g = force(), t = steps();
+    double u = g * yp * (h - yp) / (2.0 * nu());
+    for (int n = 1; n < 4001; n += 2) {
+      const double amp = 4.0 * g * h * h / (nu() * n * n * n * std::pow(std::numbers::pi, 3)) *
+                         std::exp(-nu() * n * n * std::numbers::pi * std::numbers::pi * t / (h * h));
+      if (amp < 1e-18 * g * h * h / nu()) break;
+      u -= amp * std::sin(n * std::numbers::pi * yp / h);
+    }
+    return u;
+  }
+  FluidParams params(Precision p) const {
+    FluidParams fp;
+    fp.shape = {8, cells, 8};
+    fp.tau = tau;
+    fp.faces[YMin].kind = FaceKind::Wall;
+    fp.faces[YMax].kind = FaceKind::Wall;
+    fp.body_force = {force(), 0.0, 0.0};
+    fp.precision = p;
+    return fp;
+  }
+};
+
+/// The paper's channel in small: Blasius inlet, outflow, plate, free slip, periodic span.
+FluidParams channel(Precision p) {
+  FluidParams fp;
+  fp.shape = {40, 16, 12};
+  fp.tau = 0.6;
+  fp.faces[XMin].kind = FaceKind::Inlet;
+  fp.faces[XMin].inlet_speed = 0.05;
+  fp.faces[XMin].profile = InletProfile::Blasius;
+  fp.faces[XMin].boundary_layer = 4.0;
+  fp.faces[XMax].kind = FaceKind::Outflow;
+  fp.faces[YMin].kind = FaceKind::Wall;
+  fp.faces[YMax].kind = FaceKind::FreeSlip;
+  fp.precision = p;
+  return fp;
+}
+
+std::string sci(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.3e", v);
+  return buf;
+}
+
+double max_velocity_difference(const FluidSolver& a, const FluidSolver& b) {
+  MacroscopicFields ma, mb;
+  a.macroscopic(ma);
+  b.macroscopic(mb);
+  double d = 0.0;
+  for (std::size_t i = 0; i < ma.ux.size(); ++i)
+    d = std::max({d, std::abs(ma.ux[i] - mb.ux[i]), std::abs(ma.uy[i] - mb.uy[i]),
+                  std::abs(ma.uz[i] - mb.uz[i])});
+  return d;
+}
+
+TEST(Precision, SinglePrecisionWithinTolerance) {
+  // Poiseuille start-up against its analytic solution.
+  const Poiseuille P;
+  FluidSolver dbl(P.params(Precision::Double)), sgl(P.params(Precision::Single));
+  // Half the memory on the paper's grid (rows padded to whole 64-byte lines either way).
+  EXPECT_LT(double(population_bytes({120, 60, 90}, Precision::Single)),
+            0.55 * double(population_bytes({120, 60, 90}, Precision::Double)));
+  EXPECT_EQ(sgl.population_bytes(), population_bytes(sgl.shape(), Precision::Single));
+  for (int n = 0; n < P.steps(); ++n) {
+    dbl.step();
+    sgl.step();
+  }
+  const double bound = roundoff_bound(P.steps(), P.u_max);
+  const double diff = max_velocity_difference(sgl, dbl);
+  RecordProperty("poiseuille_max_difference", sci(diff));
+  RecordProperty("poiseuille_bound", sci(bound));
+  EXPECT_LE(diff, bound) << P.steps() << " steps";
+  EXPECT_GT(diff, 0.0) << "the single store should round";
+  // Relative L2 error against the analytic profile: the single run's may exceed the
+  // double's only by the round-off bound (triangle inequality).
+  double num_d = 0, num_s = 0, den = 0;
+  for (int z = 0; z < 8; ++z)
+    for (int y = 0; y < P.cells; ++y)
+      for (int x = 0; x < 8; ++x) {
+        const double e = P.exact(y);
+        num_d += std::pow(dbl.cell(x, y, z).ux - e, 2);
+        num_s += std::pow(sgl.cell(x, y, z).ux - e, 2);
+        den += e * e;
+      }
+  const double err_d = std::sqrt(num_d / den), err_s = std::sqrt(num_s / den);
+  const double rms_exact = std::sqrt(den / (64.0 * P.cells));
+  RecordProperty("poiseuille_error_double", sci(err_d));
+  RecordProperty("poiseuille_error_single", sci(err_s));
+  EXPECT_LT(err_d, 0.01);  // the scheme itself (second order; about 1e-3 at 32 cells)
+  EXPECT_LE(err_s, err_d + bound / rms_exact);
+
+  // The channel's open boundaries (inlet, outflow written by the kernel, plate, free slip).
+  FluidSolver cd(channel(Precision::Double)), cs(channel(Precision::Single));
+  const double u_in = channel(Precision::Double).faces[XMin].inlet_speed;
+  cd.initialize_uniform(1.0, {u_in, 0.0, 0.0});
+  cs.initialize_uniform(1.0, {u_in, 0.0, 0.0});
+  const int steps = 400;
+  for (int n = 0; n < steps; ++n) {
+    cd.step();
+    cs.step();
+  }
+  const double cdiff = max_velocity_difference(cs, cd);
+  RecordProperty("channel_max_difference", sci(cdiff));
+  EXPECT_LE(cdiff, roundoff_bound(steps, u_in));
+}
+
+TEST(Precision, DoubleAccessorsRefuseTheSingleStore) {
+  FluidSolver s(channel(Precision::Single));
+  EXPECT_THROW((void)s.state(), std::logic_error);
+  EXPECT_NO_THROW((void)s.state_single());
+  FluidSolver d(channel(Precision::Double));
+  EXPECT_THROW((void)d.state_single(), std::logic_error);
+}
+
+}  // namespace
