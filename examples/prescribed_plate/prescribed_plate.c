@@ -12,7 +12,8 @@
  * The token comes from --token or the environment variable COSIM_RUN_TOKEN (the launcher's).
  * From the scene it reads only: the first [[sheet]] (nx_cg, ny_cg, spacing_um, base_um,
  * theta_deg), [grid] dx_um, [output] directory and [coupling] (time_ratio,
- * handshake_timeout_s, peer_timeout_s, resend_after_s, lcm_url, channel_prefix), with a
+ * handshake_timeout_s, peer_timeout_s, resend_after_s, lcm_url, channel_prefix, scheme: "serial"
+ * only), with a
  * line-based reader (one "key = value" per line). Exit codes: protocol/README.md section 9.
  */
 #define _POSIX_C_SOURCE 200809L
@@ -170,6 +171,11 @@ static int read_scene(const char *path, Scene *s) {
         *(key[0] == 'h' ? &s->handshake_timeout_s : key[0] == 'p' ? &s->peer_timeout_s : &s->resend_after_s) = x;
       } else if (strcmp(key, "lcm_url") == 0) {
         if (!parse_string(value, s->lcm_url)) status = scene_error(path, line, key, value, "a quoted string is allowed");
+      } else if (strcmp(key, "scheme") == 0) {
+        /* This solid speaks the serial scheme only (protocol/README.md 5; 13 and 14 are others). */
+        char scheme[TEXT];
+        if (!parse_string(value, scheme) || strcmp(scheme, "serial") != 0)
+          status = scene_error(path, line, key, value, "\"serial\" only (this example speaks the serial scheme)");
       } else if (strcmp(key, "channel_prefix") == 0) {
         if (!parse_string(value, s->channel_prefix)) status = scene_error(path, line, key, value, "a quoted string is allowed");
       }
