@@ -5,14 +5,12 @@
 //   r_k = G(x_k) - x_k,     x_{k+1} = x_k + omega_k r_k,
 //   omega_k = -omega_{k-1} r_{k-1} . (r_k - r_{k-1}) / |r_k - r_{k-1}|^2   (k >= 1).
 //
-// An optional diagonal preconditioner P (one weight per column) relaxes P r_k instead.
 // For a linear map with a single eigenvalue omega_1 is exact and the iteration converges in
 // two steps.
 #pragma once
 
 #include <algorithm>
 #include <cmath>
-#include <utility>
 
 #include <Eigen/Core>
 
@@ -20,9 +18,8 @@ namespace cosim::solid {
 
 class AitkenRelaxation {
  public:
-  /// @param first   omega_0 of the first step, in (0, 1]
-  /// @param weight  the diagonal preconditioner, one weight per column of the iterates
-  AitkenRelaxation(double first, Eigen::RowVectorXd weight) : start_(first), weight_(std::move(weight)) {}
+  /// @param first  omega_0 of the first step, in (0, 1]
+  explicit AitkenRelaxation(double first) : start_(first) {}
 
   /// A new time step: its first relaxation uses the magnitude of the previous step's last
   /// factor (at most 1; the run's first step: `first`).
@@ -34,7 +31,7 @@ class AitkenRelaxation {
 
   /// The next iterate from x_k and g = G(x_k).
   Eigen::Matrix3Xd next(const Eigen::Matrix3Xd& x, const Eigen::Matrix3Xd& g) {
-    const Eigen::Matrix3Xd r = (g - x).array().rowwise() * weight_.array();
+    const Eigen::Matrix3Xd r = g - x;
     if (have_previous_) {
       const Eigen::Matrix3Xd dr = r - previous_residual_;
       const double dr2 = dr.squaredNorm();
@@ -62,7 +59,6 @@ class AitkenRelaxation {
   double omega_ = 0.0;
   bool have_previous_ = false;
   bool have_last_ = false;
-  Eigen::RowVectorXd weight_;
   Eigen::Matrix3Xd previous_residual_;
 };
 

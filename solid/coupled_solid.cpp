@@ -586,7 +586,7 @@ class CoupledSolid {
     it.start_bulk_velocity = m.bulk_velocity_lb;
     it.drive = sample_of(m);
     it.first_drive = it.drive;
-    if (!aitken_) aitken_.emplace(first_relaxation(), Eigen::RowVectorXd::Ones(n_));
+    if (!aitken_) aitken_.emplace(first_relaxation());
     aitken_->new_step();
     if (const auto e = run_iterate(it)) return e;
     publish_state(it.step, it.trial.substeps, it.trial.position_lb, it.trial.impulse_lb, 0, it.trial.substeps);
@@ -895,7 +895,7 @@ class CoupledSolid {
       it.first_drive = it.drive;
       it.start_bulk_velocity = r.double_attr("start_bulk_velocity_lb");
       it.fluid_seq_awaited = r.int64_attr("fluid_seq_awaited");
-      aitken_.emplace(first_relaxation(), Eigen::RowVectorXd::Ones(n_));
+      aitken_.emplace(first_relaxation());
       aitken_->restore_start(r.double_attr("aitken_start"));
       if (const auto e = run_iterate(it)) throw std::runtime_error("its first iterate again: " + e->reason);
       iterate_ = std::move(it);

@@ -10,6 +10,7 @@
 #include "fluid/fluid_solver.hpp"
 #include "fluid/immersed_boundary.hpp"
 #include "protocol/units.hpp"
+#include "solid/aitken_relaxation.hpp"
 #include "solid/elastic_sheet_model.hpp"
 #include "solid/solid_coupler.hpp"
 
@@ -106,3 +107,27 @@ TEST(Coupling, ImpulseLedgerBalances) {
 }
 
 }  // namespace
+
+// Aitken's relaxation (solid/aitken_relaxation.hpp) on a linear map x -> lambda x + b with
+// one eigenvalue, as the added-mass feedback of a uniform sheet would give: the second
+// factor is 1 / (1 - lambda) and the iterate after it is the fixed point b / (1 - lambda), to
+// round-off, for a divergent plain iteration (lambda = -5) and a slow one (lambda = 0.9).
+// The next step starts from the last factor.
+TEST(Coupling, AitkenRelaxationSolvesALinearMapInTwoSteps) {
+  for (const double lambda : {-5.0, 0.9}) {
+    Eigen::Matrix3Xd b(3, 4);
+    b << 1, 2, 3, 4, -1, 0.5, 0.25, 8, 3, -2, 7, 1;
+    const Eigen::Matrix3Xd fixed = b / (1.0 - lambda);
+    const auto g = [&](const Eigen::Matrix3Xd& x) { return Eigen::Matrix3Xd(lambda * x + b); };
+    cosim::solid::AitkenRelaxation aitken(0.5);
+    aitken.new_step();
+    Eigen::Matrix3Xd x = Eigen::Matrix3Xd::Zero(3, 4);
+    x = aitken.next(x, g(x));
+    EXPECT_DOUBLE_EQ(aitken.omega(), 0.5);
+    x = aitken.next(x, g(x));
+    EXPECT_NEAR(aitken.omega(), 1.0 / (1.0 - lambda), 1e-12) << lambda;
+    EXPECT_LT((x - fixed).norm(), 1e-12 * fixed.norm()) << lambda;
+    aitken.new_step();
+    EXPECT_NEAR(aitken.step_start(), std::min(1.0 / std::abs(1.0 - lambda), 1.0), 1e-12);
+  }
+}
