@@ -786,7 +786,9 @@ def knob_scheme(plan: Plan, schemes: list[tuple[str, dict]]) -> Knob:
                "LB step, the reaction held at each substep's starting velocity), and `implicit` "
                "(`[coupling] scheme = \"implicit\"`, protocol/README.md 13: sub-iterations per LB step with "
                "Aitken relaxation until the sample is the fluid before the step at the markers where that "
-               "step's impulses are spread, and the reaction at the end velocity of each substep)."),
+               "step's impulses are spread, and the reaction at the end velocity of each substep), and `parallel` "
+               "(`[coupling] scheme = \"parallel\"`, protocol/README.md 14: both sides compute the same LB step at "
+               "once, the solid's interval driven by the fluid sample of the step before, a one-step lag)."),
         reference=(f"The serial scheme at A_T = {ref_a_t} (no analytic solution). Error: |d - d_ref| / |d_ref| of the "
                    "marked CGP's displacement at the last step."),
         error_name="relative error of the marked CGP's displacement", settings=[],
