@@ -530,32 +530,24 @@ class CoupledSolid {
     double residual = 0.0;           ///< |u~ - u| / |u~| of the last answer
   };
 
-  static FluidSample sample_of(const cosimlcm::fluid_state_t& m) {
+  /// rho_l and u_l of a message's arrays as a FluidSample (sizes checked by check_fluid_state).
+  static FluidSample sample_from(const std::vector<double>& rho, const std::vector<std::vector<double>>& u) {
     FluidSample sample;
-    const auto n = static_cast<Eigen::Index>(m.rho_lb.size());
+    const auto n = static_cast<Eigen::Index>(rho.size());
     sample.rho_lb.resize(n);
     sample.velocity_lb.resize(3, n);
     for (Eigen::Index l = 0; l < n; ++l) {
       const auto k = static_cast<std::size_t>(l);
-      sample.rho_lb[l] = m.rho_lb[k];
-      for (Eigen::Index c = 0; c < 3; ++c) sample.velocity_lb(c, l) = m.velocity_lb[k][static_cast<std::size_t>(c)];
+      sample.rho_lb[l] = rho[k];
+      for (Eigen::Index c = 0; c < 3; ++c) sample.velocity_lb(c, l) = u[k][static_cast<std::size_t>(c)];
     }
     return sample;
   }
-
+  /// The fluid after the step (the serial scheme's sample; the start of the next step).
+  static FluidSample sample_of(const cosimlcm::fluid_state_t& m) { return sample_from(m.rho_lb, m.velocity_lb); }
   /// The fluid before the step at the iterate's markers (fluid_state_t's *_start_lb).
   static FluidSample start_sample_of(const cosimlcm::fluid_state_t& m) {
-    FluidSample sample;
-    const auto n = static_cast<Eigen::Index>(m.rho_start_lb.size());
-    sample.rho_lb.resize(n);
-    sample.velocity_lb.resize(3, n);
-    for (Eigen::Index l = 0; l < n; ++l) {
-      const auto k = static_cast<std::size_t>(l);
-      sample.rho_lb[l] = m.rho_start_lb[k];
-      for (Eigen::Index c = 0; c < 3; ++c)
-        sample.velocity_lb(c, l) = m.velocity_start_lb[k][static_cast<std::size_t>(c)];
-    }
-    return sample;
+    return sample_from(m.rho_start_lb, m.velocity_start_lb);
   }
 
   /// The first relaxation factor of the run: coupling.relaxation, else 1/2.
@@ -677,15 +669,7 @@ class CoupledSolid {
   std::optional<Ending> interval(const cosimlcm::fluid_state_t& m) { return interval(m, m.step); }
   std::optional<Ending> interval(const cosimlcm::fluid_state_t& m, std::int64_t step) {
     if (const auto e = check_fluid_state(m)) return e;
-    FluidSample sample;
-    sample.rho_lb.resize(n_);
-    sample.velocity_lb.resize(3, n_);
-    for (Eigen::Index l = 0; l < n_; ++l) {
-      const auto k = static_cast<std::size_t>(l);
-      sample.rho_lb[l] = m.rho_lb[k];
-      for (Eigen::Index c = 0; c < 3; ++c)
-        sample.velocity_lb(c, l) = m.velocity_lb[k][static_cast<std::size_t>(c)];
-    }
+    const FluidSample sample = sample_of(m);
     const bool rigid = step < rigid_steps_;
     IntervalResult r;
     try {
