@@ -153,7 +153,7 @@ class CoupledFluid {
 
     const auto n = static_cast<std::size_t>(num_cgps_);
     std::vector<Vec3> x(n), j(n);
-    std::vector<MarkerSample> samples(n), start_samples(n);
+    std::vector<MarkerSample> samples(n);
     const Clock::time_point start = Clock::now();
     if (c_.scheme.implicit_scheme()) return step_all_implicit(solver, ib, log, snapshots, limits, first_step, start);
     Clock::time_point last_progress = start;
@@ -206,9 +206,7 @@ class CoupledFluid {
         t1 = Clock::now();
         publish_s_ += std::chrono::duration<double>(t1 - t2).count();
       }
-      // The fluid before the step at X_l (fluid_state_t's *_start_lb), then Eqs. 21-24 and
-      // 25-26: spread J_l at X_l, collide with the forcing, stream.
-      ib.sample(solver, x, start_samples);
+      // Eqs. 21-24 and 25-26: spread J_l at X_l, collide with the forcing, stream.
       ib.spread(solver, x, j);
       solver.step();
       const std::int64_t now = step + 1;
@@ -221,7 +219,8 @@ class CoupledFluid {
       if (publish) {
         const Clock::time_point t2 = Clock::now();
         compute_s_ += std::chrono::duration<double>(t2 - t1).count();
-        publish_fluid_state(now, samples, start_samples);
+        // fluid_state_t's *_start_lb serve the implicit scheme only: a copy of the sample here.
+        publish_fluid_state(now, samples, samples);
         publish_s_ += std::chrono::duration<double>(Clock::now() - t2).count();
         if (periodic) checkpoint(solver.state(), now, "");
       } else {

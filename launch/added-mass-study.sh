@@ -10,14 +10,4 @@
 # Installs what is missing and builds first unless --no-build. Exit status: 0 done; 1 a run
 # could not be read; 2 bad arguments.
 set -euo pipefail
-root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
-build=1
-args=()
-for a in "$@"; do
-  if [ "$a" = "--no-build" ]; then build=0; else args+=("$a"); fi
-done
-if [ $build -eq 1 ]; then
-  bash "$root/launch/bootstrap.sh"
-  bash "$root/launch/build.sh" >/dev/null
-fi
-exec /usr/bin/python3 "$root/launch/added_mass_study.py" "${args[@]+"${args[@]}"}"
+exec bash "$(dirname "${BASH_SOURCE[0]}")/python-study.sh" added_mass_study.py "$@"

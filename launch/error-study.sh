@@ -17,14 +17,4 @@
 #
 # Exit status: 0 done; 1 a run failed (one line naming it and its log); 2 bad arguments.
 set -euo pipefail
-root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
-build=1
-args=()
-for a in "$@"; do
-  if [ "$a" = "--no-build" ]; then build=0; else args+=("$a"); fi
-done
-if [ $build -eq 1 ]; then
-  bash "$root/launch/bootstrap.sh"
-  bash "$root/launch/build.sh" >/dev/null
-fi
-exec /usr/bin/python3 "$root/launch/error_study.py" "${args[@]+"${args[@]}"}"
+exec bash "$(dirname "${BASH_SOURCE[0]}")/python-study.sh" error_study.py "$@"

@@ -13,14 +13,4 @@
 # a diagnosis; 1 a case violated that (a crash, a hang, a stop without a diagnosis, a NaN in a
 # file); 2 bad arguments or nothing built.
 set -euo pipefail
-root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
-build=1
-args=()
-for a in "$@"; do
-  if [ "$a" = "--no-build" ]; then build=0; else args+=("$a"); fi
-done
-if [ $build -eq 1 ]; then
-  bash "$root/launch/bootstrap.sh"
-  bash "$root/launch/build.sh" >/dev/null
-fi
-exec /usr/bin/python3 "$root/launch/stability_matrix.py" "${args[@]}"
+exec bash "$(dirname "${BASH_SOURCE[0]}")/python-study.sh" stability_matrix.py "$@"
