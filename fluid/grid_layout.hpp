@@ -45,7 +45,7 @@ class GridLayout {
   /// 4K-aliasing and cache-set conflicts between the kernel's streams; docs/performance.md).
   std::size_t stride() const {
     // The compact rows (row_values) need one line more after the last row for its x = nx.
-    const std::size_t tail = align_ == kLineBytes / 8 ? 0 : 1;
+    const std::size_t tail = compact_rows(shape_.nx, align_) ? 1 : 0;
     const std::size_t lines = std::size_t(sx_) * sy_ * sz_ / align_ + tail;
     return (lines | 1) * align_;
   }
@@ -66,11 +66,18 @@ class GridLayout {
   /// Values from one row's x = 0 to the next's. A row needs nx + 2 (two ghosts); the x = nx
   /// ghost may share a line with the next row's x = -1 ghost, so nx + 2 rounded up to whole
   /// lines is enough, and the single store takes that (half the double store's bytes on
-  /// small grids too). The double store keeps one line more (its first layout), so that its
-  /// checkpoints keep their size.
+  /// small grids too) where the row's interior ends on a line boundary or one value before
+  /// it (nx % 16 = 0 or 15). Otherwise the row's last line, partly interior, would hold the
+  /// next row's x = -1 ghost too; the kernel writes that line whole with one non-temporal
+  /// store (fluid/stream_collide.cpp), so it takes the padded row below, whose last line is
+  /// its own. The double store always pads (its first layout), so that its checkpoints keep
+  /// their size.
+  static bool compact_rows(int nx, int per_line) {
+    return per_line != kLineBytes / 8 && (nx % per_line == 0 || nx % per_line == per_line - 1);
+  }
   static int row_values(int nx, int per_line) {
-    return per_line == kLineBytes / 8 ? round_up(per_line + nx + 1, per_line)
-                                      : round_up(nx + 2, per_line);
+    return compact_rows(nx, per_line) ? round_up(nx + 2, per_line)
+                                      : round_up(per_line + nx + 1, per_line);
   }
   GridShape shape_;
   int align_ = kLineBytes / 8;

@@ -8,10 +8,13 @@
 #include <cstdio>
 #include <string>
 #include <numbers>
+#include <random>
 #include <vector>
 
+#include "fluid/d3q19.hpp"
 #include "fluid/fluid_solver.hpp"
 #include "fluid/scene_config.hpp"
+#include "fluid/stream_collide.hpp"
 
 namespace {
 
@@ -154,6 +157,51 @@ TEST(Precision, SinglePrecisionWithinTolerance) {
   const double cdiff = max_velocity_difference(cs, cd);
   RecordProperty("channel_max_difference", sci(cdiff));
   EXPECT_LE(cdiff, roundoff_bound(steps, u_in));
+}
+
+TEST(Precision, SingleStoreStreamingMatchesCachedStores) {
+  // The single store's non-temporal kernel writes whole 64-byte lines of 16 floats: each
+  // row's last, partial line is assembled with its outflow ghost and streamed whole
+  // (fluid/stream_collide.cpp), on rows that own that line (GridLayout::row_values). Every
+  // remainder of nx modulo 16, with outflow ghosts written by the kernel on either x face,
+  // against the kernel with ordinary stores: the same arithmetic, so bit for bit.
+  using L = D3Q19;
+  for (int nx = 1; nx <= 40; ++nx) {
+    const GridShape shape{nx, 3, 2};
+    const GridLayout lay = layout_of(shape, Precision::Single);
+    ASSERT_EQ(lay.values_per_line(), 16);
+    PopulationFieldSingle src(lay), nt(lay), cached(lay);
+    const std::size_t n = std::size_t(L::Q) * lay.stride();
+    std::mt19937 rng{static_cast<unsigned>(nx)};
+    std::uniform_real_distribution<float> U(0.01f, 0.1f);
+    for (std::size_t i = 0; i < n; ++i) src.q(0)[i] = U(rng);
+    std::fill(nt.q(0), nt.q(0) + n, -7.0f);
+    std::fill(cached.q(0), cached.q(0) + n, -7.0f);
+    KernelOutflow out;
+    out.x_min = nx % 2 == 0;
+    out.x_max = true;
+    out.rho_x_min = 1.01;
+    out.rho_x_max = 0.99;
+    stream_collide(src, nt, 0.7, {1e-5, 0.0, -2e-5}, Stores::Streaming, out);
+    stream_collide(src, cached, 0.7, {1e-5, 0.0, -2e-5}, Stores::Cached, out);
+    int mismatches = 0;
+    for (int q = 0; q < L::Q; ++q)
+      for (int z = 0; z < shape.nz; ++z)
+        for (int y = 0; y < shape.ny; ++y)
+          for (int x = -1; x <= nx; ++x) {
+            // Interior cells, and the ghosts the kernel writes: populations entering the
+            // grid through an outflow face.
+            const bool interior = x >= 0 && x < nx;
+            const bool ghost = (x == -1 && out.x_min && L::cx[q] == 1) ||
+                               (x == nx && out.x_max && L::cx[q] == -1);
+            if (!interior && !ghost) continue;
+            const float a = nt.at(q, x, y, z), b = cached.at(q, x, y, z);
+            if (a != b && ++mismatches <= 5)
+              ADD_FAILURE() << "nx " << nx << ", q " << q << ", cell (" << x << ", " << y << ", "
+                            << z << "): " << a << " (non-temporal) != " << b << " (cached)";
+          }
+    EXPECT_EQ(mismatches, 0) << "nx " << nx;
+  }
 }
 
 TEST(Precision, DoubleAccessorsRefuseTheSingleStore) {
