@@ -10,6 +10,7 @@
 #include <memory>
 #include <optional>
 #include <thread>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -171,7 +172,7 @@ class CoupledFluid {
       if (auto e = wait_for_solid_state(step)) {
         // A clean abort (the solid lost or stopped with an error): the state at `step` is
         // whole, so it is kept for a restart (DESIGN 2.4).
-        if (e->code == kPeerLost && step > first_step) e->reason += checkpoint(solver.state(), step, e->reason);
+        if (e->code == kPeerLost && step > first_step) e->reason += checkpoint(solver, step, e->reason);
         // The solid's watchdog tripped on a sentinel that a smaller dt_CG may cure.
         if (peer_code_ == kUnhealthy && protocol::dt_curable(e->reason)) announce_retry(step, c_.time_ratio, 0);
         return end(*e);
@@ -222,7 +223,7 @@ class CoupledFluid {
         // fluid_state_t's *_start_lb serve the implicit scheme only: a copy of the sample here.
         publish_fluid_state(now, samples, samples);
         publish_s_ += std::chrono::duration<double>(Clock::now() - t2).count();
-        if (periodic) checkpoint(solver.state(), now, "");
+        if (periodic) checkpoint(solver, now, "");
       } else {
         compute_s_ += std::chrono::duration<double>(Clock::now() - t1).count();
       }
@@ -332,7 +333,7 @@ class CoupledFluid {
     std::vector<Vec3> x(n), j(n);
     std::vector<MarkerSample> samples(n), start_samples(n);
     const std::int64_t dynamic_from = std::max<std::int64_t>(c_.rigid_steps, 1);
-    PopulationField backup;               // the committed state of `step` while it is iterated
+    KeptState backup;                     // the committed state of `step` while it is iterated
     bool have_backup = false;
     protocol::MarkerWatch::Reference marker_ref;
     std::int64_t step = first_step;       // the committed step
@@ -346,8 +347,9 @@ class CoupledFluid {
         if (e->code == kPeerLost && step > first_step)
           // The committed state: kept while the step is iterated, else what the solver holds
           // (a rigid step stepped once is not committed yet either: no checkpoint then).
-          e->reason += iteration < 0 || have_backup ? checkpoint(have_backup ? backup : solver.state(), step, e->reason)
-                                                     : "; no checkpoint (the spin-up step was not accepted yet)";
+          e->reason += have_backup      ? backup.checkpoint(*this, step, e->reason)
+                       : iteration < 0 ? checkpoint(solver, step, e->reason)
+                                       : "; no checkpoint (the spin-up step was not accepted yet)";
         if (peer_code_ == kUnhealthy && protocol::dt_curable(e->reason)) announce_retry(step, c_.time_ratio, 0);
         return end(*e);
       }
@@ -371,7 +373,7 @@ class CoupledFluid {
           if (auto e = check_solid_state(m, step)) return end(*e);
           break;
         }
-        if (periodic) checkpoint(solver.state(), step, "");
+        if (periodic) checkpoint(solver, step, "");
       }
       if (m.step != step || m.iteration != iteration + 1) {
         const std::string why = "solid_state_t of step " + std::to_string(m.step) + ", iteration " +
@@ -388,11 +390,11 @@ class CoupledFluid {
       }
       // The spin-up is not iterated: the state of a rigid step need not be kept.
       if (m.iteration == 0 && step >= dynamic_from) {
-        solver.copy_state(backup);
+        backup.keep(solver);
         have_backup = true;
         if (markers_.has_reference()) marker_ref = markers_.reference();
       } else if (m.iteration > 0) {
-        solver.restore_state(backup, step);
+        backup.restore(solver, step);
         if (markers_.has_reference()) markers_.restore(marker_ref);
         ++redone_steps_;
       }
@@ -430,7 +432,7 @@ class CoupledFluid {
     std::string reason = t.diagnosis;
     if (solver != nullptr && step >= 1 && step > first_step_) {
       const std::string problem = health_problem(summarize(*solver), limits);
-      if (problem.empty()) reason += checkpoint(solver->state(), step, t.diagnosis);
+      if (problem.empty()) reason += checkpoint(*solver, step, t.diagnosis);
       else reason += "; no checkpoint of step " + std::to_string(step) + ": " + problem;
     }
     if (t.dt_cure) announce_retry(step, c_.time_ratio, 0);
@@ -479,7 +481,36 @@ class CoupledFluid {
   /// published, solid_state_t(step) not yet applied) and keeps the newest three. Returns
   /// what to add to an abort's reason: where the checkpoint went, or why it could not be
   /// written (for periodic checkpoints a failure throws: an output error ends the run).
-  std::string checkpoint(const PopulationField& f, std::int64_t step, const std::string& reason) {
+  std::string checkpoint(const FluidSolver& solver, std::int64_t step, const std::string& reason) {
+    return solver.precision() == Precision::Double ? checkpoint(solver.state(), step, reason)
+                                                   : checkpoint(solver.state_single(), step, reason);
+  }
+
+  /// The implicit scheme's committed state of a step while it is iterated, in the solver's
+  /// precision.
+  class KeptState {
+   public:
+    void keep(const FluidSolver& solver) {
+      double_ = solver.precision() == Precision::Double;
+      double_ ? solver.copy_state(d_) : solver.copy_state(s_);
+    }
+    void restore(FluidSolver& solver, std::int64_t step) const {
+      solver.precision() == Precision::Double ? solver.restore_state(d_, step) : solver.restore_state(s_, step);
+    }
+    std::string checkpoint(CoupledFluid& fluid, std::int64_t step, const std::string& reason) const {
+      return double_ ? fluid.checkpoint(d_, step, reason) : fluid.checkpoint(s_, step, reason);
+    }
+
+   private:
+    bool double_ = true;
+    PopulationField d_;
+    PopulationFieldSingle s_;
+  };
+
+  /// The populations of either store (precision "double" or "single"); a restart reads them
+  /// back into a run of the same precision.
+  template <class T>
+  std::string checkpoint(const BasicPopulationField<T>& f, std::int64_t step, const std::string& reason) {
     namespace fs = std::filesystem;
     const fs::path dir = fs::path(s_.output_dir) / "checkpoints";
     const fs::path file = dir / protocol::checkpoint_name("fluid", step);
@@ -505,6 +536,7 @@ class CoupledFluid {
       w.text("scene_hash", protocol::scene_hash_of_file(s_.path));
       w.text("reason", reason.empty() ? "every coupling.checkpoint_every steps" : reason);
       w.put("populations", f.q(0), std::size_t(D3Q19::Q) * f.layout().stride());
+      w.text("precision", std::is_same_v<T, float> ? "single" : "double");
       // The parallel scheme (protocol/README.md 14): fluid_state_t(step) is in flight too,
       // the solid's next interval needs it.
       if (c_.scheme.parallel_scheme())
@@ -538,10 +570,16 @@ class CoupledFluid {
     if (r.int64_attr("num_cgps") != num_cgps_)
       throw std::runtime_error("num_cgps = " + std::to_string(r.int64_attr("num_cgps")) +
                                ", but the solid announced " + std::to_string(num_cgps_));
-    PopulationField& f = solver.mutable_state();
-    const std::size_t size = std::size_t(D3Q19::Q) * f.layout().stride();
-    const std::vector<double> pop = r.doubles("populations", size);
-    std::copy(pop.begin(), pop.end(), f.q(0));
+    // The populations in the store's precision (its "precision" text): the scene hash above
+    // ties the checkpoint to this scene file, run.precision included.
+    const std::size_t size = std::size_t(D3Q19::Q) * solver.layout().stride();
+    if (solver.precision() == Precision::Double) {
+      const std::vector<double> pop = r.doubles("populations", size);
+      std::copy(pop.begin(), pop.end(), solver.mutable_state().q(0));
+    } else {
+      const std::vector<float> pop = r.floats("populations", size);
+      std::copy(pop.begin(), pop.end(), solver.mutable_state_single().q(0));
+    }
     solver.refresh_ghosts();
     solver.set_step_count(step);
     fluid_seq_ = r.int64_attr("fluid_seq");

@@ -116,20 +116,31 @@ void FluidSolver::step() {
   ++steps_;
 }
 
-void FluidSolver::copy_state(PopulationField& to) const {
-  const PopulationField& f = state();  // the double store (std::logic_error otherwise)
-  if (to.layout().stride() != layout_.stride()) to = PopulationField(layout_);
+template <class T>
+void FluidSolver::copy_state_of(const BasicPopulationField<T>& f, BasicPopulationField<T>& to) const {
+  if (to.layout().stride() != layout_.stride()) to = BasicPopulationField<T>(layout_);
   const std::size_t size = std::size_t(D3Q19::Q) * layout_.stride();
   std::copy(f.q(0), f.q(0) + size, to.q(0));
 }
 
-void FluidSolver::restore_state(const PopulationField& from, std::int64_t steps) {
+template <class T>
+void FluidSolver::restore_state_of(const BasicPopulationField<T>& from, BasicPopulationField<T>& f,
+                                   std::int64_t steps) {
   if (from.layout().stride() != layout_.stride())
     throw std::invalid_argument("FluidSolver::restore_state: a population field of another layout");
-  PopulationField& f = mutable_state();
   const std::size_t size = std::size_t(D3Q19::Q) * layout_.stride();
   std::copy(from.q(0), from.q(0) + size, f.q(0));
   steps_ = steps;
+}
+
+// state() and the others throw std::logic_error for the other precision's field.
+void FluidSolver::copy_state(PopulationField& to) const { copy_state_of(state(), to); }
+void FluidSolver::copy_state(PopulationFieldSingle& to) const { copy_state_of(state_single(), to); }
+void FluidSolver::restore_state(const PopulationField& from, std::int64_t steps) {
+  restore_state_of(from, mutable_state(), steps);
+}
+void FluidSolver::restore_state(const PopulationFieldSingle& from, std::int64_t steps) {
+  restore_state_of(from, mutable_state_single(), steps);
 }
 
 template <class T>

@@ -88,13 +88,20 @@ class FluidSolver {
   void set_step_count(std::int64_t steps) { steps_ = steps; }
 
   /// Keeps the state (populations with their ghosts) in `to`, for the implicit coupling
-  /// scheme's sub-iterations; `to` gets this solver's layout.
+  /// scheme's sub-iterations; `to` gets this solver's layout. The field of the solver's
+  /// precision (std::logic_error for the other).
   void copy_state(PopulationField& to) const;
+  void copy_state(PopulationFieldSingle& to) const;
   /// Back to a state kept by copy_state(), at step count `steps`.
   /// @throws std::invalid_argument for a field of another layout
   void restore_state(const PopulationField& from, std::int64_t steps);
+  void restore_state(const PopulationFieldSingle& from, std::int64_t steps);
 
  private:
+  template <class T>
+  void copy_state_of(const BasicPopulationField<T>& f, BasicPopulationField<T>& to) const;
+  template <class T>
+  void restore_state_of(const BasicPopulationField<T>& from, BasicPopulationField<T>& f, std::int64_t steps);
   template <class T>
   void step_fields(BasicPopulationField<T>& f, BasicPopulationField<T>& g);
   template <class T>

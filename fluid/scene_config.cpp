@@ -841,10 +841,6 @@ FluidScene load_scene(const std::string& path) {
   load_output_and_initial(r, s);
   load_coupling(r, s);
   load_watchdog(r, s);
-  if (s.coupling && s.params.precision != Precision::Double)
-    r.bad(*r.node("run", "precision"), "run.precision",
-          "a coupled scene runs with \"double\" only (its checkpoints and replay hold double "
-          "populations); \"single\" is for fluid-only scenes");
 
   // What the solver itself would refuse; the checks above should have caught all of it.
   const std::string err = BoundaryConditions::check(s.params.faces);

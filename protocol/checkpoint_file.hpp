@@ -59,6 +59,9 @@ class CheckpointWriter {
   void put(const std::string& name, const double* data, std::size_t n) {
     put_raw(name, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, n, data);
   }
+  void put(const std::string& name, const float* data, std::size_t n) {
+    put_raw(name, H5T_IEEE_F32LE, H5T_NATIVE_FLOAT, n, data);
+  }
   void put(const std::string& name, const std::vector<std::int64_t>& v) {
     put_raw(name, H5T_STD_I64LE, H5T_NATIVE_INT64, v.size(), v.data());
   }
@@ -142,12 +145,13 @@ class CheckpointReader {
   }
   /// An array that must hold exactly `n` doubles.
   std::vector<double> doubles(const std::string& name, std::size_t n) const {
-    std::vector<double> v = doubles(name);
-    if (v.size() != n)
-      throw std::runtime_error("checkpoint " + path_ + ": " + name + " has " + std::to_string(v.size()) +
-                               " values, this run needs " + std::to_string(n) +
-                               " (a checkpoint of another scene?)");
-    return v;
+    return sized(doubles(name), name, n);
+  }
+  /// An array that must hold exactly `n` floats (the single-precision population store).
+  std::vector<float> floats(const std::string& name, std::size_t n) const {
+    std::vector<float> v(length(name));
+    read(name, H5T_NATIVE_FLOAT, v.data(), v.size());
+    return sized(std::move(v), name, n);
   }
   std::string text(const std::string& name) const {
     const std::vector<std::uint8_t> b = bytes(name);
@@ -172,6 +176,14 @@ class CheckpointReader {
   }
 
  private:
+  template <class V>
+  V sized(V v, const std::string& name, std::size_t n) const {
+    if (v.size() != n)
+      throw std::runtime_error("checkpoint " + path_ + ": " + name + " has " + std::to_string(v.size()) +
+                               " values, this run needs " + std::to_string(n) +
+                               " (a checkpoint of another scene?)");
+    return v;
+  }
   std::size_t length(const std::string& name) const {
     const H5Quiet quiet;
     const std::string what = "checkpoint " + path_ + ": no array " + name;

@@ -233,6 +233,37 @@ TEST(Reproducibility, ParallelCheckpointRestartIsBitIdentical) {
   if (!HasFailure()) fs::remove_all(dir);
 }
 
+/// The single-precision store in a coupled run (`[run] precision = "single"`), with the
+/// implicit scheme, whose sub-iterations keep and restore the committed floats: a restart from
+/// its checkpoint of step 80 (the store's floats) gives every HDF5 output bit for bit.
+TEST(Reproducibility, SinglePrecisionCoupledRestartIsBitIdentical) {
+  const fs::path dir = scratch("single_precision");
+  const fs::path scene = write_scene(dir, false, "implicit");
+  {
+    std::string s = slurp(scene);
+    const std::size_t at = s.find("steps = 120");
+    ASSERT_NE(at, std::string::npos);
+    s.insert(at, "precision = \"single\"\n");
+    std::ofstream(scene) << s;
+  }
+  const fs::path clean = dir / "clean", restarted = dir / "restarted", from = dir / "from80";
+  expect_done(clean, run_launcher(kSource, scene, clean));
+  EXPECT_NE(slurp(clean / "fluid.log").find("floats (single precision store)"), std::string::npos) << logs(clean);
+  fs::create_directories(from);
+  for (const char* side : {"fluid", "solid"})
+    fs::copy_file(clean / "checkpoints" / (std::string(side) + "_00000080.h5"),
+                  from / (std::string(side) + "_00000080.h5"));
+  expect_done(restarted, run_launcher(kSource, scene, restarted, "--restart " + cosim::test::quoted(from.string())));
+  EXPECT_NE(slurp(restarted / "fluid.log").find("restarted from"), std::string::npos) << logs(restarted);
+  std::size_t files = 0;
+  for (const std::string& file : cosim::test::h5_files(restarted)) {
+    EXPECT_EQ(cosim::test::compare_h5(clean, restarted, file), "") << file;
+    ++files;
+  }
+  EXPECT_GE(files, 4u);
+  if (!HasFailure()) fs::remove_all(dir);
+}
+
 /// The solid is killed (SIGKILL) after its checkpoint of step 100: the fluid notices within
 /// its peer timeout, writes its own checkpoint and exits 4 naming the reason and the file;
 /// a restart from the checkpoints folder completes the run, identical to an uninterrupted one.

@@ -99,8 +99,6 @@ const std::vector<BadCase> kBadCases = {
       "did you mean \"max_cgp_speed\""}},
     {"precision_unknown.toml",
      {":30: run.precision = \"half\": must be one of \"double\", \"single\""}},
-    {"precision_coupled.toml",
-     {"run.precision = \"single\": a coupled scene runs with \"double\" only"}},
 };
 
 TEST(Scene, BadSceneFilesAreRejected) {
