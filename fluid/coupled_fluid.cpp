@@ -210,6 +210,7 @@ class CoupledFluid {
       // Eqs. 21-24 and 25-26: spread J_l at X_l, collide with the forcing, stream.
       ib.spread(solver, x, j);
       solver.step();
+      if (auto code = check_step_read(solver, step, limits)) return *code;
       const std::int64_t now = step + 1;
       const bool last = now == s_.steps;
       const bool publish = publishes(now);
@@ -252,7 +253,7 @@ class CoupledFluid {
     out_ << line;
     std::snprintf(line, sizeof line,
                   "fluid: watchdog: %.4g ms per LB step, %.2g %% of the compute (the markers, the samples "
-                  "and the whole-grid check every %lld steps)\n",
+                  "and the kernel's extrema every %lld steps)\n",
                   watch_s_ * per, compute_s_ > 0 ? 100.0 * watch_s_ / compute_s_ : 0.0,
                   static_cast<long long>(s_.watchdog.health_every));
     out_ << line;
@@ -286,30 +287,41 @@ class CoupledFluid {
     return std::nullopt;
   }
 
-  /// The whole-grid health check (before every write, and every watchdog.health_every
-  /// steps), the monitor row and the snapshot of step `now`; the exit code of a trip.
+  /// The watchdog's flow_health sentinel every watchdog.health_every steps: the state
+  /// `step` that the step just computed read, from its kernel's extrema (no pass of its own;
+  /// previous_step_problem); the exit code of a trip.
+  std::optional<int> check_step_read(const FluidSolver& solver, std::int64_t step, const HealthLimits& limits) {
+    if (step % s_.watchdog.health_every != 0) return std::nullopt;
+    const Clock::time_point w = Clock::now();
+    const std::string problem = previous_step_problem(solver, limits);
+    watch_s_ += std::chrono::duration<double>(Clock::now() - w).count();
+    if (problem.empty()) return std::nullopt;
+    return unhealthy(problem, step, limits);
+  }
+
+  /// The trip of flow_health at `step` for health_problem()'s line.
+  int unhealthy(const std::string& problem, std::int64_t step, const HealthLimits& limits) {
+    protocol::Trip t;
+    t.sentinel = "flow_health";
+    t.step = step;
+    // health_problem names the step first ("step N: cell (...): ..."): said once here.
+    const std::string prefix = "step " + std::to_string(step) + ": ";
+    t.diagnosis = "watchdog flow_health at step " + std::to_string(step) + ": unhealthy flow at " +
+                  (problem.rfind(prefix, 0) == 0 ? problem.substr(prefix.size()) : problem);
+    return trip(t, nullptr, step, limits);
+  }
+
+  /// The whole-grid health check before every write (monitor row, snapshot, checkpoint),
+  /// then the monitor row and the snapshot of step `now`; the exit code of a trip.
   std::optional<int> step_outputs(const FluidSolver& solver, std::int64_t now, bool last, bool periodic,
                                   MonitorLog& log, Snapshots& snapshots, const HealthLimits& limits, double dt_us,
                                   double mass0) {
     const bool monitor = now % s_.monitor_every == 0 || last;
     const bool snapshot = snapshots.due(now, last);
-    if (monitor || snapshot || periodic || now % s_.watchdog.health_every == 0) {
-      const Clock::time_point w2 = Clock::now();
+    if (monitor || snapshot || periodic) {
       const FlowSummary sum = summarize(solver);
-      // The checks the monitor, a snapshot or a checkpoint would not have made are the
-      // watchdog's cost.
-      if (!(monitor || snapshot || periodic)) watch_s_ += std::chrono::duration<double>(Clock::now() - w2).count();
       const std::string problem = health_problem(sum, limits);
-      if (!problem.empty()) {
-        protocol::Trip t;
-        t.sentinel = "flow_health";
-        t.step = now;
-        // health_problem names the step first ("step N: cell (...): ..."): said once here.
-        const std::string prefix = "step " + std::to_string(now) + ": ";
-        t.diagnosis = "watchdog flow_health at step " + std::to_string(now) + ": unhealthy flow at " +
-                      (problem.rfind(prefix, 0) == 0 ? problem.substr(prefix.size()) : problem);
-        return trip(t, nullptr, now, limits);
-      }
+      if (!problem.empty()) return unhealthy(problem, now, limits);
       if (monitor) {
         log.append(sum);
         rows_.push_back(sum);
@@ -405,6 +417,7 @@ class CoupledFluid {
       ib.sample(solver, x, start_samples);  // the fluid before the step at X_l
       ib.spread(solver, x, j);              // Eqs. 21-24 and 25-26
       solver.step();
+      if (auto code = check_step_read(solver, step, limits)) return *code;
       if (auto code = sample_markers(solver, ib, step + 1, x, samples, limits)) return *code;
       const Clock::time_point t2 = Clock::now();
       compute_s_ += std::chrono::duration<double>(t2 - t1).count();

@@ -1,5 +1,6 @@
 #include "fluid/flow_monitor.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <array>
 #include <cstddef>
@@ -102,8 +103,9 @@ const char* non_finite_name(double v) {
   return v > 0 ? "+inf" : "-inf";
 }
 
+/// The summary of `f`, a state of `solver` at step `step`.
 template <class T>
-FlowSummary summarize_field(const FluidSolver& solver, const BasicPopulationField<T>& f) {
+FlowSummary summarize_field(const FluidSolver& solver, const BasicPopulationField<T>& f, std::int64_t step) {
   const GridLayout& lay = f.layout();
   const GridShape& shape = solver.shape();
   const int nx = shape.nx, ny = shape.ny;
@@ -175,7 +177,7 @@ FlowSummary summarize_field(const FluidSolver& solver, const BasicPopulationFiel
   }
 
   FlowSummary out;
-  out.step = solver.step_count();
+  out.step = step;
   out.mass = total.mass;
   out.momentum = {total.mx, total.my, total.mz};
   const bool any_finite = total.rmin.index != std::numeric_limits<std::int64_t>::max();
@@ -194,8 +196,28 @@ FlowSummary summarize_field(const FluidSolver& solver, const BasicPopulationFiel
 }  // namespace
 
 FlowSummary summarize(const FluidSolver& solver) {
-  return solver.precision() == Precision::Double ? summarize_field(solver, solver.state())
-                                                 : summarize_field(solver, solver.state_single());
+  const std::int64_t now = solver.step_count();
+  return solver.precision() == Precision::Double ? summarize_field(solver, solver.state(), now)
+                                                 : summarize_field(solver, solver.state_single(), now);
+}
+
+std::string previous_step_problem(const FluidSolver& solver, const HealthLimits& limits) {
+  const KernelExtrema& e = solver.last_step_extrema();
+  const auto near_or_past = [](double v, double bound, int side) {  // side: +1 above, -1 below
+    const double slack = 1e-12 * std::max(1.0, std::abs(bound));
+    return side > 0 ? v >= bound - slack : v <= bound + slack;
+  };
+  const double u2_limit = limits.mach_limit * limits.mach_limit * L::cs2;
+  const bool suspect = !e.finite || near_or_past(e.rho_min, limits.rho_floor, -1) ||
+                       near_or_past(e.rho_min, limits.rho_min, -1) ||
+                       (std::isfinite(limits.rho_max) && near_or_past(e.rho_max, limits.rho_max, +1)) ||
+                       near_or_past(e.u2_max, u2_limit, +1);
+  if (!suspect) return {};
+  const std::int64_t before = solver.step_count() - 1;
+  const FlowSummary s = solver.precision() == Precision::Double
+                            ? summarize_field(solver, solver.previous_state(), before)
+                            : summarize_field(solver, solver.previous_state_single(), before);
+  return health_problem(s, limits);
 }
 
 std::string health_problem(const FlowSummary& s, const HealthLimits& limits) {

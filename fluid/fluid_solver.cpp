@@ -46,6 +46,7 @@ const PopulationField& FluidSolver::state() const {
 }
 PopulationField& FluidSolver::mutable_state() {
   if (params_.precision != Precision::Double) wrong_precision("mutable_state()", params_.precision);
+  have_previous_ = false;
   return f_;
 }
 const PopulationFieldSingle& FluidSolver::state_single() const {
@@ -55,7 +56,19 @@ const PopulationFieldSingle& FluidSolver::state_single() const {
 PopulationFieldSingle& FluidSolver::mutable_state_single() {
   if (params_.precision != Precision::Single)
     wrong_precision("mutable_state_single()", params_.precision);
+  have_previous_ = false;
   return fs_;
+}
+
+const PopulationField& FluidSolver::previous_state() const {
+  if (params_.precision != Precision::Double) wrong_precision("previous_state()", params_.precision);
+  if (!have_previous_) throw std::logic_error("FluidSolver::previous_state(): no step() since the state was set");
+  return g_;
+}
+const PopulationFieldSingle& FluidSolver::previous_state_single() const {
+  if (params_.precision != Precision::Single) wrong_precision("previous_state_single()", params_.precision);
+  if (!have_previous_) throw std::logic_error("FluidSolver::previous_state_single(): no step() since the state was set");
+  return gs_;
 }
 
 void FluidSolver::refresh_ghosts() {
@@ -68,6 +81,7 @@ void FluidSolver::refresh_ghosts() {
 void FluidSolver::initialize(const InitialState& state) {
   const GridShape& s = layout_.shape();
   const bool dbl = params_.precision == Precision::Double;
+  have_previous_ = false;
 #pragma omp parallel for collapse(2) schedule(static)
   for (int z = 0; z < s.nz; ++z)
     for (int y = 0; y < s.ny; ++y)
@@ -131,6 +145,7 @@ void FluidSolver::restore_state_of(const BasicPopulationField<T>& from, BasicPop
   const std::size_t size = std::size_t(D3Q19::Q) * layout_.stride();
   std::copy(from.q(0), from.q(0) + size, f.q(0));
   steps_ = steps;
+  have_previous_ = false;
 }
 
 // state() and the others throw std::logic_error for the other precision's field.
@@ -147,10 +162,11 @@ template <class T>
 void FluidSolver::step_fields(BasicPopulationField<T>& f, BasicPopulationField<T>& g) {
   // Boundaries (BoundaryConditions): the kernel writes the x outflows, the inlets stay from
   // fill_static_ghosts, the rest is filled after the swap.
-  stream_collide(f, g, params_.tau, params_.body_force, Stores::Auto, bc_.kernel_outflow());
+  stream_collide(f, g, params_.tau, params_.body_force, Stores::Auto, bc_.kernel_outflow(), &extrema_);
   apply_local_forces(f, g);
   std::swap(f, g);
   bc_.fill_step_ghosts(f);
+  have_previous_ = true;
 }
 
 template <class T>

@@ -10,6 +10,7 @@
 #include "fluid/boundary.hpp"
 #include "fluid/grid_layout.hpp"
 #include "fluid/population_field.hpp"
+#include "fluid/stream_collide.hpp"
 
 namespace cosim::fluid {
 
@@ -82,6 +83,14 @@ class FluidSolver {
   /// The same for the single-precision store. @pre precision() == Precision::Single
   const PopulationFieldSingle& state_single() const;
   PopulationFieldSingle& mutable_state_single();
+  /// What the kernel of the last step() saw of the state it read (the state at
+  /// step_count() - 1): extrema of rho and u.u and whether all were finite (KernelExtrema).
+  const KernelExtrema& last_step_extrema() const { return extrema_; }
+  /// That state itself, as long as no other step() ran (the second grid keeps it).
+  /// @pre step_count() >= 1 and precision() == Precision::Double (Single:
+  /// previous_state_single()), else std::logic_error
+  const PopulationField& previous_state() const;
+  const PopulationFieldSingle& previous_state_single() const;
   /// Call after changing mutable_state() or mutable_state_single() by hand.
   void refresh_ghosts();
   /// A restart from a checkpoint (DESIGN 2.4): the step count the restored state is at.
@@ -117,6 +126,8 @@ class FluidSolver {
   PopulationField f_, g_;
   PopulationFieldSingle fs_, gs_;
   std::int64_t steps_ = 0;
+  KernelExtrema extrema_;  // of the state the last step read
+  bool have_previous_ = false;  // the second grid holds the state before the last step
 
   // Sparse forcing: allocated on first use, so a scene without IB pays nothing.
   std::vector<double> fx_, fy_, fz_;

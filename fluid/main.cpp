@@ -6,8 +6,8 @@
 // Exit status: 0 the run finished; 1 an output or system error; 2 the scene file or the
 // command line is invalid (one line on stderr); 3 the flow became unhealthy (NaN, rho <= 0,
 // rho outside [watchdog] rho_min and rho_max, or Mach above run.mach_limit; checked every
-// run.monitor_every and watchdog.health_every steps): one line on stderr naming the step,
-// cell and quantity, and nothing is written for that step.
+// run.monitor_every and, from the kernel's extrema, every watchdog.health_every steps): one
+// line on stderr naming the step, cell and quantity, and nothing is written for that step.
 //
 // Initial state: rho = 1 everywhere with u = 0 (run.initial = "rest"), or with the inlet
 // profile of the first inlet face extended through the whole domain (run.initial =
@@ -200,11 +200,18 @@ int run(const FluidScene& s, bool quiet) {
 
   for (std::int64_t step = 1; step <= s.steps; ++step) {
     solver.step();
+    // The watchdog's cadence: the state the step read (step - 1), from the kernel's extrema.
+    if ((step - 1) % s.watchdog.health_every == 0)
+      if (const std::string problem = previous_step_problem(solver, limits); !problem.empty()) {
+        progress.clear();
+        std::fflush(stdout);
+        std::fprintf(stderr, "fluid: unhealthy flow, run stopped: %s\n", one_line(problem).c_str());
+        return kExitUnhealthy;
+      }
     const bool last = step == s.steps;
     const bool monitor = step % s.monitor_every == 0 || last;
     const bool snapshot = snapshots.due(step, last);
-    const bool health = step % s.watchdog.health_every == 0;  // the watchdog's cadence
-    if (monitor || snapshot || health) {
+    if (monitor || snapshot) {
       const std::optional<FlowSummary> sum = healthy_summary();
       if (!sum) return kExitUnhealthy;
       if (monitor) {

@@ -1,6 +1,8 @@
 #include "fluid/stream_collide.hpp"
 
+#include <algorithm>
 #include <cstddef>
+#include <limits>
 #include <type_traits>
 #include <utility>
 
@@ -110,6 +112,7 @@ template <std::size_t... P>
 /// of f_eq (Eq. 11) and of the source that do not depend on the direction.
 struct LaneFlow {
   Lanes ux, uy, uz;
+  Lanes uu;       ///< u.u
   Lanes even0;    ///< 1 - 3/2 u.u
   Lanes wrho[3];  ///< E rho for E = 1/3, 1/18, 1/36 (weight_class)
   Lanes src0[3];  ///< (1 - omega/2) E (-3 u.F), the part of S without c.F
@@ -123,7 +126,8 @@ template <bool kForce>
   v.ux = (kForce ? m.jx + 0.5 * k.Fx : m.jx) * inv_rho;
   v.uy = (kForce ? m.jy + 0.5 * k.Fy : m.jy) * inv_rho;
   v.uz = (kForce ? m.jz + 0.5 * k.Fz : m.jz) * inv_rho;
-  v.even0 = 1.0 - 1.5 * (v.ux * v.ux + v.uy * v.uy + v.uz * v.uz);
+  v.uu = v.ux * v.ux + v.uy * v.uy + v.uz * v.uz;
+  v.even0 = 1.0 - 1.5 * v.uu;
   const Lanes uF3 = kForce ? (-3.0 * k.src_pref) * (v.ux * k.Fx + v.uy * k.Fy + v.uz * k.Fz)
                            : Lanes{};
   for (int c = 0; c < 3; ++c) {
@@ -158,16 +162,52 @@ template <bool kForce, std::size_t... P>
   (relax_pair<kForce, int(P)>(f[pair_q(P)], f[pair_q(P) + 1], v, k), ...);
 }
 
+/// The extrema the kernel gathers of the cells it collides (KernelExtrema): a thread's
+/// running values, lane by lane.
+struct LaneExtrema {
+  Lanes rho_min = Lanes{} + std::numeric_limits<double>::infinity();
+  Lanes rho_max = Lanes{} - std::numeric_limits<double>::infinity();
+  Lanes uu_max = Lanes{};
+  Lanes bad = Lanes{};  ///< NaN once a rho or u.u was not finite (0 inf and 0 NaN are NaN)
+  /// The first n lanes of a group (a row's partial group pads with cells of rho = 19).
+  void take(Lanes rho, Lanes uu, int n = kLanes) {
+    if (n < kLanes) {
+      // Lanes past n repeat lane 0.
+      for (int i = n; i < kLanes; ++i) {
+        rho[i] = rho[0];
+        uu[i] = uu[0];
+      }
+    }
+    rho_min = rho < rho_min ? rho : rho_min;
+    rho_max = rho > rho_max ? rho : rho_max;
+    uu_max = uu > uu_max ? uu : uu_max;
+    bad += 0.0 * (rho + uu);
+  }
+  /// Into the call's result (one thread at a time).
+  void merge_into(KernelExtrema& e) const {
+    for (int i = 0; i < kLanes; ++i) {
+      e.rho_min = std::min(e.rho_min, rho_min[i]);
+      e.rho_max = std::max(e.rho_max, rho_max[i]);
+      e.u2_max = std::max(e.u2_max, uu_max[i]);
+      if (!(bad[i] == 0.0)) e.finite = false;
+    }
+  }
+};
+
 /// BGK collision (Eq. 10) with Guo forcing (Eq. 26) of kLanes cells at once, the same
 /// arithmetic as BgkGuo::collide; `f` holds the pulled (streamed, Eq. 9) populations and
 /// receives the post-collision ones. Each pair (q, opp q) shares the even part of the
 /// equilibrium (Eq. 11) and of the source S = E (3 (c - u).F + 9 (c.u)(c.F)):
 ///   f_eq = E rho (1 - 3/2 u.u + 9/2 (c.u)^2) +- E rho 3 c.u,
 ///   S    = E (9 (c.u)(c.F) - 3 u.F) +- E 3 c.F.
+/// The first n cells' rho (Eq. 7) and u.u go into `ex`.
 template <bool kForce>
-[[gnu::always_inline]] inline void collide(Lanes (&f)[L::Q], const CollisionConstants& k) {
+[[gnu::always_inline]] inline void collide(Lanes (&f)[L::Q], const CollisionConstants& k, LaneExtrema& ex,
+                                           int n = kLanes) {
   const auto pairs = std::make_index_sequence<kPairs>{};
-  const LaneFlow v = flow<kForce>(moments(f, pairs), k);
+  const LaneMoments m = moments(f, pairs);
+  const LaneFlow v = flow<kForce>(m, k);
+  ex.take(m.rho, v.uu, n);
   // Rest direction: c = 0.
   f[0] += k.omega * (v.wrho[0] * v.even0 - f[0]) + v.src0[0];
   relax_pairs<kForce>(f, v, k, pairs);
@@ -199,7 +239,8 @@ inline void store_outflow_ghost(const Lanes (&f)[L::Q], int lane, T* g, std::ptr
 /// population's line in one go.
 template <class T, bool kForce, bool kStream>
 void update_rows(const BasicPopulationField<T>& src, BasicPopulationField<T>& dst, double tau,
-                 const std::array<double, 3>& F, const KernelOutflow& out) {
+                 const std::array<double, 3>& F, const KernelOutflow& out, KernelExtrema* extrema) {
+  if (extrema != nullptr) *extrema = KernelExtrema{};
   constexpr int kLineGroups = std::is_same_v<T, float> && kStream
                                   ? GridLayout::kLineBytes / int(sizeof(LanesSingle))
                                   : 1;
@@ -218,6 +259,7 @@ void update_rows(const BasicPopulationField<T>& src, BasicPopulationField<T>& ds
 #pragma omp parallel
   {
     alignas(GridLayout::kLineBytes) T line[kLineGroups > 1 ? L::Q : 1][kLineCells];
+    LaneExtrema ex;
 #pragma omp for schedule(static) nowait
     for (std::ptrdiff_t r = 0; r < rows; ++r) {
       const std::ptrdiff_t base = lay.index(0, int(r % ny), int(r / ny));
@@ -237,7 +279,7 @@ void update_rows(const BasicPopulationField<T>& src, BasicPopulationField<T>& ds
             const int xg = x + g * kLanes;
 #pragma GCC unroll 19
             for (int q = 0; q < L::Q; ++q) f[q] = load(s + pull[q] + xg);
-            collide<kForce>(f, k);
+            collide<kForce>(f, k, ex);
             edges(xg, kLanes);
             if (g + 1 < kLineGroups) {
 #pragma GCC unroll 19
@@ -279,7 +321,7 @@ void update_rows(const BasicPopulationField<T>& src, BasicPopulationField<T>& ds
             } else {
               for (int q = 0; q < L::Q; ++q) f[q] = load_partial(s + pull[q] + xg, ng);
             }
-            collide<kForce>(f, k);
+            collide<kForce>(f, k, ex, ng < kLanes ? ng : kLanes);
             if (out.x_min && xg == 0) store_outflow_ghost(f, 0, d - 1, stride, 1, out.rho_x_min);
 #pragma GCC unroll 19
             for (int q = 0; q < L::Q; ++q) store_aligned(line[q] + g * kLanes, f[q]);
@@ -295,7 +337,7 @@ void update_rows(const BasicPopulationField<T>& src, BasicPopulationField<T>& ds
       for (; x + kLanes <= nx; x += kLanes) {
 #pragma GCC unroll 19
         for (int q = 0; q < L::Q; ++q) f[q] = load(s + pull[q] + x);
-        collide<kForce>(f, k);
+        collide<kForce>(f, k, ex);
         edges(x, kLanes);
 #pragma GCC unroll 19
         for (int q = 0; q < L::Q; ++q) {
@@ -307,25 +349,30 @@ void update_rows(const BasicPopulationField<T>& src, BasicPopulationField<T>& ds
       if (x < nx) {
         const int n = nx - x;
         for (int q = 0; q < L::Q; ++q) f[q] = load_partial(s + pull[q] + x, n);
-        collide<kForce>(f, k);
+        collide<kForce>(f, k, ex, n);
         edges(x, n);
         for (int q = 0; q < L::Q; ++q) store_partial(d + q * stride + x, f[q], n);
       }
     }
     if constexpr (kStream) store_fence();  // before the barrier: others read dst next
+    if (extrema != nullptr) {
+#pragma omp critical(cosim_fluid_kernel_extrema)
+      ex.merge_into(*extrema);
+    }
   }
 }
 
 template <class T>
 void dispatch(const BasicPopulationField<T>& src, BasicPopulationField<T>& dst, double tau,
-              const std::array<double, 3>& force, Stores stores, const KernelOutflow& outflow) {
+              const std::array<double, 3>& force, Stores stores, const KernelOutflow& outflow,
+              KernelExtrema* extrema) {
   const bool nt = uses_streaming_stores(src.layout(), stores, sizeof(T));
   if (force[0] == 0.0 && force[1] == 0.0 && force[2] == 0.0)
-    nt ? update_rows<T, false, true>(src, dst, tau, force, outflow)
-       : update_rows<T, false, false>(src, dst, tau, force, outflow);
+    nt ? update_rows<T, false, true>(src, dst, tau, force, outflow, extrema)
+       : update_rows<T, false, false>(src, dst, tau, force, outflow, extrema);
   else
-    nt ? update_rows<T, true, true>(src, dst, tau, force, outflow)
-       : update_rows<T, true, false>(src, dst, tau, force, outflow);
+    nt ? update_rows<T, true, true>(src, dst, tau, force, outflow, extrema)
+       : update_rows<T, true, false>(src, dst, tau, force, outflow, extrema);
 }
 
 }  // namespace
@@ -338,14 +385,14 @@ bool uses_streaming_stores(const GridLayout& layout, Stores stores, std::size_t 
 
 void stream_collide(const PopulationField& src, PopulationField& dst, double tau,
                     const std::array<double, 3>& force, Stores stores,
-                    const KernelOutflow& outflow) {
-  dispatch(src, dst, tau, force, stores, outflow);
+                    const KernelOutflow& outflow, KernelExtrema* extrema) {
+  dispatch(src, dst, tau, force, stores, outflow, extrema);
 }
 
 void stream_collide(const PopulationFieldSingle& src, PopulationFieldSingle& dst, double tau,
                     const std::array<double, 3>& force, Stores stores,
-                    const KernelOutflow& outflow) {
-  dispatch(src, dst, tau, force, stores, outflow);
+                    const KernelOutflow& outflow, KernelExtrema* extrema) {
+  dispatch(src, dst, tau, force, stores, outflow, extrema);
 }
 
 }  // namespace cosim::fluid

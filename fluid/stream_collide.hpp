@@ -4,6 +4,7 @@
 
 #include <array>
 #include <cstddef>
+#include <limits>
 
 #include "fluid/population_field.hpp"
 
@@ -32,14 +33,28 @@ struct KernelOutflow {
   double rho_x_min = 1.0, rho_x_max = 1.0;  ///< reference densities (FaceSpec::outflow_density)
 };
 
+/// What the kernel saw of the state it read, over the interior cells: the extrema of rho
+/// (Eq. 7) and of u.u (u with Guo's shift by the uniform force, as FluidSolver::cell) of the
+/// pulled populations, and whether every rho and u.u was finite. Gathered as the kernel
+/// collides, so the watchdog can check every step without a pass over memory of its own
+/// (fluid/flow_monitor.hpp, previous_step_problem). Its sums run in the kernel's order, not
+/// in summarize()'s: the two can differ in the last bits.
+struct KernelExtrema {
+  double rho_min = std::numeric_limits<double>::infinity();
+  double rho_max = -std::numeric_limits<double>::infinity();
+  double u2_max = 0.0;
+  bool finite = true;
+};
+
+/// `extrema`, if given, receives the KernelExtrema of `src`.
 void stream_collide(const PopulationField& src, PopulationField& dst, double tau,
                     const std::array<double, 3>& force, Stores stores = Stores::Auto,
-                    const KernelOutflow& outflow = {});
+                    const KernelOutflow& outflow = {}, KernelExtrema* extrema = nullptr);
 /// The same for the single-precision store: loads convert to double, the collision is the
 /// double one, stores round to float.
 void stream_collide(const PopulationFieldSingle& src, PopulationFieldSingle& dst, double tau,
                     const std::array<double, 3>& force, Stores stores = Stores::Auto,
-                    const KernelOutflow& outflow = {});
+                    const KernelOutflow& outflow = {}, KernelExtrema* extrema = nullptr);
 
 /// Population fields from this size on (bytes, 19 populations with ghosts, either precision) are written with
 /// non-temporal stores: they cannot stay in cache between steps, and skipping the read for

@@ -7,9 +7,9 @@
 #include "protocol/text.hpp"
 
 // Why the ranges of [watchdog] are what they are:
-//  - health_every >= 1 LB step: the whole-grid pass reads the populations once, against the
-//    step's read and write; every 10 steps the coordinator's whole watchdog measured under 1 %
-//    of the compute (docs/stability.md).
+//  - health_every >= 1 LB step: the check reads the extrema the kernel gathered of the state
+//    it streamed, a few comparisons; 1 checks every step at no measurable cost. The default 10
+//    is that of the earlier whole-grid pass (which read the populations once more).
 //  - 0 < rho_min < 1 < rho_max: rho_0 = 1 must be healthy; rho <= 0 is unphysical.
 //  - max_cgp_speed in (0, 1]: the lattice carries no information faster than c = dx/dt_LB;
 //    a sheet faster than that has left the immersed boundary's reach in one step.

@@ -17,9 +17,11 @@ namespace cosim::protocol {
 /// gives the extremes each sentinel saw on the matrix's stable cases, the paper's 30 deg
 /// scene among them (e.g. CGP speed 0.067 c against 0.5, energy 0.008 against 10).
 struct WatchdogSettings {
-  /// Fluid: the whole-grid health check (NaN, rho bounds, Mach above run.mach_limit) every
-  /// this many LB steps, besides the monitor rows of run.monitor_every. The coordinator times
-  /// its watchdog ("fluid: watchdog: ... % of the compute"; under 1 % in docs/stability.md).
+  /// Fluid: the whole-grid health check (NaN, rho bounds, Mach above run.mach_limit) of every
+  /// this many LB steps' state, from the extrema the next step's kernel gathers as it reads
+  /// it (no pass over memory unless they break a limit: fluid/flow_monitor.hpp,
+  /// previous_step_problem), besides the full check before every write. The coordinator times
+  /// its watchdog ("fluid: watchdog: ... % of the compute").
   std::int64_t health_every = 10;
   /// Fluid: density bounds, lattice units (rho_0 = 1), at the markers every step and on the
   /// whole grid every health_every steps. Mach 0.3 changes the density by about 5 %.
