@@ -786,6 +786,12 @@ class CoupledFluid {
     return std::nullopt;
   }
 
+  /// The A_T of the solid_state_t of a restart's step (protocol/README.md 10, 13): the
+  /// checkpoint's for the republished message of the serial and parallel schemes; the run's
+  /// in the implicit scheme, whose solid computes the step's iterates again from its start
+  /// (the fluid must spread the impulses the solid continues from).
+  int restart_ratio_of_step() const { return c_.scheme.implicit_scheme() ? c_.time_ratio : restart_ratio_; }
+
   std::optional<Ending> check_solid_state(const cosimlcm::solid_state_t& m, std::int64_t step) {
     const auto bad = [&](int code, const std::string& what) {
       const std::string why = "solid_state_t of step " + std::to_string(step) + ": " + what;
@@ -797,8 +803,7 @@ class CoupledFluid {
       return bad(kBadInput, "num_cgps = " + std::to_string(m.num_cgps) + ", expected " +
                                 std::to_string(num_cgps_));
     const std::int64_t dynamic_from = std::max<std::int64_t>(c_.rigid_steps, 1);
-    // The first message of a restart was computed with the checkpoint's A_T.
-    const int ratio = step == first_step_ && first_step_ > 0 ? restart_ratio_ : c_.time_ratio;
+    const int ratio = step == first_step_ && first_step_ > 0 ? restart_ratio_of_step() : c_.time_ratio;
     // The implicit scheme's last message, solid_state_t(N, 0), takes no substeps.
     const bool closing = step == s_.steps;
     const int substeps = step < dynamic_from || closing ? 0 : ratio;
@@ -913,8 +918,9 @@ class CoupledFluid {
                                             s_.steps - (implicit ? 0 : 1));
     e.time_ratio = time_ratio_;
     // The restart's first solid_state_t was computed with the checkpoint's A_T (check_solid_state
-    // holds it to that for its step).
-    if (first_step_ > 0 && restart_ratio_ > 0 && restart_ratio_ != time_ratio_) e.restart_time_ratio = restart_ratio_;
+    // holds it to that for its step); not in the implicit scheme (restart_ratio_of_step).
+    if (first_step_ > 0 && restart_ratio_ > 0 && restart_ratio_ != time_ratio_ && !c_.scheme.implicit_scheme())
+      e.restart_time_ratio = restart_ratio_;
     e.max_iterations = c_.scheme.iterations_allowed();
     return e;
   }

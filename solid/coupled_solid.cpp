@@ -835,7 +835,9 @@ class CoupledSolid {
     // A restart with another A_T (the launcher's watchdog retry): the state does not depend
     // on it, the substep count does (solid_time_s = substeps x dt_CG is physical time); the
     // in-flight solid_state_t keeps the substeps it was computed with, and the coordinator
-    // accepts them for its step (its checkpoint holds the old A_T too).
+    // accepts them for its step (its checkpoint holds the old A_T too). The implicit scheme
+    // replaces it instead (below).
+    bool ratio_changed = false;
     if (r.has("time_ratio")) {
       const std::int64_t old_ratio = r.int64_attr("time_ratio");
       if (old_ratio < 1 || total_substeps_ % old_ratio != 0)
@@ -845,6 +847,7 @@ class CoupledSolid {
         out_ << "solid: the checkpoint ran A_T = " << old_ratio << ", this run A_T = " << c_.time_ratio
              << ": " << total_substeps_ / old_ratio << " dynamic LB steps so far\n";
         total_substeps_ = total_substeps_ / old_ratio * c_.time_ratio;
+        ratio_changed = true;
       }
     }
     if (r.has("watchdog_energy_started")) {
@@ -882,6 +885,17 @@ class CoupledSolid {
       aitken_.emplace(first_relaxation());
       aitken_->restore_start(r.double_attr("aitken_start"));
       if (const auto e = run_iterate(it)) throw std::runtime_error("its first iterate again: " + e->reason);
+      // At another A_T that iterate differs from the checkpoint's solid_state_t(step, 0): the
+      // solid would continue from the one while the fluid spread the other's impulses (and,
+      // converged, committed them). The recomputed iterate is published in its place (same
+      // seq), as a run at this A_T from the step's start sends it (protocol/README.md 13).
+      if (ratio_changed) {
+        sent.substeps = it.trial.substeps;
+        sent.solid_time_s = static_cast<double>(total_substeps_ + it.trial.substeps) * units_.dt_cg_s();
+        set_positions_impulses(sent, it.trial.position_lb, it.trial.impulse_lb);
+        out_ << "solid: step " << step << "'s first iterate computed again at A_T = " << c_.time_ratio
+             << " and sent in place of the checkpoint's (A_T = " << r.int64_attr("time_ratio") << ")\n";
+      }
       iterate_ = std::move(it);
       ++implicit_steps_;
     }
@@ -889,7 +903,8 @@ class CoupledSolid {
       for (std::int64_t k = 0; k <= step; ++k)
         if (sheet_snapshot_due(k, total_steps_ - 1, s_.sheets_every))
           snapshots_->adopt(k, static_cast<double>(k) * units_.dt_lb_s());
-    // The token is this run's; the rest of the message is the one sent before, bit for bit.
+    // The token is this run's; the rest of the message is the one sent before, bit for bit
+    // (but for the implicit scheme's first iterate at another A_T, above).
     sent.token = o_.token;
     publish(ch_.solid_state, sent);
     last_step_ = step;
@@ -919,6 +934,20 @@ class CoupledSolid {
                       true};
   }
 
+  /// num_cgps, position_lb and impulse_lb of `m`: the columns of x and j.
+  static void set_positions_impulses(cosimlcm::solid_state_t& m, const Eigen::Matrix3Xd& x,
+                                     const Eigen::Matrix3Xd& j) {
+    const auto n = static_cast<std::size_t>(x.cols());
+    m.num_cgps = static_cast<std::int32_t>(n);
+    m.position_lb.assign(n, std::vector<double>(3));
+    m.impulse_lb.assign(n, std::vector<double>(3));
+    for (std::size_t l = 0; l < n; ++l)
+      for (std::size_t c = 0; c < 3; ++c) {
+        m.position_lb[l][c] = x(Eigen::Index(c), Eigen::Index(l));
+        m.impulse_lb[l][c] = j(Eigen::Index(c), Eigen::Index(l));
+      }
+  }
+
   /// `pending_substeps`: substeps of an implicit iterate, not yet in total_substeps_.
   void publish_state(std::int64_t step, int substeps, const Eigen::Matrix3Xd& x,
                      const Eigen::Matrix3Xd& j, int iteration = 0, int pending_substeps = 0) {
@@ -929,14 +958,7 @@ class CoupledSolid {
     m.iteration = iteration;
     m.substeps = substeps;
     m.solid_time_s = static_cast<double>(total_substeps_ + pending_substeps) * units_.dt_cg_s();
-    m.num_cgps = static_cast<std::int32_t>(n_);
-    m.position_lb.assign(static_cast<std::size_t>(n_), std::vector<double>(3));
-    m.impulse_lb.assign(static_cast<std::size_t>(n_), std::vector<double>(3));
-    for (Eigen::Index l = 0; l < n_; ++l)
-      for (Eigen::Index c = 0; c < 3; ++c) {
-        m.position_lb[static_cast<std::size_t>(l)][static_cast<std::size_t>(c)] = x(c, l);
-        m.impulse_lb[static_cast<std::size_t>(l)][static_cast<std::size_t>(c)] = j(c, l);
-      }
+    set_positions_impulses(m, x, j);
     publish(ch_.solid_state, m);
     last_step_ = step;
     sent_.push_back(std::move(m));
