@@ -155,6 +155,7 @@ struct Options {
   std::vector<std::string> grids{"box", "paper"};
   std::vector<Precision> precisions{Precision::Double};
   Stores stores = Stores::Auto;
+  RowSchedule schedule = RowSchedule::Static;
   bool ib = true;
 };
 
@@ -181,6 +182,7 @@ Row measure(const Case& base, int threads, Precision precision, const Options& o
   Case c = base;
   c.params.precision = precision;
   FluidSolver solver(c.params);
+  solver.set_row_schedule(opt.schedule);
   const FaceSpec& in = c.params.faces[XMin];
   solver.initialize_uniform(1.0, {in.kind == FaceKind::Inlet ? in.inlet_speed : 0.01, 0, 0});
   BasicPopulationField<T> scratch(solver.layout());
@@ -215,7 +217,7 @@ Row measure(const Case& base, int threads, Precision precision, const Options& o
     double seconds = 0;
     for (int s = 0; s < opt.steps; ++s) {
       t0 = Clock::now();
-      stream_collide(*from, *to, solver.tau(), solver.body_force(), opt.stores, outflow);
+      stream_collide(*from, *to, solver.tau(), solver.body_force(), opt.stores, outflow, nullptr, opt.schedule);
       seconds += seconds_since(t0);
       solver.boundaries().fill_ghosts(*to);
       std::swap(from, to);
@@ -265,8 +267,9 @@ void print_header(const Options& opt, const std::vector<Case>& cases) {
   std::printf("cosim fluid bench: D3Q19 BGK-Guo, arithmetic in double, populations stored in");
   for (const Precision p : opt.precisions) std::printf(" %s", precision_name(p));
   std::printf(", two grids (SoA)\n");
-  std::printf("medians of %d repeats of %d steps; OMP_PROC_BIND=%s\n", opt.repeat, opt.steps,
-              std::getenv("OMP_PROC_BIND") ? std::getenv("OMP_PROC_BIND") : "(unset)");
+  std::printf("medians of %d repeats of %d steps; OMP_PROC_BIND=%s; rows %s\n", opt.repeat, opt.steps,
+              std::getenv("OMP_PROC_BIND") ? std::getenv("OMP_PROC_BIND") : "(unset)",
+              opt.schedule == RowSchedule::Static ? "static" : "dynamic (64 chunks)");
   std::printf("B = bytes/update = 2 x 19 x 8 = %.0f for the double store, 2 x 19 x 4 = %.0f for\n"
               "    the single one (19 values read + 19 written, counted as STREAM counts copy;\n"
               "    ordinary stores also move 19 write-allocate reads)\n",
@@ -344,6 +347,12 @@ int main(int argc, char** argv) {
   app.add_option("--precision", opt.precisions,
                  "population stores to run: double, single (arithmetic is double either way)")
       ->transform(CLI::CheckedTransformer(precisions, CLI::ignore_case));
+  const std::map<std::string, RowSchedule> schedules{{"static", RowSchedule::Static},
+                                                     {"dynamic", RowSchedule::Dynamic}};
+  app.add_option("--schedule", opt.schedule,
+                 "how the kernel shares rows among threads: static (default) or dynamic (as the parallel "
+                 "coupling scheme's free steps)")
+      ->transform(CLI::CheckedTransformer(schedules, CLI::ignore_case));
   bool no_ib = false;
   app.add_flag("--no-ib", no_ib, "skip the immersed-boundary columns");
   CLI11_PARSE(app, argc, argv);

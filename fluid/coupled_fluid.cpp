@@ -207,7 +207,10 @@ class CoupledFluid {
         t1 = Clock::now();
         publish_s_ += std::chrono::duration<double>(t1 - t2).count();
       }
-      // Eqs. 21-24 and 25-26: spread J_l at X_l, collide with the forcing, stream.
+      // Eqs. 21-24 and 25-26: spread J_l at X_l, collide with the forcing, stream. In the
+      // parallel scheme's free steps the solid computes beside this step, on the same cores:
+      // the kernel hands its rows out as its threads come free (RowSchedule::Dynamic).
+      solver.set_row_schedule(parallel && step >= c_.rigid_steps ? RowSchedule::Dynamic : RowSchedule::Static);
       ib.spread(solver, x, j);
       solver.step();
       if (auto code = check_step_read(solver, step, limits)) return *code;

@@ -162,7 +162,7 @@ template <class T>
 void FluidSolver::step_fields(BasicPopulationField<T>& f, BasicPopulationField<T>& g) {
   // Boundaries (BoundaryConditions): the kernel writes the x outflows, the inlets stay from
   // fill_static_ghosts, the rest is filled after the swap.
-  stream_collide(f, g, params_.tau, params_.body_force, Stores::Auto, bc_.kernel_outflow(), &extrema_);
+  stream_collide(f, g, params_.tau, params_.body_force, Stores::Auto, bc_.kernel_outflow(), &extrema_, schedule_);
   apply_local_forces(f, g);
   std::swap(f, g);
   bc_.fill_step_ghosts(f);

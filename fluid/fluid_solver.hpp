@@ -83,6 +83,8 @@ class FluidSolver {
   /// The same for the single-precision store. @pre precision() == Precision::Single
   const PopulationFieldSingle& state_single() const;
   PopulationFieldSingle& mutable_state_single();
+  /// How the kernel shares the rows among the threads (RowSchedule; default Static).
+  void set_row_schedule(RowSchedule s) { schedule_ = s; }
   /// What the kernel of the last step() saw of the state it read (the state at
   /// step_count() - 1): extrema of rho and u.u and whether all were finite (KernelExtrema).
   const KernelExtrema& last_step_extrema() const { return extrema_; }
@@ -127,6 +129,7 @@ class FluidSolver {
   PopulationFieldSingle fs_, gs_;
   std::int64_t steps_ = 0;
   KernelExtrema extrema_;  // of the state the last step read
+  RowSchedule schedule_ = RowSchedule::Static;
   bool have_previous_ = false;  // the second grid holds the state before the last step
 
   // Sparse forcing: allocated on first use, so a scene without IB pays nothing.

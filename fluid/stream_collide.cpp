@@ -239,7 +239,8 @@ inline void store_outflow_ghost(const Lanes (&f)[L::Q], int lane, T* g, std::ptr
 /// population's line in one go.
 template <class T, bool kForce, bool kStream>
 void update_rows(const BasicPopulationField<T>& src, BasicPopulationField<T>& dst, double tau,
-                 const std::array<double, 3>& F, const KernelOutflow& out, KernelExtrema* extrema) {
+                 const std::array<double, 3>& F, const KernelOutflow& out, KernelExtrema* extrema,
+                 RowSchedule schedule) {
   if (extrema != nullptr) *extrema = KernelExtrema{};
   constexpr int kLineGroups = std::is_same_v<T, float> && kStream
                                   ? GridLayout::kLineBytes / int(sizeof(LanesSingle))
@@ -255,13 +256,15 @@ void update_rows(const BasicPopulationField<T>& src, BasicPopulationField<T>& ds
   for (int q = 0; q < L::Q; ++q) pull[q] = q * stride - lay.offset(L::cx[q], L::cy[q], L::cz[q]);
   const T* const s0 = src.q(0);
   T* const d0 = dst.q(0);
+  // RowSchedule::Dynamic: 64 chunks of whole rows (see stream_collide.hpp).
+  const std::ptrdiff_t chunk = std::max<std::ptrdiff_t>(1, (rows + 63) / 64);
 
 #pragma omp parallel
   {
     alignas(GridLayout::kLineBytes) T line[kLineGroups > 1 ? L::Q : 1][kLineCells];
     LaneExtrema ex;
-#pragma omp for schedule(static) nowait
-    for (std::ptrdiff_t r = 0; r < rows; ++r) {
+    // One row of x; inlined into both schedules below.
+    const auto row = [&](std::ptrdiff_t r) __attribute__((always_inline)) {
       const std::ptrdiff_t base = lay.index(0, int(r % ny), int(r / ny));
       const T* const s = s0 + base;
       T* const d = d0 + base;
@@ -353,6 +356,13 @@ void update_rows(const BasicPopulationField<T>& src, BasicPopulationField<T>& ds
         edges(x, n);
         for (int q = 0; q < L::Q; ++q) store_partial(d + q * stride + x, f[q], n);
       }
+    };
+    if (schedule == RowSchedule::Dynamic) {
+#pragma omp for schedule(dynamic, chunk) nowait
+      for (std::ptrdiff_t r = 0; r < rows; ++r) row(r);
+    } else {
+#pragma omp for schedule(static) nowait
+      for (std::ptrdiff_t r = 0; r < rows; ++r) row(r);
     }
     if constexpr (kStream) store_fence();  // before the barrier: others read dst next
     if (extrema != nullptr) {
@@ -365,14 +375,14 @@ void update_rows(const BasicPopulationField<T>& src, BasicPopulationField<T>& ds
 template <class T>
 void dispatch(const BasicPopulationField<T>& src, BasicPopulationField<T>& dst, double tau,
               const std::array<double, 3>& force, Stores stores, const KernelOutflow& outflow,
-              KernelExtrema* extrema) {
+              KernelExtrema* extrema, RowSchedule schedule) {
   const bool nt = uses_streaming_stores(src.layout(), stores, sizeof(T));
   if (force[0] == 0.0 && force[1] == 0.0 && force[2] == 0.0)
-    nt ? update_rows<T, false, true>(src, dst, tau, force, outflow, extrema)
-       : update_rows<T, false, false>(src, dst, tau, force, outflow, extrema);
+    nt ? update_rows<T, false, true>(src, dst, tau, force, outflow, extrema, schedule)
+       : update_rows<T, false, false>(src, dst, tau, force, outflow, extrema, schedule);
   else
-    nt ? update_rows<T, true, true>(src, dst, tau, force, outflow, extrema)
-       : update_rows<T, true, false>(src, dst, tau, force, outflow, extrema);
+    nt ? update_rows<T, true, true>(src, dst, tau, force, outflow, extrema, schedule)
+       : update_rows<T, true, false>(src, dst, tau, force, outflow, extrema, schedule);
 }
 
 }  // namespace
@@ -385,14 +395,14 @@ bool uses_streaming_stores(const GridLayout& layout, Stores stores, std::size_t 
 
 void stream_collide(const PopulationField& src, PopulationField& dst, double tau,
                     const std::array<double, 3>& force, Stores stores,
-                    const KernelOutflow& outflow, KernelExtrema* extrema) {
-  dispatch(src, dst, tau, force, stores, outflow, extrema);
+                    const KernelOutflow& outflow, KernelExtrema* extrema, RowSchedule schedule) {
+  dispatch(src, dst, tau, force, stores, outflow, extrema, schedule);
 }
 
 void stream_collide(const PopulationFieldSingle& src, PopulationFieldSingle& dst, double tau,
                     const std::array<double, 3>& force, Stores stores,
-                    const KernelOutflow& outflow, KernelExtrema* extrema) {
-  dispatch(src, dst, tau, force, stores, outflow, extrema);
+                    const KernelOutflow& outflow, KernelExtrema* extrema, RowSchedule schedule) {
+  dispatch(src, dst, tau, force, stores, outflow, extrema, schedule);
 }
 
 }  // namespace cosim::fluid

@@ -46,15 +46,24 @@ struct KernelExtrema {
   bool finite = true;
 };
 
+/// How the rows are shared among the OpenMP threads. Static: each thread one contiguous
+/// part (the fastest on cores of its own). Dynamic: 64 chunks of whole rows, handed out as
+/// threads come free, for steps that share the cores with another busy process (the parallel
+/// coupling scheme's solid, protocol/README.md 14): a thread the scheduler holds back no
+/// longer holds up the step. Measured in docs/performance.md (bench --schedule).
+enum class RowSchedule { Static, Dynamic };
+
 /// `extrema`, if given, receives the KernelExtrema of `src`.
 void stream_collide(const PopulationField& src, PopulationField& dst, double tau,
                     const std::array<double, 3>& force, Stores stores = Stores::Auto,
-                    const KernelOutflow& outflow = {}, KernelExtrema* extrema = nullptr);
+                    const KernelOutflow& outflow = {}, KernelExtrema* extrema = nullptr,
+                    RowSchedule schedule = RowSchedule::Static);
 /// The same for the single-precision store: loads convert to double, the collision is the
 /// double one, stores round to float.
 void stream_collide(const PopulationFieldSingle& src, PopulationFieldSingle& dst, double tau,
                     const std::array<double, 3>& force, Stores stores = Stores::Auto,
-                    const KernelOutflow& outflow = {}, KernelExtrema* extrema = nullptr);
+                    const KernelOutflow& outflow = {}, KernelExtrema* extrema = nullptr,
+                    RowSchedule schedule = RowSchedule::Static);
 
 /// Population fields from this size on (bytes, 19 populations with ghosts, either precision) are written with
 /// non-temporal stores: they cannot stay in cache between steps, and skipping the read for

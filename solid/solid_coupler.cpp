@@ -3,6 +3,7 @@
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "protocol/units.hpp"
 
@@ -72,34 +73,42 @@ IntervalResult SolidCoupler::advance(const FluidSample& sample, bool rigid, bool
     memory_.velocity = model_.velocities();
     memory_.force = Eigen::Matrix3Xd::Zero(3, n);
   }
+  // The model's state, updated in place by each substep: read through these references, not
+  // through a virtual call per value.
+  const Eigen::Matrix3Xd& velocity = model_.velocities();
+  const Eigen::Matrix3Xd& position = model_.positions();
+  const Eigen::VectorXd& mass = model_.masses();
+  std::vector<double> rho_da(static_cast<std::size_t>(n));  // 2 rho_l dA_l, fixed over the interval
+  for (Eigen::Index l = 0; l < n; ++l)
+    rho_da[static_cast<std::size_t>(l)] = 2.0 * sample.rho_lb[l] * area_[static_cast<std::size_t>(l)];
   for (int k = 0; k < a_t; ++k) {
     for (Eigen::Index l = 0; l < n; ++l) {
-      const double rho_da = 2.0 * sample.rho_lb[l] * area_[static_cast<std::size_t>(l)];
+      const double rda = rho_da[static_cast<std::size_t>(l)];
       if (implicit_reaction && !held(l)) {
         // Backward Euler for the drag (see the header): h = D B_V dt / (B_F m) in atomic units.
-        const double m = model_.masses()[l];
-        const double h = rho_da * b_v * dt_au / (b_f * m);
+        const double m = mass[l];
+        const double h = rda * b_v * dt_au / (b_f * m);
         for (int c = 0; c < 3; ++c) {
-          const double v = model_.velocities()(c, l);
+          const double v = velocity(c, l);
           const double f_other = m * (v - memory_.velocity(c, l)) / dt_au - memory_.force(c, l);
           const double v_star = v + dt_au / m * f_other;
-          const double g_da = rho_da * (b_v * v_star - sample.velocity_lb(c, l)) / (1.0 + h);  // Eq. 19
-          force_au_(c, l) = -g_da / b_f;                                                        // Eq. 20
+          const double g_da = rda * (b_v * v_star - sample.velocity_lb(c, l)) / (1.0 + h);  // Eq. 19
+          force_au_(c, l) = -g_da / b_f;                                                     // Eq. 20
         }
         continue;
       }
       for (int c = 0; c < 3; ++c) {
-        const double u_b = b_v * model_.velocities()(c, l);
-        const double g_da = rho_da * (u_b - sample.velocity_lb(c, l));  // on the fluid (Eq. 19)
-        force_au_(c, l) = -g_da / b_f;                                  // on the CGP (Eq. 20)
+        const double u_b = b_v * velocity(c, l);
+        const double g_da = rda * (u_b - sample.velocity_lb(c, l));  // on the fluid (Eq. 19)
+        force_au_(c, l) = -g_da / b_f;                               // on the CGP (Eq. 20)
       }
     }
     if (implicit_reaction) {
-      memory_.velocity = model_.velocities();
+      memory_.velocity = velocity;
       memory_.force = force_au_;
     }
     // The fluid's work at the velocities the forces were computed from (before the substep).
-    r.fluid_work_au += force_au_.cwiseProduct(model_.velocities()).sum() * dt_au;
+    r.fluid_work_au += force_au_.cwiseProduct(velocity).sum() * dt_au;
     model_.substep(dt_au, force_au_);
     const Eigen::Vector3d received_au = force_au_.rowwise().sum() * dt_au;
     for (int c = 0; c < 3; ++c) r.received_impulse_lb[c] += units_.momentum_lb_from_au(received_au[c]);
@@ -108,7 +117,7 @@ IntervalResult SolidCoupler::advance(const FluidSample& sample, bool rigid, bool
     for (Eigen::Index l = 0; l < n; ++l)
       for (int c = 0; c < 3; ++c)
         r.impulse_lb(c, l) -= b_f * force_au_(c, l) / a_t;
-    position_sum += (k + 1 < a_t ? 1.0 : 0.5) * model_.positions();
+    position_sum += (k + 1 < a_t ? 1.0 : 0.5) * position;
     // The watchdog (DESIGN 6): stop within the interval, before the state can overflow.
     if (over_speed_limit(k, sample, r)) return r;
   }

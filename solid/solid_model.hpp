@@ -33,7 +33,9 @@ class SolidModel {
   /// The name this model is registered under (model_registry.cpp).
   virtual std::string_view name() const = 0;
   virtual Eigen::Index num_cgps() const = 0;
-  /// 3 x num_cgps(), bohr.
+  /// 3 x num_cgps(), bohr. The references of positions(), velocities() and masses() stay
+  /// valid, and show the current state, for the model's lifetime (the coupler reads them once
+  /// per LB interval, not once per substep).
   virtual const Eigen::Matrix3Xd& positions() const = 0;
   /// 3 x num_cgps(), bohr / t_AU.
   virtual const Eigen::Matrix3Xd& velocities() const = 0;
