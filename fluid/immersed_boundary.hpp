@@ -82,28 +82,7 @@ class ImmersedBoundary {
   /// with (x, y, z) wrapped along periodic axes.
   template <class Visit>
   void for_each_node(const Vec3& X, Visit&& visit) const {
-    const DeltaStencil s = delta_stencil(X);
-    const int n[3] = {shape_.nx, shape_.ny, shape_.nz};
-    int node[3][kDeltaNodes];
-    bool inside[3][kDeltaNodes];
-    for (int a = 0; a < 3; ++a)
-      for (int i = 0; i < kDeltaNodes; ++i) {
-        int c = s.first[a] + i;
-        if (periodic_[a]) c = ((c % n[a]) + n[a]) % n[a];
-        node[a][i] = c;
-        inside[a][i] = c >= 0 && c < n[a];
-      }
-    for (int k = 0; k < kDeltaNodes; ++k) {
-      if (!inside[2][k]) continue;
-      for (int j = 0; j < kDeltaNodes; ++j) {
-        if (!inside[1][j]) continue;
-        for (int i = 0; i < kDeltaNodes; ++i) {
-          if (!inside[0][i]) continue;
-          const double D = s.weight(i, j, k);
-          if (D != 0.0) visit(node[0][i], node[1][j], node[2][k], D);
-        }
-      }
-    }
+    for_each_stencil_node(delta_stencil(X), [&](int, int, int, int x, int y, int z, double D) { visit(x, y, z, D); });
   }
 
   /// Eq. 17 for any field: sum_x D(x - X) field(x), field returning std::array<double, N>.
@@ -138,7 +117,10 @@ class ImmersedBoundary {
   /// Eq. 17 applied to the populations: rho_l = sum D rho and rho_l u_l = sum D rho u, so
   /// that u_l = (sum D rho u) / (sum D rho) is the velocity of the interpolated populations.
   MarkerSample sample(const FluidSolver& solver, const Vec3& X) const;
-  /// sample() for every marker (OpenMP over markers). @pre out.size() == X.size()
+  /// sample() for every marker, the same sums: the stencils of neighbouring markers overlap
+  /// (markers about a cell apart, 4 x 4 x 4 nodes each), so the moments of each node are
+  /// computed once (OpenMP over the nodes), then summed per marker (OpenMP over markers).
+  /// @pre out.size() == X.size()
   void sample(const FluidSolver& solver, std::span<const Vec3> X,
               std::span<MarkerSample> out) const;
   /// Eq. 17 literally: the 19 populations interpolated at X, f[0..18].
@@ -150,6 +132,33 @@ class ImmersedBoundary {
   void spread(FluidSolver& solver, std::span<const Vec3> X, std::span<const Vec3> J) const;
 
  private:
+  /// for_each_node over a stencil: visit(i, j, k, x, y, z, D) with (i, j, k) the node's
+  /// place in the stencil (unwrapped: s.first + (i, j, k)) and (x, y, z) the wrapped cell.
+  template <class Visit>
+  void for_each_stencil_node(const DeltaStencil& s, Visit&& visit) const {
+    const int n[3] = {shape_.nx, shape_.ny, shape_.nz};
+    int node[3][kDeltaNodes];
+    bool inside[3][kDeltaNodes];
+    for (int a = 0; a < 3; ++a)
+      for (int i = 0; i < kDeltaNodes; ++i) {
+        int c = s.first[a] + i;
+        if (periodic_[a]) c = ((c % n[a]) + n[a]) % n[a];
+        node[a][i] = c;
+        inside[a][i] = c >= 0 && c < n[a];
+      }
+    for (int k = 0; k < kDeltaNodes; ++k) {
+      if (!inside[2][k]) continue;
+      for (int j = 0; j < kDeltaNodes; ++j) {
+        if (!inside[1][j]) continue;
+        for (int i = 0; i < kDeltaNodes; ++i) {
+          if (!inside[0][i]) continue;
+          const double D = s.weight(i, j, k);
+          if (D != 0.0) visit(i, j, k, node[0][i], node[1][j], node[2][k], D);
+        }
+      }
+    }
+  }
+
   GridShape shape_;
   std::array<bool, 3> periodic_{};
 };
