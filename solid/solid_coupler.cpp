@@ -78,13 +78,18 @@ IntervalResult SolidCoupler::advance(const FluidSample& sample, bool rigid, bool
   const Eigen::Matrix3Xd& velocity = model_.velocities();
   const Eigen::Matrix3Xd& position = model_.positions();
   const Eigen::VectorXd& mass = model_.masses();
-  std::vector<double> rho_da(static_cast<std::size_t>(n));  // 2 rho_l dA_l, fixed over the interval
-  for (Eigen::Index l = 0; l < n; ++l)
-    rho_da[static_cast<std::size_t>(l)] = 2.0 * sample.rho_lb[l] * area_[static_cast<std::size_t>(l)];
+  Eigen::RowVectorXd rho_da(n);  // 2 rho_l dA_l, fixed over the interval
+  for (Eigen::Index l = 0; l < n; ++l) rho_da[l] = 2.0 * sample.rho_lb[l] * area_[static_cast<std::size_t>(l)];
   for (int k = 0; k < a_t; ++k) {
-    for (Eigen::Index l = 0; l < n; ++l) {
-      const double rda = rho_da[static_cast<std::size_t>(l)];
-      if (implicit_reaction && !held(l)) {
+    if (!implicit_reaction) {
+      // Eqs. 19-20 for all CGPs at once: g dA = 2 rho dA (U_B - u) on the fluid, -g dA / B_F
+      // on the CGP (the loop below's arithmetic, vectorised).
+      force_au_.array() =
+          -(((b_v * velocity.array() - sample.velocity_lb.array()).rowwise() * rho_da.array())) / b_f;
+    }
+    for (Eigen::Index l = 0; l < n && implicit_reaction; ++l) {
+      const double rda = rho_da[l];
+      if (!held(l)) {
         // Backward Euler for the drag (see the header): h = D B_V dt / (B_F m) in atomic units.
         const double m = mass[l];
         const double h = rda * b_v * dt_au / (b_f * m);
@@ -114,9 +119,7 @@ IntervalResult SolidCoupler::advance(const FluidSample& sample, bool rigid, bool
     for (int c = 0; c < 3; ++c) r.received_impulse_lb[c] += units_.momentum_lb_from_au(received_au[c]);
     // The impulse the fluid receives is the one the CGPs got, with the opposite sign, in
     // the fluid's units: -F_CGP dt_CG / (F_LB dt_LB) = -F_CGP,lb / A_T.
-    for (Eigen::Index l = 0; l < n; ++l)
-      for (int c = 0; c < 3; ++c)
-        r.impulse_lb(c, l) -= b_f * force_au_(c, l) / a_t;
+    r.impulse_lb.array() -= (b_f * force_au_.array()) / static_cast<double>(a_t);
     position_sum += (k + 1 < a_t ? 1.0 : 0.5) * position;
     // The watchdog (DESIGN 6): stop within the interval, before the state can overflow.
     if (over_speed_limit(k, sample, r)) return r;
@@ -131,8 +134,18 @@ IntervalResult SolidCoupler::advance(const FluidSample& sample, bool rigid, bool
 
 bool SolidCoupler::over_speed_limit(int k, const FluidSample& sample, IntervalResult& r) {
   if (!std::isfinite(speed_limit_lb_)) return false;
+  // The fastest CGP (first on ties), in one pass over the velocities.
+  const Eigen::Matrix3Xd& v = model_.velocities();
   Eigen::Index fastest = 0;
-  const double v2 = model_.velocities().colwise().squaredNorm().maxCoeff(&fastest);
+  double v2 = -1.0;
+  for (Eigen::Index l = 0; l < v.cols(); ++l) {
+    const double s2 = v(0, l) * v(0, l) + v(1, l) * v(1, l) + v(2, l) * v(2, l);
+    if (s2 > v2 || !(s2 == s2)) {
+      v2 = s2;
+      fastest = l;
+      if (!(s2 == s2)) break;  // NaN: the first such CGP
+    }
+  }
   const double speed = units_.velocity_ratio() * std::sqrt(v2);
   if (speed > max_speed_lb_) max_speed_lb_ = speed;
   if (speed <= speed_limit_lb_) return false;
