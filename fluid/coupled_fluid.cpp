@@ -167,7 +167,17 @@ class CoupledFluid {
       return parallel ? protocol::parallel_fluid_state_needed(m, s_.steps, c_.rigid_steps) : m >= 1 && m < s_.steps;
     };
     for (std::int64_t step = first_step; step < s_.steps; ++step) {
+      // The bulk of the step to step + 1 needs no impulses (FluidSolver::begin_step: the cells
+      // that receive them are collided again by finish_step): it runs while the solid computes
+      // them, and the result is that of a whole step after the wait. In the free steps the
+      // solid computes beside it, on the same cores: the kernel hands its rows out as its
+      // threads come free (RowSchedule::Dynamic).
+      const Clock::time_point tb = Clock::now();
+      solver.set_row_schedule(step >= c_.rigid_steps ? RowSchedule::Dynamic : RowSchedule::Static);
+      solver.begin_step();
+      if (auto code = check_step_read(solver, step, limits)) return *code;
       const Clock::time_point t0 = Clock::now();
+      compute_s_ += std::chrono::duration<double>(t0 - tb).count();
       awaited_step_ = step;
       if (auto e = wait_for_solid_state(step)) {
         // A clean abort (the solid lost or stopped with an error): the state at `step` is
@@ -207,13 +217,10 @@ class CoupledFluid {
         t1 = Clock::now();
         publish_s_ += std::chrono::duration<double>(t1 - t2).count();
       }
-      // Eqs. 21-24 and 25-26: spread J_l at X_l, collide with the forcing, stream. In the
-      // parallel scheme's free steps the solid computes beside this step, on the same cores:
-      // the kernel hands its rows out as its threads come free (RowSchedule::Dynamic).
-      solver.set_row_schedule(parallel && step >= c_.rigid_steps ? RowSchedule::Dynamic : RowSchedule::Static);
+      // Eqs. 21-24 and 25-26: spread J_l at X_l, collide the cells that receive them with the
+      // forcing (the rest of the step was streamed and collided above).
       ib.spread(solver, x, j);
-      solver.step();
-      if (auto code = check_step_read(solver, step, limits)) return *code;
+      solver.finish_step();
       const std::int64_t now = step + 1;
       const bool last = now == s_.steps;
       const bool publish = publishes(now);
@@ -291,12 +298,12 @@ class CoupledFluid {
   }
 
   /// The watchdog's flow_health sentinel every watchdog.health_every steps: the state
-  /// `step` that the step just computed read, from its kernel's extrema (no pass of its own;
-  /// previous_step_problem); the exit code of a trip.
+  /// `step` that the kernel just read, from its extrema (no pass of its own;
+  /// kernel_state_problem); the exit code of a trip.
   std::optional<int> check_step_read(const FluidSolver& solver, std::int64_t step, const HealthLimits& limits) {
     if (step % s_.watchdog.health_every != 0) return std::nullopt;
     const Clock::time_point w = Clock::now();
-    const std::string problem = previous_step_problem(solver, limits);
+    const std::string problem = kernel_state_problem(solver, limits);
     watch_s_ += std::chrono::duration<double>(Clock::now() - w).count();
     if (problem.empty()) return std::nullopt;
     return unhealthy(problem, step, limits);

@@ -201,7 +201,7 @@ FlowSummary summarize(const FluidSolver& solver) {
                                                  : summarize_field(solver, solver.state_single(), now);
 }
 
-std::string previous_step_problem(const FluidSolver& solver, const HealthLimits& limits) {
+std::string kernel_state_problem(const FluidSolver& solver, const HealthLimits& limits) {
   const KernelExtrema& e = solver.last_step_extrema();
   const auto near_or_past = [](double v, double bound, int side) {  // side: +1 above, -1 below
     const double slack = 1e-12 * std::max(1.0, std::abs(bound));
@@ -213,6 +213,7 @@ std::string previous_step_problem(const FluidSolver& solver, const HealthLimits&
                        (std::isfinite(limits.rho_max) && near_or_past(e.rho_max, limits.rho_max, +1)) ||
                        near_or_past(e.u2_max, u2_limit, +1);
   if (!suspect) return {};
+  if (solver.mid_step()) return health_problem(summarize(solver), limits);
   const std::int64_t before = solver.step_count() - 1;
   const FlowSummary s = solver.precision() == Precision::Double
                             ? summarize_field(solver, solver.previous_state(), before)

@@ -54,13 +54,14 @@ struct HealthLimits {
 /// 0.41 above the limit 0.3").
 std::string health_problem(const FlowSummary& s, const HealthLimits& limits);
 
-/// The watchdog's check of the state the last FluidSolver::step() read (the state at
-/// step_count() - 1) from the extrema its kernel gathered (FluidSolver::last_step_extrema):
-/// no pass over memory of its own. Empty while they are within `limits`; else
-/// health_problem() of a summarize() pass over that state (FluidSolver::previous_state),
-/// which names the cell. The kernel adds in another order than summarize(): within a
-/// relative 1e-12 of a limit the extrema only send the state to that pass, whose verdict
-/// counts. @pre a step() since the state was last set
-std::string previous_step_problem(const FluidSolver& solver, const HealthLimits& limits);
+/// The watchdog's check of the state the last kernel read (FluidSolver::last_step_extrema:
+/// the current state between begin_step() and finish_step(), else the state before the last
+/// step) from the extrema the kernel gathered: no pass over memory of its own. Empty while
+/// they are within `limits`; else health_problem() of a summarize() pass over that state
+/// (FluidSolver::previous_state after a step), which names the step and the cell. The kernel
+/// adds in another order than summarize(): within a relative 1e-12 of a limit the extrema only
+/// send the state to that pass, whose verdict counts. @pre a kernel ran since the state was
+/// last set
+std::string kernel_state_problem(const FluidSolver& solver, const HealthLimits& limits);
 
 }  // namespace cosim::fluid

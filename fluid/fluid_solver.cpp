@@ -46,7 +46,7 @@ const PopulationField& FluidSolver::state() const {
 }
 PopulationField& FluidSolver::mutable_state() {
   if (params_.precision != Precision::Double) wrong_precision("mutable_state()", params_.precision);
-  have_previous_ = false;
+  have_previous_ = mid_step_ = false;
   return f_;
 }
 const PopulationFieldSingle& FluidSolver::state_single() const {
@@ -56,7 +56,7 @@ const PopulationFieldSingle& FluidSolver::state_single() const {
 PopulationFieldSingle& FluidSolver::mutable_state_single() {
   if (params_.precision != Precision::Single)
     wrong_precision("mutable_state_single()", params_.precision);
-  have_previous_ = false;
+  have_previous_ = mid_step_ = false;
   return fs_;
 }
 
@@ -81,7 +81,7 @@ void FluidSolver::refresh_ghosts() {
 void FluidSolver::initialize(const InitialState& state) {
   const GridShape& s = layout_.shape();
   const bool dbl = params_.precision == Precision::Double;
-  have_previous_ = false;
+  have_previous_ = mid_step_ = false;
 #pragma omp parallel for collapse(2) schedule(static)
   for (int z = 0; z < s.nz; ++z)
     for (int y = 0; y < s.ny; ++y)
@@ -123,10 +123,27 @@ void FluidSolver::add_force(int x, int y, int z, double fx, double fy, double fz
 }
 
 void FluidSolver::step() {
+  begin_step();
+  finish_step();
+}
+
+void FluidSolver::begin_step() {
+  if (mid_step_) throw std::logic_error("FluidSolver::begin_step(): the step begun before is not finished");
   if (params_.precision == Precision::Double)
-    step_fields(f_, g_);
+    begin_fields(f_, g_);
   else
-    step_fields(fs_, gs_);
+    begin_fields(fs_, gs_);
+  mid_step_ = true;
+  have_previous_ = false;  // the second grid now holds the bulk of the new state
+}
+
+void FluidSolver::finish_step() {
+  if (!mid_step_) throw std::logic_error("FluidSolver::finish_step(): no step begun");
+  if (params_.precision == Precision::Double)
+    finish_fields(f_, g_);
+  else
+    finish_fields(fs_, gs_);
+  mid_step_ = false;
   ++steps_;
 }
 
@@ -145,7 +162,7 @@ void FluidSolver::restore_state_of(const BasicPopulationField<T>& from, BasicPop
   const std::size_t size = std::size_t(D3Q19::Q) * layout_.stride();
   std::copy(from.q(0), from.q(0) + size, f.q(0));
   steps_ = steps;
-  have_previous_ = false;
+  have_previous_ = mid_step_ = false;
 }
 
 // state() and the others throw std::logic_error for the other precision's field.
@@ -159,10 +176,14 @@ void FluidSolver::restore_state(const PopulationFieldSingle& from, std::int64_t 
 }
 
 template <class T>
-void FluidSolver::step_fields(BasicPopulationField<T>& f, BasicPopulationField<T>& g) {
+void FluidSolver::begin_fields(const BasicPopulationField<T>& f, BasicPopulationField<T>& g) {
   // Boundaries (BoundaryConditions): the kernel writes the x outflows, the inlets stay from
   // fill_static_ghosts, the rest is filled after the swap.
   stream_collide(f, g, params_.tau, params_.body_force, Stores::Auto, bc_.kernel_outflow(), &extrema_, schedule_);
+}
+
+template <class T>
+void FluidSolver::finish_fields(BasicPopulationField<T>& f, BasicPopulationField<T>& g) {
   apply_local_forces(f, g);
   std::swap(f, g);
   bc_.fill_step_ghosts(f);

@@ -56,7 +56,18 @@ class FluidSolver {
   void add_force(int x, int y, int z, double fx, double fy, double fz);
 
   /// One LB step: stream, collide (with forces), boundaries. Clears the added forces.
+  /// begin_step() then finish_step().
   void step();
+  /// A step in two parts. begin_step(): the bulk of the step (stream and collide every cell
+  /// with the uniform body force into the second grid); the state is not changed yet. The
+  /// cells that receive a force (add_force, before or after begin_step) are collided again
+  /// with it by finish_step(), from the same state, which then makes the new state current:
+  /// the same result as step(). A coupled step runs the bulk while the solid computes the
+  /// impulses it spreads (fluid/coupled_fluid.cpp). @throws std::logic_error out of order
+  void begin_step();
+  void finish_step();
+  /// Between begin_step() and finish_step().
+  bool mid_step() const { return mid_step_; }
 
   /// Pre-collision populations of the current time at an interior cell.
   void populations_at(int x, int y, int z, double* f) const;
@@ -85,8 +96,9 @@ class FluidSolver {
   PopulationFieldSingle& mutable_state_single();
   /// How the kernel shares the rows among the threads (RowSchedule; default Static).
   void set_row_schedule(RowSchedule s) { schedule_ = s; }
-  /// What the kernel of the last step() saw of the state it read (the state at
-  /// step_count() - 1): extrema of rho and u.u and whether all were finite (KernelExtrema).
+  /// What the last kernel saw of the state it read: extrema of rho and u.u and whether all
+  /// were finite (KernelExtrema). That state is the current one between begin_step() and
+  /// finish_step(), else the one before the last step (step_count() - 1).
   const KernelExtrema& last_step_extrema() const { return extrema_; }
   /// That state itself, as long as no other step() ran (the second grid keeps it).
   /// @pre step_count() >= 1 and precision() == Precision::Double (Single:
@@ -114,7 +126,9 @@ class FluidSolver {
   template <class T>
   void restore_state_of(const BasicPopulationField<T>& from, BasicPopulationField<T>& f, std::int64_t steps);
   template <class T>
-  void step_fields(BasicPopulationField<T>& f, BasicPopulationField<T>& g);
+  void begin_fields(const BasicPopulationField<T>& f, BasicPopulationField<T>& g);
+  template <class T>
+  void finish_fields(BasicPopulationField<T>& f, BasicPopulationField<T>& g);
   template <class T>
   void apply_local_forces(const BasicPopulationField<T>& f, BasicPopulationField<T>& g);
   template <class T>
@@ -131,6 +145,7 @@ class FluidSolver {
   KernelExtrema extrema_;  // of the state the last step read
   RowSchedule schedule_ = RowSchedule::Static;
   bool have_previous_ = false;  // the second grid holds the state before the last step
+  bool mid_step_ = false;       // begin_step() ran, finish_step() not yet
 
   // Sparse forcing: allocated on first use, so a scene without IB pays nothing.
   std::vector<double> fx_, fy_, fz_;

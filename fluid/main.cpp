@@ -202,7 +202,7 @@ int run(const FluidScene& s, bool quiet) {
     solver.step();
     // The watchdog's cadence: the state the step read (step - 1), from the kernel's extrema.
     if ((step - 1) % s.watchdog.health_every == 0)
-      if (const std::string problem = previous_step_problem(solver, limits); !problem.empty()) {
+      if (const std::string problem = kernel_state_problem(solver, limits); !problem.empty()) {
         progress.clear();
         std::fflush(stdout);
         std::fprintf(stderr, "fluid: unhealthy flow, run stopped: %s\n", one_line(problem).c_str());

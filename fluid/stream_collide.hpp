@@ -37,7 +37,7 @@ struct KernelOutflow {
 /// (Eq. 7) and of u.u (u with Guo's shift by the uniform force, as FluidSolver::cell) of the
 /// pulled populations, and whether every rho and u.u was finite. Gathered as the kernel
 /// collides, so the watchdog can check every step without a pass over memory of its own
-/// (fluid/flow_monitor.hpp, previous_step_problem). Its sums run in the kernel's order, not
+/// (fluid/flow_monitor.hpp, kernel_state_problem). Its sums run in the kernel's order, not
 /// in summarize()'s: the two can differ in the last bits.
 struct KernelExtrema {
   double rho_min = std::numeric_limits<double>::infinity();

@@ -20,7 +20,7 @@ struct WatchdogSettings {
   /// Fluid: the whole-grid health check (NaN, rho bounds, Mach above run.mach_limit) of every
   /// this many LB steps' state, from the extrema the next step's kernel gathers as it reads
   /// it (no pass over memory unless they break a limit: fluid/flow_monitor.hpp,
-  /// previous_step_problem), besides the full check before every write. The coordinator times
+  /// kernel_state_problem), besides the full check before every write. The coordinator times
   /// its watchdog ("fluid: watchdog: ... % of the compute").
   std::int64_t health_every = 10;
   /// Fluid: density bounds, lattice units (rho_0 = 1), at the markers every step and on the

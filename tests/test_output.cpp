@@ -199,7 +199,7 @@ TEST(Output, SummaryFindsNanRhoAndMachCells) {
 
 // The kernel's extrema (FluidSolver::last_step_extrema) of the state a step read agree with
 // summarize() of that state, in both stores and with partial groups of lanes (nx = 21), and
-// previous_step_problem() names the cell from them without a pass of its own until one is due.
+// kernel_state_problem() names the cell from them without a pass of its own until one is due.
 TEST(Output, KernelExtremaCheckTheStateTheStepRead) {
   for (const Precision precision : {Precision::Double, Precision::Single})
     for (const int nx : {8, 21}) {
@@ -218,14 +218,14 @@ TEST(Output, KernelExtremaCheckTheStateTheStepRead) {
       EXPECT_NEAR(e.rho_min, before.rho_min, 1e-14);
       EXPECT_NEAR(e.rho_max, before.rho_max, 1e-14);
       EXPECT_NEAR(std::sqrt(3.0 * e.u2_max), before.max_mach, 1e-13);
-      EXPECT_EQ(previous_step_problem(s, HealthLimits{}), "");
+      EXPECT_EQ(kernel_state_problem(s, HealthLimits{}), "");
       // Limits the state breaks: the pass over that state names the step, the cell, the value.
-      const std::string mach = previous_step_problem(s, HealthLimits{0.5 * before.max_mach, 0.0});
+      const std::string mach = kernel_state_problem(s, HealthLimits{0.5 * before.max_mach, 0.0});
       char cell[64];
       std::snprintf(cell, sizeof cell, "step 1: cell (%d, %d, %d): Mach ", before.max_mach_cell.x,
                     before.max_mach_cell.y, before.max_mach_cell.z);
       EXPECT_EQ(mach.rfind(cell, 0), 0u) << mach;
-      const std::string dense = previous_step_problem(s, HealthLimits{0.3, 0.0, 0.5, before.rho_max - 1e-6});
+      const std::string dense = kernel_state_problem(s, HealthLimits{0.3, 0.0, 0.5, before.rho_max - 1e-6});
       EXPECT_NE(dense.find("above watchdog.rho_max"), std::string::npos) << dense;
     }
   // A NaN the step reads: pulled by (3, 2, 1) through q = 5 (c = +z).
@@ -234,7 +234,7 @@ TEST(Output, KernelExtremaCheckTheStateTheStepRead) {
   s.mutable_state().at(5, 3, 2, 0) = std::numeric_limits<double>::quiet_NaN();
   s.step();
   EXPECT_FALSE(s.last_step_extrema().finite);
-  EXPECT_EQ(previous_step_problem(s, HealthLimits{}), "step 0: cell (3, 2, 1): rho is NaN");
+  EXPECT_EQ(kernel_state_problem(s, HealthLimits{}), "step 0: cell (3, 2, 1): rho is NaN");
 }
 
 TEST(Output, HealthProblemNamesStepCellAndQuantity) {
