@@ -107,6 +107,13 @@ bool is_kernel_outflow(const FaceSpec& spec, int face) {
 
 }  // namespace
 
+OutflowCell::OutflowCell(const double* fb)
+    : m(moments(fb)), ux(m.jx / m.rho), uy(m.jy / m.rho), uz(m.jz / m.rho) {}
+
+double OutflowCell::ghost(int q, const double* fb, double rho_out) const {
+  return equilibrium(q, rho_out, ux, uy, uz) + fb[q] - equilibrium(q, m.rho, ux, uy, uz);
+}
+
 template <class T>
 void BoundaryConditions::fill_ghosts(BasicPopulationField<T>& f) const {
   // One parallel region; the loops of a face (one per population) run without waiting for

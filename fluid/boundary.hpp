@@ -49,14 +49,13 @@ double inlet_profile(const FaceSpec& face, double y);
 ///   ghost_q = f_eq_q(rho_out, u_b) + f*_q(b) - f_eq_q(rho_b, u_b)     (f_eq: Eq. 11).
 /// One function for the ghost-fill pass and the kernel that writes x outflows on the fly
 /// (stream_collide), so that both give the same bits.
+/// Out of line (fluid/boundary.cpp), like BgkGuo::collide: the kernel and the ghost fill
+/// call the same compiled code, so they store the same bits.
 struct OutflowCell {
   Moments m;
   double ux, uy, uz;
-  explicit OutflowCell(const double* fb)
-      : m(moments(fb)), ux(m.jx / m.rho), uy(m.jy / m.rho), uz(m.jz / m.rho) {}
-  double ghost(int q, const double* fb, double rho_out) const {
-    return equilibrium(q, rho_out, ux, uy, uz) + fb[q] - equilibrium(q, m.rho, ux, uy, uz);
-  }
+  explicit OutflowCell(const double* fb);
+  double ghost(int q, const double* fb, double rho_out) const;
 };
 
 /// Fills the ghost layer of a field of post-collision populations so that a pull

@@ -44,7 +44,8 @@ class FluidSolver {
  public:
   explicit FluidSolver(const FluidParams& params);
 
-  /// Every interior cell to the equilibrium (Eq. 11) of rho and u given per cell.
+  /// Every interior cell to the equilibrium (Eq. 11) of rho and u given per cell. `state` is
+  /// called from one thread, once per cell in x-fastest order (it may keep state).
   using InitialState = std::function<CellState(int x, int y, int z)>;
   void initialize(const InitialState& state);
   void initialize_uniform(double rho, const std::array<double, 3>& u);
