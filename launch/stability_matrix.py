@@ -402,7 +402,7 @@ def write_doc(results, doc, figs, command, short, total_wall):
     costs = [(r['name'], r['watchdog_cost']) for r in results if r.get('watchdog_cost')]
     if costs:
         L.append('- **The watchdog\'s cost**, timed by the coordinator in each run that finished (the '
-                 'markers, the samples and the whole-grid checks that the monitor would not have made; '
+                 'markers, the samples and the flow_health checks of the kernel\'s extrema; '
                  '`fluid: watchdog:` in fluid.log): ' + '; '.join('`%s` %s' % c for c in costs) + '.\n')
     L.append('## The cases\n')
     for r in results:
