@@ -46,7 +46,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 constexpr int kOk = 0, kSystem = 1, kBadInput = 2, kUnhealthy = 3, kPeerLost = 4;
-constexpr const char* kVersion = "1";
 constexpr const char* kFluidModel = "d3q19-bgk-guo";
 
 std::chrono::milliseconds ms(double seconds) {
@@ -485,7 +484,7 @@ class CoupledFluid {
     h.token = o_.token;
     h.role = "fluid";
     h.model = kFluidModel;
-    h.version = kVersion;
+    h.version = protocol::kProtocolVersion;
     h.scene_hash = protocol::scene_hash_of_file(s_.path);
     h.dx_m = units_.dx_m();
     h.dt_lb_s = units_.dt_lb_s();

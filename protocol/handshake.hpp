@@ -10,6 +10,12 @@
 
 namespace cosim::protocol {
 
+/// The protocol version both servers announce in hello_t.version (protocol/README.md, whose
+/// title names it). "2": solid_state_t and fluid_state_t gained `iteration`, fluid_state_t
+/// `rho_start_lb` and `velocity_start_lb` (the implicit scheme, section 13); a peer of
+/// version "1" is refused at the handshake, naming both versions.
+inline constexpr const char* kProtocolVersion = "2";
+
 /// What one server announces before the first step.
 ///
 /// Both sides fill the identity fields and the four unit fields. The time-stepping fields

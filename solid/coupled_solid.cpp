@@ -62,7 +62,6 @@ using protocol::PhysicalConstants;
 using protocol::UnitConverter;
 using Rows3 = std::vector<std::vector<double>>;
 
-constexpr const char* kProtocolVersion = "1";      // protocol/README.md
 constexpr auto kHelloEvery = std::chrono::milliseconds(200);  // section 6
 constexpr int kStopCopies = 3;                                // section 8
 constexpr auto kStopSpacing = std::chrono::milliseconds(20);
@@ -339,7 +338,7 @@ class CoupledSolid {
     h.token = o_.token;
     h.role = "solid";
     h.model = s_.model;
-    h.version = kProtocolVersion;
+    h.version = protocol::kProtocolVersion;
     h.scene_hash = protocol::scene_hash_of_file(s_.path);
     h.dx_m = units_.dx_m();
     h.dt_lb_s = units_.dt_lb_s();

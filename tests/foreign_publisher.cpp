@@ -150,7 +150,7 @@ int main(int argc, char** argv) {
   solid_hello.token = token;
   solid_hello.role = "solid";
   solid_hello.model = "rcgp";
-  solid_hello.version = "1";
+  solid_hello.version = "2";  // protocol/README.md (this process links no project library)
   solid_hello.scene_hash = scene.empty() ? "0123456789abcdef" : scene_hash(scene);
   solid_hello.dx_m = dx_m;
   solid_hello.dt_lb_s = dt_lb;

@@ -34,7 +34,7 @@ Hello hello_from(const UnitConverter& u, const std::string& role) {
   h.token = kToken;
   h.role = role;
   h.model = role == "fluid" ? "d3q19-bgk" : "rcgp";
-  h.version = "1";
+  h.version = kProtocolVersion;
   h.scene_hash = kSceneHash;
   h.dx_m = u.dx_m();
   h.dt_lb_s = u.dt_lb_s();
@@ -87,8 +87,8 @@ TEST(Coordinator, HandshakeRejectsMismatch) {
   // Protocol version.
   {
     Hello s = solid;
-    s.version = "2";
-    expect_refused(check_handshake(fluid, s, kToken), {"version", "'1'", "'2'"});
+    s.version = "1";  // a peer of the previous version
+    expect_refused(check_handshake(fluid, s, kToken), {"version", "'2'", "'1'"});
     // Checks run in order: with the scene also wrong, the version is named.
     s.scene_hash = "0000000000000000";
     expect_refused(check_handshake(fluid, s, kToken), {"version"});

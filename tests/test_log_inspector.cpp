@@ -20,6 +20,7 @@
 
 #include "cosimlcm/fluid_state_t.hpp"
 #include "cosimlcm/hello_t.hpp"
+#include "protocol/handshake.hpp"
 #include "cosimlcm/resend_t.hpp"
 #include "cosimlcm/solid_state_t.hpp"
 #include "cosimlcm/stop_t.hpp"
@@ -111,7 +112,7 @@ std::vector<Event> synthetic_events() {
   hf.token = kToken;
   hf.role = "fluid";
   hf.model = "d3q19-bgk";
-  hf.version = "1";
+  hf.version = cosim::protocol::kProtocolVersion;
   hf.scene_hash = "0123456789abcdef";
   hf.dx_m = 2.561e-7;
   hf.dt_lb_s = 4.46e-10;

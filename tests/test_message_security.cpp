@@ -108,7 +108,7 @@ cosimlcm::hello_t valid_hello() {
   m.token = kToken;
   m.role = "solid";
   m.model = "rcgp";
-  m.version = "1";
+  m.version = cosim::protocol::kProtocolVersion;
   m.scene_hash = "0123456789abcdef";
   m.dx_m = u.dx_m();
   m.dt_lb_s = u.dt_lb_s();

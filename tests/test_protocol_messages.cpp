@@ -15,6 +15,7 @@
 
 #include "cosimlcm/fluid_state_t.hpp"
 #include "cosimlcm/hello_t.hpp"
+#include "protocol/handshake.hpp"
 #include "cosimlcm/resend_t.hpp"
 #include "cosimlcm/solid_state_t.hpp"
 #include "cosimlcm/stop_t.hpp"
@@ -105,7 +106,7 @@ TEST(Protocol, MessagesRoundTrip) {
     sent.token = token;
     sent.role = "solid";
     sent.model = "corotational";
-    sent.version = "1";
+    sent.version = cosim::protocol::kProtocolVersion;
     sent.scene_hash = "9e107d9d372bb6826bd81d3542a419d6a1b2c3d4e5f60718293a4b5c6d7e8f90";
     sent.dx_m = 0.2561e-6;
     sent.dt_lb_s = 4.4602233e-10;

@@ -100,7 +100,7 @@ struct FakeFluid {
     own.token = kToken;
     own.role = "fluid";
     own.model = "fake";
-    own.version = "1";
+    own.version = cosim::protocol::kProtocolVersion;
     own.scene_hash = cosim::protocol::scene_hash_of_file(scene.path);
     own.dx_m = u.dx_m();
     own.dt_lb_s = u.dt_lb_s();
@@ -320,7 +320,7 @@ TEST(SolidCoupled, SolidAnswersHandshakeOverMemq) {
   const cosimlcm::hello_t& h = fluid.hellos.front();
   EXPECT_EQ(h.role, "solid");
   EXPECT_EQ(h.model, "rcgp");
-  EXPECT_EQ(h.version, "1");
+  EXPECT_EQ(h.version, cosim::protocol::kProtocolVersion);
   EXPECT_EQ(h.num_cgps, 12);
   EXPECT_EQ(h.time_ratio, kTimeRatio);
   EXPECT_EQ(h.scene_hash, fluid.own.scene_hash);

@@ -399,7 +399,7 @@ static int publish_hello(Plate *p, const char *hash, double dx_m, double rho_air
   m.token = (char *)p->token;
   m.role = "solid";
   m.model = "prescribed-plate";
-  m.version = "1";
+  m.version = "2"; /* protocol/README.md */
   m.scene_hash = (char *)hash;
   m.dx_m = dx_m;
   m.dt_lb_s = p->dt_lb_s;
