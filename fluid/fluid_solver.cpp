@@ -4,7 +4,6 @@
 #include <stdexcept>
 #include <string>
 #include <utility>
-#include <vector>
 
 #include "fluid/bgk_guo.hpp"
 #include "fluid/d3q19.hpp"
@@ -83,17 +82,12 @@ void FluidSolver::initialize(const InitialState& state) {
   const GridShape& s = layout_.shape();
   const bool dbl = params_.precision == Precision::Double;
   have_previous_ = mid_step_ = false;
-  // The callback from one thread, in x-fastest order (it may keep state, e.g. a random
-  // generator); the equilibria in parallel.
-  std::vector<CellState> cells(static_cast<std::size_t>(s.cells()));
-  for (int z = 0, k = 0; z < s.nz; ++z)
-    for (int y = 0; y < s.ny; ++y)
-      for (int x = 0; x < s.nx; ++x) cells[static_cast<std::size_t>(k++)] = state(x, y, z);
-#pragma omp parallel for collapse(2) schedule(static)
+  // One thread, x fastest: the callback may keep state (e.g. a random generator). Once per
+  // run; a few tens of milliseconds on the paper's grid.
   for (int z = 0; z < s.nz; ++z)
     for (int y = 0; y < s.ny; ++y)
       for (int x = 0; x < s.nx; ++x) {
-        const CellState c = cells[static_cast<std::size_t>((std::int64_t(z) * s.ny + y) * s.nx + x)];
+        const CellState c = state(x, y, z);
         const std::ptrdiff_t i = layout_.index(x, y, z);
         for (int q = 0; q < D3Q19::Q; ++q) {
           const double feq = equilibrium(q, c.rho, c.ux, c.uy, c.uz);  // Eq. 11
