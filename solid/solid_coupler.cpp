@@ -81,31 +81,22 @@ IntervalResult SolidCoupler::advance(const FluidSample& sample, bool rigid, bool
   Eigen::RowVectorXd rho_da(n);  // 2 rho_l dA_l, fixed over the interval
   for (Eigen::Index l = 0; l < n; ++l) rho_da[l] = 2.0 * sample.rho_lb[l] * area_[static_cast<std::size_t>(l)];
   for (int k = 0; k < a_t; ++k) {
-    if (!implicit_reaction) {
-      // Eqs. 19-20 for all CGPs at once: g dA = 2 rho dA (U_B - u) on the fluid, -g dA / B_F
-      // on the CGP (the loop below's arithmetic, vectorised).
-      force_au_.array() =
-          -(((b_v * velocity.array() - sample.velocity_lb.array()).rowwise() * rho_da.array())) / b_f;
-    }
-    for (Eigen::Index l = 0; l < n && implicit_reaction; ++l) {
-      const double rda = rho_da[l];
-      if (!held(l)) {
-        // Backward Euler for the drag (see the header): h = D B_V dt / (B_F m) in atomic units.
-        const double m = mass[l];
-        const double h = rda * b_v * dt_au / (b_f * m);
-        for (int c = 0; c < 3; ++c) {
-          const double v = velocity(c, l);
-          const double f_other = m * (v - memory_.velocity(c, l)) / dt_au - memory_.force(c, l);
-          const double v_star = v + dt_au / m * f_other;
-          const double g_da = rda * (b_v * v_star - sample.velocity_lb(c, l)) / (1.0 + h);  // Eq. 19
-          force_au_(c, l) = -g_da / b_f;                                                     // Eq. 20
-        }
-        continue;
-      }
+    // Eqs. 19-20 for all CGPs at once: g dA = 2 rho dA (U_B - u) on the fluid, -g dA / B_F on
+    // the CGP, at the velocity before the substep.
+    force_au_.array() =
+        -(((b_v * velocity.array() - sample.velocity_lb.array()).rowwise() * rho_da.array())) / b_f;
+    // The implicit scheme: backward Euler for the drag of every CGP that is not held (see the
+    // header): h = D B_V dt / (B_F m) in atomic units.
+    for (Eigen::Index l = 0; implicit_reaction && l < n; ++l) {
+      if (held(l)) continue;
+      const double rda = rho_da[l], m = mass[l];
+      const double h = rda * b_v * dt_au / (b_f * m);
       for (int c = 0; c < 3; ++c) {
-        const double u_b = b_v * velocity(c, l);
-        const double g_da = rda * (u_b - sample.velocity_lb(c, l));  // on the fluid (Eq. 19)
-        force_au_(c, l) = -g_da / b_f;                               // on the CGP (Eq. 20)
+        const double v = velocity(c, l);
+        const double f_other = m * (v - memory_.velocity(c, l)) / dt_au - memory_.force(c, l);
+        const double v_star = v + dt_au / m * f_other;
+        const double g_da = rda * (b_v * v_star - sample.velocity_lb(c, l)) / (1.0 + h);  // Eq. 19
+        force_au_(c, l) = -g_da / b_f;                                                     // Eq. 20
       }
     }
     if (implicit_reaction) {
