@@ -287,7 +287,7 @@ class CoupledFluid {
     std::vector<double> sample_rho(n);
     std::vector<Vec3> sample_u(n);
     for (std::size_t l = 0; l < n; ++l) {
-      const double w = ib.kernel_weight(x[l]);
+      const double w = samples[l].weight;
       sample_rho[l] = w > 0.0 ? samples[l].rho / w : samples[l].rho;
       sample_u[l] = samples[l].u;
     }

@@ -49,6 +49,7 @@ MarkerSample ImmersedBoundary::sample(const FluidSolver& solver, const Vec3& X) 
     return std::array<double, 4>{c.rho, c.rho * c.ux, c.rho * c.uy, c.rho * c.uz};
   });
   MarkerSample s;
+  s.weight = kernel_weight(X);
   s.rho = m[0];
   if (s.rho > 0.0) s.u = {m[1] / s.rho, m[2] / s.rho, m[3] / s.rho};
   return s;
@@ -111,12 +112,15 @@ void ImmersedBoundary::sample(const FluidSolver& solver, std::span<const Vec3> X
   for (std::ptrdiff_t l = 0; l < n; ++l) {
     const DeltaStencil& st = stencils[std::size_t(l)];
     std::array<double, 4> sum{};
+    double weight = 0.0;
     for_each_stencil_node(st, [&](int i, int j, int k, int, int, int, double D) {
       const std::array<double, 4>& v = value[std::size_t(box_index(st, i, j, k))];
       for (std::size_t c = 0; c < sum.size(); ++c) sum[c] += D * v[c];
+      weight += D;
     });
     MarkerSample& s = out[std::size_t(l)];
     s = MarkerSample{};
+    s.weight = weight;
     s.rho = sum[0];
     if (s.rho > 0.0) s.u = {sum[1] / s.rho, sum[2] / s.rho, sum[3] / s.rho};
   }

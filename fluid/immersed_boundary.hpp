@@ -21,6 +21,8 @@ using Vec3 = std::array<double, 3>;
 struct MarkerSample {
   double rho = 0.0;
   Vec3 u{0.0, 0.0, 0.0};
+  /// kernel_weight() of the marker, from the same pass: sum D over the nodes it reaches.
+  double weight = 0.0;
 };
 
 /// Momentum-exchange force density on the fluid at a marker (DESIGN 2.1).

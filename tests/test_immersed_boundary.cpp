@@ -211,6 +211,7 @@ TEST(ImmersedBoundary, BatchedSampleEqualsMarkerByMarker) {
       for (std::size_t l = 0; l < X.size(); ++l) {
         const MarkerSample one = ib.sample(solver, X[l]);
         EXPECT_EQ(batch[l].rho, one.rho) << "marker " << l;
+        EXPECT_EQ(batch[l].weight, ib.kernel_weight(X[l])) << "marker " << l;
         for (std::size_t c = 0; c < 3; ++c) EXPECT_EQ(batch[l].u[c], one.u[c]) << "marker " << l << ", u " << c;
       }
     }
