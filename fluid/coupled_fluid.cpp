@@ -35,6 +35,11 @@
 #include "protocol/message_checks.hpp"
 #include "protocol/peak_memory.hpp"
 #include "protocol/marker_watch.hpp"
+#include "protocol/session/exit_codes.hpp"
+#include "protocol/session/peer_link.hpp"
+#include "protocol/session/session_counters.hpp"
+#include "protocol/session/state_inbox.hpp"
+#include "protocol/session/stop_rules.hpp"
 #include "protocol/step_sequencer.hpp"
 #include "protocol/text.hpp"
 #include "protocol/units.hpp"
@@ -45,33 +50,35 @@ namespace cosim::fluid {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-constexpr int kOk = 0, kSystem = 1, kBadInput = 2, kUnhealthy = 3, kPeerLost = 4;
+using protocol::Ending;
+constexpr int kOk = protocol::exit_code::ok, kSystem = protocol::exit_code::system,
+              kBadInput = protocol::exit_code::bad_input, kUnhealthy = protocol::exit_code::unhealthy,
+              kPeerLost = protocol::exit_code::peer_lost;
 constexpr const char* kFluidModel = "d3q19-bgk-guo";
 
 std::chrono::milliseconds ms(double seconds) {
   return std::chrono::milliseconds(static_cast<long long>(seconds * 1000.0));
 }
 
-/// A run-ending condition: exit code and the one-line reason.
-struct Ending {
-  int code;
-  std::string reason;
-};
+protocol::PeerLink::Settings link_settings(const CouplingSettings& c, const CoupledFluidOptions& o) {
+  protocol::PeerLink::Settings s;
+  s.role = "fluid";
+  s.token = o.token;
+  s.channel_prefix = o.channel_prefix.empty() ? c.channel_prefix : o.channel_prefix;
+  s.lcm_url = o.lcm_url.empty() ? c.lcm_url : o.lcm_url;
+  s.bus = o.bus;
+  s.faults = o.faults;
+  return s;
+}
 
 /// The coordinator and the fluid's side of the protocol.
 class CoupledFluid {
  public:
   CoupledFluid(const FluidScene& s, const CoupledFluidOptions& o, std::ostream& out)
-      : s_(s), c_(*s.coupling), o_(o), out_(out),
-        ch_(o.channel_prefix.empty() ? c_.channel_prefix : o.channel_prefix),
-        own_lcm_(o.bus != nullptr ? nullptr
-                                   : std::make_unique<lcm::LCM>(o.lcm_url.empty() ? c_.lcm_url : o.lcm_url)),
-        lcm_(o.bus != nullptr ? *o.bus : *own_lcm_),
-        net_(lcm_, o.faults, "fluid"),
-        foreign_(o.token, [this](const std::string& line) { out_ << "fluid: " << line << "\n"; }),
-        rejections_([this](const std::string& line) { out_ << "fluid: " << line << "\n"; }),
-        solid_seq_(0),
-        watch_(ms(c_.peer_timeout_s), ms(c_.resend_after_s)),
+      : s_(s), c_(*s.coupling), o_(o), out_(out), link_(link_settings(c_, o), out),
+        ch_(link_.channels()),
+        inbox_(0, [this](const cosimlcm::solid_state_t& m) { return key_of(m); }, ms(c_.peer_timeout_s),
+               ms(c_.resend_after_s)),
         markers_(s.watchdog, s.mach_limit, c_.time_ratio) {
     protocol::UnitInputs in;
     in.dx_m = s.dx_um * 1e-6;
@@ -81,17 +88,11 @@ class CoupledFluid {
 
   CoupledFluid(const CoupledFluid&) = delete;
   CoupledFluid& operator=(const CoupledFluid&) = delete;
-  ~CoupledFluid() {
-    for (lcm::Subscription* sub : subs_)
-      if (sub != nullptr) lcm_.unsubscribe(sub);
-  }
+  ~CoupledFluid() = default;
 
   int run() {
-    if (!lcm_.good()) return end({kSystem, "cannot open LCM at " + url()});
-    subs_.push_back(lcm_.subscribe(ch_.hello, &CoupledFluid::on_hello, this));
-    subs_.push_back(lcm_.subscribe(ch_.solid_state, &CoupledFluid::on_solid_state, this));
-    subs_.push_back(lcm_.subscribe(ch_.resend, &CoupledFluid::on_resend, this));
-    subs_.push_back(lcm_.subscribe(ch_.stop, &CoupledFluid::on_stop, this));
+    if (auto e = link_.open()) return end(*e);
+    if (!subscribe()) return end({kSystem, "cannot subscribe to the channels " + ch_.prefix + "* on " + link_.url()});
 
     // A restart waits for solid_state_t(N) from the start, so that the solid's republished
     // message passes the step-window check even if it comes before the checkpoint is read
@@ -99,8 +100,7 @@ class CoupledFluid {
     if (!o_.restart.empty()) {
       try {
         const protocol::CheckpointReader r(o_.restart);
-        solid_seq_ = protocol::StepSequencer(c_.scheme.implicit_scheme() ? r.int64_attr("solid_seq_awaited")
-                                                                          : r.int64_attr("step"));
+        inbox_.await_from(c_.scheme.implicit_scheme() ? r.int64_attr("solid_seq_awaited") : r.int64_attr("step"));
         // The in-flight solid_state_t may come during the handshake: its A_T is the checkpoint's.
         restart_ratio_ = r.has("time_ratio") ? static_cast<int>(r.int64_attr("time_ratio")) : c_.time_ratio;
         first_step_ = r.int64_attr("step");
@@ -111,7 +111,7 @@ class CoupledFluid {
     try {
       return step_all();
     } catch (const std::exception& x) {  // output or system errors after the handshake
-      return stop_and_end({kSystem, x.what()}, -1);
+      return stop_and_end({kSystem, x.what()}, awaited_step_);
     }
   }
 
@@ -136,7 +136,7 @@ class CoupledFluid {
       if (republish_) {
         // The token is this run's; the rest is the message sent before, bit for bit.
         republish_->token = o_.token;
-        net_.publish(ch_.fluid_state, *republish_);
+        link_.publish(ch_.fluid_state, *republish_);
         sent_.push_back(std::move(*republish_));
         republish_.reset();
       }
@@ -188,19 +188,14 @@ class CoupledFluid {
       }
       Clock::time_point t1 = Clock::now();
       wait_s_ += std::chrono::duration<double>(t1 - t0).count();
-      const cosimlcm::solid_state_t& m = inbox_.at(step);
+      // A message of the next step that came early is offered again, now due (in the
+      // parallel scheme solid_state_t(n + 1) may overtake a lost solid_state_t(n)).
+      const cosimlcm::solid_state_t m = inbox_.take();
       if (auto e = check_solid_state(m, step)) return end(*e);
       for (std::size_t l = 0; l < n; ++l) {
         x[l] = {m.position_lb[l][0], m.position_lb[l][1], m.position_lb[l][2]};
         j[l] = {m.impulse_lb[l][0], m.impulse_lb[l][1], m.impulse_lb[l][2]};
       }
-      inbox_.erase(inbox_.begin(), inbox_.upper_bound(step));
-      solid_seq_.advance();
-      // A message of the next step that came early is offered again, now due (in the
-      // parallel scheme solid_state_t(n + 1) may overtake a lost solid_state_t(n)).
-      if (const auto next = inbox_.find(solid_seq_.expected_step()); next != inbox_.end())
-        solid_seq_.offer(next->first, next->second.seq);
-      states_refused_ = 0;
       // The watchdog on the markers (DESIGN 6): how far each moved, how far apart they are.
       // The fluid at `step` is not touched yet: it is kept, if healthy, as the checkpoint.
       const Clock::time_point w0 = Clock::now();
@@ -359,12 +354,12 @@ class CoupledFluid {
     protocol::MarkerWatch::Reference marker_ref;
     std::int64_t step = first_step;       // the committed step
     int iteration = -1;                   // the iterate of `step` the solver holds; -1: none
-    commit_ = {step, fluid_seq_, solid_seq_.expected_step()};
+    commit_ = {step, fluid_seq_, inbox_.awaited()};
     Clock::time_point last_progress = start;
     for (;;) {
       const Clock::time_point t0 = Clock::now();
       awaited_step_ = step;
-      if (auto e = wait_for_solid_state(solid_seq_.expected_step())) {
+      if (auto e = wait_for_solid_state(inbox_.awaited())) {
         if (e->code == kPeerLost && step > first_step)
           // The committed state: kept while the step is iterated, else what the solver holds
           // (a rigid step stepped once is not committed yet either: no checkpoint then).
@@ -376,11 +371,7 @@ class CoupledFluid {
       }
       const Clock::time_point t1 = Clock::now();
       wait_s_ += std::chrono::duration<double>(t1 - t0).count();
-      const std::int64_t key = solid_seq_.expected_step();
-      const cosimlcm::solid_state_t m = inbox_.at(key);
-      inbox_.erase(inbox_.begin(), inbox_.upper_bound(key));
-      solid_seq_.advance();
-      states_refused_ = 0;
+      const cosimlcm::solid_state_t m = inbox_.take();
       if (iteration >= 0 && m.step == step + 1 && m.iteration == 0) {
         // The solid accepted the iterate the solver holds: step + 1 is committed.
         ++step;
@@ -442,8 +433,6 @@ class CoupledFluid {
   }
 
  private:
-  std::string url() const { return o_.lcm_url.empty() ? c_.lcm_url : o_.lcm_url; }
-
   // ---- the stability watchdog (DESIGN 6; protocol/watchdog.hpp) ----
 
   /// A tripped sentinel: the diagnosis, a checkpoint of the fluid at `step` when `solver`
@@ -486,6 +475,7 @@ class CoupledFluid {
     h.model = kFluidModel;
     h.version = protocol::kProtocolVersion;
     h.scene_hash = protocol::scene_hash_of_file(s_.path);
+    h.scheme = protocol::scheme_name(c_.scheme.scheme);
     h.dx_m = units_.dx_m();
     h.dt_lb_s = units_.dt_lb_s();
     h.sound_speed_m_s = units_.inputs().sound_speed_m_s;
@@ -639,10 +629,7 @@ class CoupledFluid {
     // The solid republishes its solid_state_t(step) once the handshake is done; it may have
     // arrived while this checkpoint was read (classified by the sequencer of step 0): offer
     // what the inbox holds to the sequencer of the restart.
-    const std::int64_t key = c_.scheme.implicit_scheme() ? r.int64_attr("solid_seq_awaited") : step;
-    solid_seq_ = protocol::StepSequencer(key);
-    inbox_.erase(inbox_.begin(), inbox_.lower_bound(key));
-    for (const auto& [k, m] : inbox_) solid_seq_.offer(k, m.seq);
+    inbox_.await_from(c_.scheme.implicit_scheme() ? r.int64_attr("solid_seq_awaited") : step);
     return step;
   }
 
@@ -689,7 +676,7 @@ class CoupledFluid {
   std::optional<Ending> handshake() {
     const protocol::Hello mine = fluid_hello();
     const cosimlcm::hello_t own = protocol::to_lcm(mine);
-    net_.publish(ch_.hello, own);
+    link_.publish(ch_.hello, own);
     const Clock::time_point deadline = Clock::now() + ms(c_.handshake_timeout_s);
     while (!solid_hello_ && !hello_refusal_) {
       if (stop_) return stop_;
@@ -698,8 +685,7 @@ class CoupledFluid {
         return Ending{kPeerLost, "no solid announced itself on " + ch_.hello + " within " +
                                      std::to_string(c_.handshake_timeout_s) + " s"};
       }
-      lcm_.handleTimeout(50);
-      net_.pump();
+      link_.pump(std::chrono::milliseconds(50));
     }
     // A solid whose hello_t failed the message checks kRejectedCopiesLimit times in a row
     // is refused with the reason (protocol/README.md section 8a).
@@ -713,8 +699,9 @@ class CoupledFluid {
     welcome_->total_steps = s_.steps;
     welcome_->rigid_steps = c_.rigid_steps;
     welcome_->time_ratio = r.accepted ? r.time_ratio : c_.time_ratio;
+    welcome_->scheme = protocol::scheme_name(c_.scheme.scheme);
     for (int k = 0; k < 3; ++k) {
-      net_.publish(ch_.welcome, *welcome_);
+      link_.publish(ch_.welcome, *welcome_);
       if (!r.accepted) std::this_thread::sleep_for(std::chrono::milliseconds(20));
     }
     if (!r.accepted) {
@@ -727,7 +714,7 @@ class CoupledFluid {
          << num_cgps_ << " CGPs, A_T = " << r.time_ratio << ", " << s_.steps
          << " LB steps (" << c_.rigid_steps << " rigid)" << std::endl;
     added_mass_check(r.time_ratio);
-    watch_.heard(Clock::now());
+    inbox_.heard(Clock::now());
     return std::nullopt;
   }
 
@@ -762,21 +749,24 @@ class CoupledFluid {
       r.token = o_.token;
       r.step = step;
       r.what = "solid_state";
-      net_.publish(ch_.resend, r);
-      ++resends_asked_;
+      link_.publish(ch_.resend, r);
+      ++resends_.asked;
       if (!implicit) break;
     }
   }
 
   /// Waits for the awaited solid_state_t: `step` (serial) or the solid's seq (implicit).
   std::optional<Ending> wait_for_solid_state(std::int64_t step) {
-    while (!inbox_.count(step)) {
+    while (!inbox_.ready()) {
       if (stop_) return stop_;
-      if (refused_state_) return refused_ending(step);
-      lcm_.handleTimeout(10);
-      net_.pump();
-      if (inbox_.count(step)) break;
-      switch (watch_.poll(Clock::now())) {
+      if (refused_state_) return refused_ending();
+      if (link_.fatal()) {
+        publish_stop(step, link_.fatal()->code, link_.fatal()->reason);
+        return link_.fatal();
+      }
+      link_.pump(std::chrono::milliseconds(10));
+      if (inbox_.ready()) break;
+      switch (inbox_.poll(Clock::now())) {
         case protocol::PeerWatch::Action::Wait:
           break;
         case protocol::PeerWatch::Action::Resend:
@@ -787,7 +777,7 @@ class CoupledFluid {
                                   std::to_string(c_.peer_timeout_s) +
                                   " s while the fluid waited for solid_state_t of step " +
                                   std::to_string(awaited_step_);
-          publish_stop(step, kPeerLost, why);
+          publish_stop(awaited_step_, kPeerLost, why);  // the step, also where `step` is the solid's seq
           return Ending{kPeerLost, why};
         }
       }
@@ -821,8 +811,8 @@ class CoupledFluid {
                                 std::to_string(substeps));
     const double t = double(std::max<std::int64_t>(0, step - dynamic_from + (closing ? 0 : 1))) * units_.dt_lb_s();
     if (std::abs(m.solid_time_s - t) > 1e-9 * std::max(t, units_.dt_lb_s()))
-      return bad(kBadInput, "solid_time_s = " + std::to_string(m.solid_time_s) + ", expected " +
-                                std::to_string(t));
+      return bad(kBadInput, "solid_time_s = " + protocol::fmt("%.17g", m.solid_time_s) + " s, expected " +
+                                protocol::fmt("%.17g", t) + " s (the solid's substeps times dt_CG, within 1e-9 relative)");
     for (std::int32_t l = 0; l < num_cgps_; ++l) {
       const auto& p = m.position_lb[static_cast<std::size_t>(l)];
       const auto& i = m.impulse_lb[static_cast<std::size_t>(l)];
@@ -844,19 +834,32 @@ class CoupledFluid {
                                      "domain: a larger domain, or the corotational model)");
       }
     }
+    // Step n -> n + 1 spreads the impulses of solid_state_t(n) (protocol/README.md 5); no
+    // interval precedes step 0, so its impulses are 0 (a restart's first message is the
+    // checkpoint's in-flight one, whatever its step).
+    if (step == 0 && first_step_ == 0)
+      for (std::int32_t l = 0; l < num_cgps_; ++l)
+        for (std::size_t c = 0; c < 3; ++c)
+          if (const double v = m.impulse_lb[static_cast<std::size_t>(l)][c]; v != 0.0)
+            return bad(kBadInput, "impulse_lb[" + std::to_string(l) + "][" + std::to_string(c) + "] = " +
+                                      protocol::fmt("%.17g", v) +
+                                      "; allowed: 0 at step 0 (no interval precedes it; protocol/README.md 5)");
     return std::nullopt;
   }
 
   /// The solid sent only refused copies of the awaited step (kRejectedCopiesLimit in a row):
   /// the run ends naming the field, with check_solid_state's code where it applies (2, or 3
   /// for a non-finite number), else 2.
-  Ending refused_ending(std::int64_t step) {
-    if (auto e = check_solid_state(refused_state_->first, step)) return *e;
+  Ending refused_ending() {
+    // The refused copy's own step (in the implicit scheme the awaited key is the solid's seq).
+    const std::int64_t step = refused_state_->first ? refused_state_->first->step : awaited_step_;
+    if (refused_state_->first)
+      if (auto e = check_solid_state(*refused_state_->first, step)) return *e;
     const std::string why = "solid_state_t of step " + std::to_string(step) + ": " +
                             refused_state_->second.detail() + " (" +
                             std::to_string(protocol::kRejectedCopiesLimit) + " copies refused)";
     publish_stop(step, kBadInput, why);
-    return Ending{kBadInput, why};
+    return Ending{kBadInput, why, false};
   }
 
   void publish_fluid_state(std::int64_t step, const std::vector<MarkerSample>& samples,
@@ -880,37 +883,40 @@ class CoupledFluid {
       m.rho_start_lb[l] = start[l].rho;
       m.velocity_start_lb[l] = {start[l].u[0], start[l].u[1], start[l].u[2]};
     }
-    net_.publish(ch_.fluid_state, m);
+    link_.publish(ch_.fluid_state, m);
     sent_.push_back(std::move(m));
     while (sent_.size() > 2) sent_.pop_front();
   }
 
-  void publish_stop(std::int64_t step, int code, const std::string& reason) {
-    cosimlcm::stop_t m{};
-    m.token = o_.token;
-    m.step = step;
-    m.exit_code = code;
-    m.reason = protocol::bounded_reason(reason);
-    for (int k = 0; k < 3; ++k) {
-      net_.publish(ch_.stop, m);
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
-      net_.pump();
-    }
-    net_.flush();
-  }
+  void publish_stop(std::int64_t step, int code, const std::string& reason) { link_.publish_stop(step, code, reason); }
 
-  /// Decodes a message of the run after checking its bytes (protocol/message_checks.hpp);
-  /// false (counted) if it does not decode or carries another run's token.
-  template <class Message>
-  bool receive(const lcm::ReceiveBuffer* rbuf, const std::string& channel, Message& m) {
-    if (const auto why = protocol::decode_checked(rbuf->data, rbuf->data_size, m)) {
-      if (undecodable_[channel]++ == 0)
-        out_ << "fluid: a message on " << channel << " does not decode as "
-             << Message::getTypeName() << " (" << *why
-             << "); such messages are counted and ignored\n";
-      return false;
-    }
-    return foreign_.admit(channel, m.token);
+  /// The four channels the fluid listens on, through the session's gate (peer_link.hpp):
+  /// handlers see only messages of this run that decode and pass the value checks.
+  bool subscribe() {
+    link_.expect([this] { return expectation(); });
+    link_.on_undecodable([this](const std::string& channel, const protocol::MessageHeader& h, const std::string& why) {
+      if (channel != ch_.solid_state) return;
+      // A copy of this run that does not decode counts toward the three-copies rule of its step.
+      refused_copy(c_.scheme.implicit_scheme() ? h.seq : h.step, h.step,
+                   protocol::Rejection{protocol::RejectCategory::Undecodable, why}, nullptr);
+    });
+    return link_.subscribe<cosimlcm::hello_t>(
+               ch_.hello, [this](cosimlcm::hello_t&& m) { on_hello(std::move(m)); },
+               [this](const cosimlcm::hello_t&, const protocol::Rejection& r) {
+                 if (!solid_hello_ && ++hellos_refused_ >= protocol::kRejectedCopiesLimit && !hello_refusal_)
+                   hello_refusal_ = r.what;
+               }) &&
+           link_.subscribe<cosimlcm::solid_state_t>(
+               ch_.solid_state,
+               [this](cosimlcm::solid_state_t&& m) {
+                 if (inbox_.offer(std::move(m), Clock::now()) && welcome_ && welcome_->accepted)
+                   request_resend(inbox_.awaited());  // a gap: ask at once
+               },
+               [this](const cosimlcm::solid_state_t& m, const protocol::Rejection& r) {
+                 refused_copy(key_of(m), m.step, r, &m);
+               }) &&
+           link_.subscribe<cosimlcm::resend_t>(ch_.resend, [this](cosimlcm::resend_t&& m) { on_resend(m); }) &&
+           link_.subscribe<cosimlcm::stop_t>(ch_.stop, [this](cosimlcm::stop_t&& m) { on_stop(m); });
   }
 
   /// What a message of the run must satisfy now: the token, the handshake's CGP count, the
@@ -922,7 +928,7 @@ class CoupledFluid {
     e.lowest_step = 0;
     const bool implicit = c_.scheme.implicit_scheme();
     // The implicit scheme also sends solid_state_t(N, 0) (N = run.steps) to accept the last step.
-    e.highest_step = std::min<std::int64_t>((implicit ? awaited_step_ + 1 : solid_seq_.expected_step()) +
+    e.highest_step = std::min<std::int64_t>((implicit ? awaited_step_ + 1 : inbox_.awaited()) +
                                                 protocol::kStepWindow,
                                             s_.steps - (implicit ? 0 : 1));
     e.time_ratio = time_ratio_;
@@ -934,57 +940,30 @@ class CoupledFluid {
     return e;
   }
 
-  void on_hello(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
-    cosimlcm::hello_t m{};
-    if (!receive(rbuf, channel, m)) return;
-    if (const auto r = protocol::check(m, expectation())) {
-      rejections_.add(channel, *r);
-      if (!solid_hello_ && ++hellos_refused_ >= protocol::kRejectedCopiesLimit && !hello_refusal_)
-        hello_refusal_ = r->what;
-      return;
-    }
+  void on_hello(cosimlcm::hello_t&& m) {
     if (m.role != "solid") return;  // our own announcement
-    watch_.heard(Clock::now());
-    if (!solid_hello_ && !hello_refusal_) solid_hello_ = m;
-    else if (welcome_) net_.publish(ch_.welcome, *welcome_);  // a lost welcome
+    inbox_.heard(Clock::now());
+    if (!solid_hello_ && !hello_refusal_) solid_hello_ = std::move(m);
+    else if (welcome_) link_.publish(ch_.welcome, *welcome_);  // a lost welcome
   }
 
-  void on_solid_state(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
-    cosimlcm::solid_state_t m{};
-    if (!receive(rbuf, channel, m)) return;
-    if (const auto r = protocol::check(m, expectation())) {
-      refuse_state(channel, m, *r);
-      return;
+  /// A copy of solid_state_t that was refused (the value checks, or bytes of this run that
+  /// do not decode; `m` is null then): counted, never applied. A refused copy of the awaited
+  /// step is asked for again at once; after kRejectedCopiesLimit refused copies in a row the
+  /// run ends (wait_for_solid_state).
+  void refused_copy(std::int64_t key, std::int64_t step, const protocol::Rejection& r,
+                    const cosimlcm::solid_state_t* m) {
+    if (!welcome_ || !welcome_->accepted || refused_state_) return;
+    switch (inbox_.refused(key, m == nullptr)) {
+      case protocol::StateInbox<cosimlcm::solid_state_t>::Refusal::Ignore:
+        return;
+      case protocol::StateInbox<cosimlcm::solid_state_t>::Refusal::AskAgain:
+        request_resend(step);
+        return;
+      case protocol::StateInbox<cosimlcm::solid_state_t>::Refusal::GiveUp:
+        refused_state_.emplace(m != nullptr ? std::optional<cosimlcm::solid_state_t>(*m) : std::nullopt, r);
+        return;
     }
-    watch_.heard(Clock::now());
-    const std::int64_t key = key_of(m);
-    switch (solid_seq_.offer(key, m.seq)) {
-      case protocol::StepSequencer::Verdict::Accept:
-        if (m.step < s_.steps + 1 && inbox_.size() < 8) inbox_.emplace(key, std::move(m));
-        break;
-      case protocol::StepSequencer::Verdict::Early:
-        // Held until due: the sequencer is offered it again after advance() (step_all).
-        if (m.step < s_.steps + 1 && inbox_.size() < 8) inbox_.emplace(key, std::move(m));
-        break;
-      default:
-        break;
-    }
-  }
-
-  /// A solid_state_t that failed the checks: counted, never applied. A refused copy of the
-  /// awaited step is asked for again at once; after kRejectedCopiesLimit refused copies in
-  /// a row the run ends (wait_for_solid_state).
-  void refuse_state(const std::string& channel, const cosimlcm::solid_state_t& m,
-                    const protocol::Rejection& r) {
-    rejections_.add(channel, r);
-    if (!welcome_ || !welcome_->accepted || key_of(m) != solid_seq_.expected_step() ||
-        solid_seq_.expected_received() || refused_state_)
-      return;
-    if (++states_refused_ >= protocol::kRejectedCopiesLimit) {
-      refused_state_.emplace(m, r);
-      return;
-    }
-    request_resend(m.step);
   }
 
   /// What the sequencer orders solid_state_t by: the step (serial), the solid's seq
@@ -993,50 +972,36 @@ class CoupledFluid {
     return c_.scheme.implicit_scheme() ? m.seq : m.step;
   }
 
-  void on_resend(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
-    cosimlcm::resend_t m{};
-    if (!receive(rbuf, channel, m)) return;
-    if (const auto r = protocol::check(m, expectation())) {
-      rejections_.add(channel, *r);
-      return;
-    }
+  void on_resend(const cosimlcm::resend_t& m) {
     // Our own requests come back on the bus. A peer's request is not news of progress
     // (protocol/README.md 7-8): silence counts from the last message applied.
     if (m.what != "fluid_state") return;
+    ++resends_.requests;
     for (const cosimlcm::fluid_state_t& f : sent_)
       if (f.step == m.step) {
-        net_.publish(ch_.fluid_state, f);
-        ++resends_answered_;
+        link_.publish(ch_.fluid_state, f);
+        ++resends_.answered;
       }
   }
 
-  void on_stop(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
-    cosimlcm::stop_t m{};
-    if (!receive(rbuf, channel, m)) return;
-    if (const auto r = protocol::check(m, expectation())) {
-      rejections_.add(channel, *r);
+  /// The solid's stop_t, if it fits the run (protocol/session/stop_rules.hpp): the solid
+  /// never ends a run with success; an error code ends it with 4.
+  void on_stop(const cosimlcm::stop_t& m) {
+    const protocol::StopFit fit = protocol::fit_stop(m, {"fluid", s_.steps, false});
+    if (fit.verdict == protocol::StopVerdict::Refuse) {
+      link_.refuse(ch_.stop, *fit.rejection);
       return;
     }
     if (stop_) return;
     peer_code_ = m.exit_code;
-    stop_ = Ending{m.exit_code == 0 ? kOk : kPeerLost,
+    stop_ = Ending{kPeerLost,
                    "the solid stopped at step " + std::to_string(m.step) + " with exit code " +
-                       std::to_string(m.exit_code) + ": " + protocol::one_line(m.reason)};
+                       std::to_string(m.exit_code) + ": " + protocol::one_line(m.reason),
+                   false};
   }
 
   std::string counters() const {
-    return "foreign " + std::to_string(foreign_.total()) + ", duplicates " +
-           std::to_string(solid_seq_.duplicates()) + ", stale " + std::to_string(solid_seq_.stale()) +
-           ", early " + std::to_string(solid_seq_.early()) + ", resends asked " +
-           std::to_string(resends_asked_) + " answered " + std::to_string(resends_answered_) +
-           ", undecodable " + std::to_string(undecodable()) + ", " + rejections_.summary() +
-           (net_.active() ? "; " + net_.summary() : std::string());
-  }
-
-  std::int64_t undecodable() const {
-    std::int64_t n = 0;
-    for (const auto& [channel, k] : undecodable_) n += k;
-    return n;
+    return protocol::session_counters(link_, inbox_, resends_);
   }
 
   /// Ends the run on the fluid's own error: the solid is told (stop_t) before we go.
@@ -1063,16 +1028,10 @@ class CoupledFluid {
   const CouplingSettings c_;
   const CoupledFluidOptions& o_;
   std::ostream& out_;
-  protocol::Channels ch_;
-  std::unique_ptr<lcm::LCM> own_lcm_;  ///< null when the options bring a bus
-  lcm::LCM& lcm_;
-  protocol::FaultyTransport net_;  ///< every publish goes through it (faults: tests only)
-  std::vector<lcm::Subscription*> subs_;
-  protocol::ForeignCounter foreign_;
-  protocol::MessageRejections rejections_;
-  std::map<std::string, std::int64_t> undecodable_;
-  protocol::StepSequencer solid_seq_;
-  protocol::PeerWatch watch_;
+  protocol::PeerLink link_;  ///< the transport: every message in and out goes through it
+  const protocol::Channels& ch_;
+  /// solid_state_t by step (by the solid's seq in the implicit scheme), the resend timer.
+  protocol::StateInbox<cosimlcm::solid_state_t> inbox_;
   protocol::MarkerWatch markers_;  ///< the watchdog's per-step sentinels (DESIGN 6)
   protocol::UnitConverter units_;
   std::optional<cosimlcm::hello_t> solid_hello_;
@@ -1080,11 +1039,10 @@ class CoupledFluid {
   std::optional<Ending> stop_;
   int hellos_refused_ = 0;                    ///< solid hello_t refused by the checks
   std::optional<std::string> hello_refusal_;  ///< set after kRejectedCopiesLimit of them
-  int states_refused_ = 0;                    ///< refused copies of the awaited step
   /// The last refused copy once kRejectedCopiesLimit were refused in a row, and why.
-  std::optional<std::pair<cosimlcm::solid_state_t, protocol::Rejection>> refused_state_;
+  /// (null when the copies did not decode).
+  std::optional<std::pair<std::optional<cosimlcm::solid_state_t>, protocol::Rejection>> refused_state_;
   std::int32_t time_ratio_ = 0;  ///< A_T agreed in the handshake
-  std::map<std::int64_t, cosimlcm::solid_state_t> inbox_;
   std::deque<cosimlcm::fluid_state_t> sent_;
   /// The parallel scheme's restart: the checkpoint's fluid_state_t in flight, published again.
   std::optional<cosimlcm::fluid_state_t> republish_;
@@ -1100,7 +1058,7 @@ class CoupledFluid {
   } commit_;
   std::int64_t awaited_step_ = 0;  ///< implicit: the committed step (the solid sends it or the next)
   std::int64_t redone_steps_ = 0;  ///< implicit: fluid steps taken again from a kept state
-  std::int64_t resends_asked_ = 0, resends_answered_ = 0;
+  protocol::ResendCounts resends_;
   double compute_s_ = 0.0, wait_s_ = 0.0, publish_s_ = 0.0;  ///< per-step timing (DESIGN 7)
   double watch_s_ = 0.0;  ///< the watchdog's share of compute_s_
   double bulk_u_ = 0.0;  ///< U_b of the latest health check (Eq. 34), lattice units

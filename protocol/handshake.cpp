@@ -96,6 +96,12 @@ HandshakeResult check_handshake(const Hello& fluid, const Hello& solid,
     return refuse("scene_hash mismatch: the fluid read a scene with hash '" + fluid.scene_hash +
                   "', the solid one with hash '" + solid.scene_hash +
                   "'; start both servers on the same scene file");
+  const auto scheme_of = [](const Hello& h) { return h.scheme.empty() ? std::string("serial") : h.scheme; };
+  if (scheme_of(fluid) != scheme_of(solid))
+    return refuse("coupling scheme mismatch: the fluid runs the '" + scheme_of(fluid) +
+                  "' scheme ([coupling] scheme of the scene), the solid announced '" + scheme_of(solid) +
+                  "'" + (solid.scheme.empty() ? " (hello_t.scheme empty, read as 'serial')" : std::string()) +
+                  "; a solid must run the scene's scheme (protocol/README.md sections 13-14)");
 
   // 5. Numbers that must be positive and finite.
   const NamedValue fluid_numbers[] = {{"dx_m", fluid.dx_m},
@@ -146,8 +152,13 @@ HandshakeResult check_handshake(const Hello& fluid, const Hello& solid,
 
   // 8. The solid runs the same A_T.
   if (solid.time_ratio != a_t)
-    return refuse("the solid's time_ratio = " + std::to_string(solid.time_ratio) +
-                  " differs from A_T = dt_LB / dt_CG = " + std::to_string(a_t));
+    return refuse("the solid's dt_cg_s = " + num(solid.dt_cg_s) + " s gives A_T = dt_LB / dt_CG = " +
+                  std::to_string(a_t) + ", but it announced time_ratio = " + std::to_string(solid.time_ratio) +
+                  "; dt_cg_s and time_ratio must agree (dt_cg_s = dt_LB / time_ratio)");
+  if (fluid.time_ratio > 0 && solid.time_ratio != fluid.time_ratio)
+    return refuse("time_ratio mismatch: the solid runs A_T = " + std::to_string(solid.time_ratio) + " (dt_CG = " +
+                  num(solid.dt_cg_s) + " s), the fluid's scene A_T = " + std::to_string(fluid.time_ratio) +
+                  " ([coupling] time_ratio, or --time-ratio); start both with the same A_T");
 
   // 9. Stability of the solid's integrator.
   if (solid.dt_cg_s > solid.stable_dt_cg_s) {

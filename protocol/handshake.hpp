@@ -11,10 +11,10 @@
 namespace cosim::protocol {
 
 /// The protocol version both servers announce in hello_t.version (protocol/README.md, whose
-/// title names it). "2": solid_state_t and fluid_state_t gained `iteration`, fluid_state_t
-/// `rho_start_lb` and `velocity_start_lb` (the implicit scheme, section 13); a peer of
-/// version "1" is refused at the handshake, naming both versions.
-inline constexpr const char* kProtocolVersion = "2";
+/// title names it). "3": stop_t names its sender, hello_t and welcome_t the coupling scheme.
+/// ("2": solid_state_t and fluid_state_t gained `iteration`, fluid_state_t `rho_start_lb` and
+/// `velocity_start_lb`.) A peer of another version is refused at the handshake, naming both.
+inline constexpr const char* kProtocolVersion = "3";
 
 /// What one server announces before the first step.
 ///
@@ -27,6 +27,8 @@ struct Hello {
   std::string model;       ///< e.g. "d3q19-bgk-guo", "rcgp" (reported, not compared)
   std::string version;     ///< protocol version; both sides must agree exactly
   std::string scene_hash;  ///< scene_hash_of_file() of the scene file both read
+  /// The coupling scheme the sender runs ("serial", "implicit", "parallel"; empty: "serial").
+  std::string scheme;
   double dx_m = 0.0;                 ///< dx_LB = dx_CG
   double dt_lb_s = 0.0;              ///< dt_LB = dx / c
   double sound_speed_m_s = 0.0;      ///< c_s of the air
@@ -62,14 +64,15 @@ inline constexpr double kTimeRatioRelTolerance = 1e-9;
 ///  1. roles: `fluid.role == "fluid"` and `solid.role == "solid"`;
 ///  2. tokens: each side's token equals `expected_token` (an empty run token is refused);
 ///  3. `version` equal on both sides;
-///  4. `scene_hash` equal on both sides;
+///  4. `scene_hash` equal on both sides; then `scheme` (empty read as "serial");
 ///  5. every number positive and finite (the fluid's four unit fields; the solid's unit
 ///     fields, `dt_cg_s` and `stable_dt_cg_s`);
 ///  6. units: dx_m, dt_lb_s, sound_speed_m_s, air_density_kg_m3 agree within
 ///     kUnitRelTolerance relative;
 ///  7. A_T = fluid.dt_lb_s / solid.dt_cg_s is a whole number >= 1 within
 ///     kTimeRatioRelTolerance relative (dt_CG must divide dt_LB);
-///  8. `solid.time_ratio == A_T`;
+///  8. `solid.time_ratio == A_T`, and the fluid's own A_T (`fluid.time_ratio`, when it
+///     announces one, > 0): a solid with a self-consistent A_T of its own is refused;
 ///  9. `solid.dt_cg_s <= solid.stable_dt_cg_s`; the refusal gives the largest stable
 ///     A_T-compatible dt_CG, dt_LB / ceil(dt_LB / stable), and its A_T;
 /// 10. `solid.num_cgps >= 1`;

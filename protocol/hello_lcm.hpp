@@ -15,6 +15,7 @@ inline Hello from_lcm(const cosimlcm::hello_t& m) {
   h.model = m.model;
   h.version = m.version;
   h.scene_hash = m.scene_hash;
+  h.scheme = m.scheme;
   h.dx_m = m.dx_m;
   h.dt_lb_s = m.dt_lb_s;
   h.sound_speed_m_s = m.sound_speed_m_s;
@@ -35,6 +36,7 @@ inline cosimlcm::hello_t to_lcm(const Hello& h) {
   m.model = h.model;
   m.version = h.version;
   m.scene_hash = h.scene_hash;
+  m.scheme = h.scheme;
   m.dx_m = h.dx_m;
   m.dt_lb_s = h.dt_lb_s;
   m.sound_speed_m_s = h.sound_speed_m_s;

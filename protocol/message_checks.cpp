@@ -243,7 +243,7 @@ std::optional<Rejection> check(const cosimlcm::hello_t& m, const Expectation& e)
     return reject(RejectCategory::Text, type,
                   "role = " + quoted(m.role) + "; allowed: 'fluid', 'solid'");
   const std::pair<const char*, const std::string*> texts[] = {
-      {"model", &m.model}, {"version", &m.version}, {"scene_hash", &m.scene_hash}};
+      {"model", &m.model}, {"version", &m.version}, {"scene_hash", &m.scene_hash}, {"scheme", &m.scheme}};
   for (const auto& [field, value] : texts)
     if (auto r = text(type, field, *value, kMaxNameLength)) return r;
   const std::pair<const char*, double> positive[] = {{"dx_m", m.dx_m},
@@ -289,6 +289,7 @@ std::optional<Rejection> check(const cosimlcm::welcome_t& m, const Expectation& 
     return reject(RejectCategory::Range, type,
                   "accepted = " + std::to_string(m.accepted) + "; allowed: 0 (false), 1 (true)");
   if (auto r = text(type, "reason", m.reason, kMaxReasonLength)) return r;
+  if (auto r = text(type, "scheme", m.scheme, kMaxNameLength)) return r;
   if (m.accepted == 0) return std::nullopt;  // refused: the numbers are not used
   if (m.total_steps < 1)
     return reject(RejectCategory::Range, type,
@@ -370,6 +371,8 @@ std::optional<Rejection> check(const cosimlcm::resend_t& m, const Expectation& e
 std::optional<Rejection> check(const cosimlcm::stop_t& m, const Expectation& e) {
   const char* type = "stop_t";
   if (auto r = token(type, m.token, e)) return r;
+  if (m.sender != "fluid" && m.sender != "solid")
+    return reject(RejectCategory::Text, type, "sender = " + quoted(m.sender) + "; allowed: 'fluid', 'solid'");
   if (m.step < -1)
     return reject(RejectCategory::Range, type,
                   "step = " + std::to_string(m.step) +
@@ -388,7 +391,7 @@ std::optional<std::string> check_encoding(const cosimlcm::hello_t*, const void* 
                                           std::size_t size) {
   Bytes b("hello_t", data, size);
   b.hash(cosimlcm::hello_t::getHash());
-  for (const char* f : {"token", "role", "model", "version", "scene_hash"}) b.string(f);
+  for (const char* f : {"token", "role", "model", "version", "scene_hash", "scheme"}) b.string(f);
   for (const char* f : {"dx_m", "dt_lb_s", "sound_speed_m_s", "air_density_kg_m3"}) b.f64(f);
   b.i32("time_ratio");
   b.f64("dt_cg_s");
@@ -410,6 +413,7 @@ std::optional<std::string> check_encoding(const cosimlcm::welcome_t*, const void
   b.i64("total_steps");
   b.i64("rigid_steps");
   b.i32("time_ratio");
+  b.string("scheme");
   b.end();
   return b.problem();
 }
@@ -461,6 +465,7 @@ std::optional<std::string> check_encoding(const cosimlcm::stop_t*, const void* d
   Bytes b("stop_t", data, size);
   b.hash(cosimlcm::stop_t::getHash());
   b.string("token");
+  b.string("sender");
   b.i64("step");
   b.i32("exit_code");
   b.string("reason");

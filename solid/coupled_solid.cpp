@@ -39,6 +39,11 @@
 #include "protocol/hdf5_quiet.hpp"
 #include "protocol/message_checks.hpp"
 #include "protocol/peak_memory.hpp"
+#include "protocol/session/exit_codes.hpp"
+#include "protocol/session/peer_link.hpp"
+#include "protocol/session/session_counters.hpp"
+#include "protocol/session/state_inbox.hpp"
+#include "protocol/session/stop_rules.hpp"
 #include "protocol/step_sequencer.hpp"
 #include "protocol/text.hpp"
 #include "protocol/units.hpp"
@@ -63,11 +68,8 @@ using protocol::UnitConverter;
 using Rows3 = std::vector<std::vector<double>>;
 
 constexpr auto kHelloEvery = std::chrono::milliseconds(200);  // section 6
-constexpr int kStopCopies = 3;                                // section 8
-constexpr auto kStopSpacing = std::chrono::milliseconds(20);
 constexpr std::size_t kKeptMessages = 2;  // section 7: at least the last two
-constexpr std::size_t kEarlyHeld = 8;
-constexpr int kPollMs = 20;  // the longest single wait for LCM, so that timers are checked
+constexpr auto kPoll = std::chrono::milliseconds(20);  // the longest single wait for LCM, so that timers are checked
 constexpr auto kProgressEvery = std::chrono::seconds(1);
 constexpr double kMicrometre = 1e-6;
 
@@ -85,13 +87,8 @@ Clock::duration seconds(double s) {
   return std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(s));
 }
 
-/// A run-ending condition: the exit code, the one-line reason, and whether this side
-/// announces it with stop_t (its own errors; not a refused handshake or the peer's stop_t).
-struct Ending {
-  int code = exit_code::ok;
-  std::string reason;
-  bool publish_stop = false;
-};
+using protocol::Ending;
+using FluidInbox = protocol::StateInbox<cosimlcm::fluid_state_t>;
 
 /// The time series of OUTPUT/solid.h5, one row per LB step (step 0 included), kept in
 /// memory and written once at the end.
@@ -116,27 +113,21 @@ class CoupledSolid {
                std::ostream& err)
       : s_(scene), c_(*scene.coupling), o_(options), out_(out), err_(err),
         ch_(c_.channel_prefix), units_(scene.unit_inputs()),
-        watch_(peer_timeout_ms(c_), resend_after_ms(c_)),
-        rejections_([this](const std::string& line) { out_ << "solid: " << line << "\n"; }) {
-    // The implicit scheme sends several messages per step: both sides then wait for the
-    // peer's next sequence number (consecutive in lock-step) instead of the next step.
-    if (implicit_) seq_ = protocol::StepSequencer(0);
-  }
+        // fluid_state_t(1) is the first the solid waits for; the implicit scheme sends several
+        // messages per step: both sides then wait for the peer's next sequence number
+        // (consecutive in lock-step) instead of the next step.
+        inbox_(c_.scheme.implicit_scheme() ? 0 : 1, [this](const cosimlcm::fluid_state_t& m) { return key_of(m); },
+               peer_timeout_ms(c_), resend_after_ms(c_)) {}
 
   CoupledSolid(const CoupledSolid&) = delete;
   CoupledSolid& operator=(const CoupledSolid&) = delete;
 
-  ~CoupledSolid() {
-    if (bus_ != nullptr)
-      for (lcm::Subscription* sub : subs_)
-        if (sub != nullptr) bus_->unsubscribe(sub);
-  }
+  ~CoupledSolid() = default;
 
   int run() {
     if (const auto e = build()) return report(*e);
     print_header();
     if (o_.check_only) return exit_code::ok;
-    foreign_.emplace(o_.token, [this](const std::string& line) { out_ << "solid: " << line << "\n"; });
     if (const auto e = open_output()) return report(*e);
     if (const auto e = open_bus()) return report(*e);
     if (const auto e = handshake()) return finish(*e);
@@ -144,7 +135,7 @@ class CoupledSolid {
          << " rigid), A_T = " << c_.time_ratio << (parallel_ ? ", parallel scheme" : "") << "\n";
     // The parallel scheme's first fluid_state_t is of step 0 when the sheets are free from
     // step 1 (section 14).
-    if (parallel_) seq_ = protocol::StepSequencer(protocol::parallel_first_fluid_state(rigid_steps_));
+    if (parallel_) inbox_.await_from(protocol::parallel_first_fluid_state(rigid_steps_));
     out_.flush();
     start_ = last_progress_ = Clock::now();
 
@@ -165,24 +156,20 @@ class CoupledSolid {
       if (const auto e = snapshot(0)) return finish(*e);
     }
     first_step_ = last_step_;
-    watch_.heard(Clock::now());
+    inbox_.heard(Clock::now());
     for (;;) {
       const Clock::time_point t0 = Clock::now();
       if (const auto e = wait_for_fluid_state()) return finish(*e);
       const Clock::time_point t1 = Clock::now();
-      const cosimlcm::fluid_state_t m = std::move(*pending_);
-      pending_.reset();
+      const cosimlcm::fluid_state_t m = inbox_.peek_out();
       if (const auto e = on_fluid_state(m)) return finish(*e);
       wait_s_ += std::chrono::duration<double>(t1 - t0).count();
       compute_s_ += std::chrono::duration<double>(Clock::now() - t1).count();
       ++timed_steps_;
-      seq_.advance();
-      states_refused_ = 0;
-      if (std::optional<cosimlcm::fluid_state_t> held = early_.take(seq_.expected_step()))
-        offer(std::move(*held));
-      early_.drop_before(seq_.expected_step());
+      // A copy of the next step held early is offered again, now due.
+      inbox_.advance();
       progress();
-      if (fatal_) return finish(*fatal_);
+      if (const auto e = failure()) return finish(*e);
     }
   }
 
@@ -308,26 +295,47 @@ class CoupledSolid {
     return std::nullopt;
   }
 
+  /// The session's transport (protocol/session/peer_link.hpp) and the four channels the
+  /// solid listens on: handlers see only messages of this run that decode and pass the checks.
   std::optional<Ending> open_bus() {
-    if (o_.bus != nullptr) {
-      bus_ = o_.bus;
-    } else {
-      own_bus_ = std::make_unique<lcm::LCM>(c_.lcm_url);
-      if (!own_bus_->good())
-        return Ending{exit_code::system,
-                      "cannot open LCM at " + c_.lcm_url +
-                          " (for udpm: is the loopback interface up with a multicast route?)"};
-      bus_ = own_bus_.get();
-    }
-    net_.emplace(*bus_, o_.faults, "solid");
-    subs_.push_back(bus_->subscribe(ch_.welcome, &CoupledSolid::on_welcome, this));
-    subs_.push_back(bus_->subscribe(ch_.fluid_state, &CoupledSolid::on_fluid_state, this));
-    subs_.push_back(bus_->subscribe(ch_.resend, &CoupledSolid::on_resend, this));
-    subs_.push_back(bus_->subscribe(ch_.stop, &CoupledSolid::on_stop, this));
-    for (const lcm::Subscription* sub : subs_)
-      if (sub == nullptr)
-        return Ending{exit_code::system, "cannot subscribe to the channels " + ch_.prefix + "* on " +
-                                             c_.lcm_url};
+    protocol::PeerLink::Settings ls;
+    ls.role = "solid";
+    ls.token = o_.token;
+    ls.channel_prefix = c_.channel_prefix;
+    ls.lcm_url = c_.lcm_url;
+    ls.bus = o_.bus;
+    ls.faults = o_.faults;
+    link_.emplace(ls, out_);
+    if (auto e = link_->open()) return e;
+    link_->expect([this] { return expectation(); });
+    link_->on_undecodable([this](const std::string& channel, const protocol::MessageHeader& h, const std::string& why) {
+      if (channel != ch_.fluid_state) return;
+      // A copy of this run that does not decode counts toward the three-copies rule of its step.
+      refused_copy(implicit_ ? h.seq : h.step, protocol::Rejection{protocol::RejectCategory::Undecodable, why}, nullptr);
+    });
+    const bool subscribed =
+        link_->subscribe<cosimlcm::welcome_t>(
+            ch_.welcome, [this](cosimlcm::welcome_t&& m) {
+              if (!welcome_) welcome_ = std::move(m);  // later copies answer our repeated hellos
+            },
+            [this](const cosimlcm::welcome_t&, const protocol::Rejection& r) { refused_welcome(r); }) &&
+        link_->subscribe<cosimlcm::fluid_state_t>(
+            ch_.fluid_state,
+            [this](cosimlcm::fluid_state_t&& m) {
+              if (inbox_.offer(std::move(m), Clock::now()) && welcome_) request_resend();  // a gap: ask at once
+            },
+            [this](const cosimlcm::fluid_state_t& m, const protocol::Rejection& r) { refused_copy(key_of(m), r, &m); }) &&
+        link_->subscribe<cosimlcm::resend_t>(ch_.resend, [this](cosimlcm::resend_t&& m) { on_resend(m); }) &&
+        link_->subscribe<cosimlcm::stop_t>(ch_.stop, [this](cosimlcm::stop_t&& m) { on_stop(std::move(m)); });
+    if (!subscribed)
+      return Ending{exit_code::system, "cannot subscribe to the channels " + ch_.prefix + "* on " + c_.lcm_url, false};
+    return std::nullopt;
+  }
+
+  /// An ending found inside a handler or by the transport, if any.
+  std::optional<Ending> failure() const {
+    if (fatal_) return fatal_;
+    if (link_ && link_->fatal()) return link_->fatal();
     return std::nullopt;
   }
 
@@ -340,6 +348,7 @@ class CoupledSolid {
     h.model = s_.model;
     h.version = protocol::kProtocolVersion;
     h.scene_hash = protocol::scene_hash_of_file(s_.path);
+    h.scheme = protocol::scheme_name(c_.scheme.scheme);
     h.dx_m = units_.dx_m();
     h.dt_lb_s = units_.dt_lb_s();
     h.sound_speed_m_s = units_.inputs().sound_speed_m_s;
@@ -362,7 +371,7 @@ class CoupledSolid {
     const Clock::time_point deadline = Clock::now() + seconds(c_.handshake_timeout_s);
     Clock::time_point next_hello = Clock::now();
     while (!welcome_) {
-      if (fatal_) return fatal_;
+      if (const auto e = failure()) return e;
       if (stop_) return peer_stop();
       const Clock::time_point now = Clock::now();
       if (now >= deadline)
@@ -392,6 +401,10 @@ class CoupledSolid {
       return malformed("time_ratio = " + std::to_string(w.time_ratio) +
                        ", but this solid runs A_T = " + std::to_string(c_.time_ratio) +
                        " ([coupling] time_ratio)");
+    const std::string own_scheme = protocol::scheme_name(c_.scheme.scheme);
+    if (!w.scheme.empty() && w.scheme != own_scheme)
+      return malformed("scheme = '" + w.scheme + "', but this solid runs the '" + own_scheme +
+                       "' coupling scheme ([coupling] scheme)");
     if (w.total_steps < 1) return malformed("total_steps = " + std::to_string(w.total_steps) + ", expected >= 1");
     if (w.rigid_steps < 0) return malformed("rigid_steps = " + std::to_string(w.rigid_steps) + ", expected >= 0");
     total_steps_ = w.total_steps;
@@ -404,12 +417,12 @@ class CoupledSolid {
   /// Waits until the awaited fluid_state_t is accepted (pending_), asking for it again
   /// after every resend_after_s of silence; an ending on stop_t, a timeout or an LCM error.
   std::optional<Ending> wait_for_fluid_state() {
-    while (!pending_) {
-      if (fatal_) return fatal_;
+    while (!inbox_.ready()) {
+      if (const auto e = failure()) return e;
       if (stop_) return peer_stop();
-      pump(std::chrono::milliseconds(kPollMs));
-      if (pending_ || stop_ || fatal_) continue;
-      switch (watch_.poll(Clock::now())) {
+      pump(kPoll);
+      if (inbox_.ready() || stop_ || failure()) continue;
+      switch (inbox_.poll(Clock::now())) {
         case protocol::PeerWatch::Action::Wait:
           break;
         case protocol::PeerWatch::Action::Resend:
@@ -419,9 +432,9 @@ class CoupledSolid {
           return Ending{exit_code::peer_lost,
                         "the fluid was silent for " + fmt("%g", c_.peer_timeout_s) +
                             " s (peer_timeout_s) while the solid waited for fluid_state_t of step " +
-                            std::to_string(parallel_ ? seq_.expected_step() : last_step_ + 1) + " on " +
+                            std::to_string(parallel_ ? inbox_.awaited() : last_step_ + 1) + " on " +
                             ch_.fluid_state + " (" +
-                            std::to_string(watch_.resends_since_heard()) + " resend_t sent)",
+                            std::to_string(inbox_.watch().resends_since_heard()) + " resend_t sent)",
                         true};
       }
       progress();
@@ -582,7 +595,7 @@ class CoupledSolid {
     if (const auto e = run_iterate(it)) return e;
     publish_state(it.step, it.trial.substeps, it.trial.position_lb, it.trial.impulse_lb, 0, it.trial.substeps);
     it.first = sent_.back();
-    it.fluid_seq_awaited = seq_.expected_step() + 1;  // the sequencer advances after this
+    it.fluid_seq_awaited = inbox_.awaited() + 1;  // the sequencer advances after this
     iterate_ = std::move(it);
     ++implicit_steps_;
     if (c_.checkpoint_every > 0 && m.step % c_.checkpoint_every == 0) {
@@ -762,7 +775,7 @@ class CoupledSolid {
     w.attr("solid_seq", iterate_ ? iterate_->first.seq + 1 : solid_seq_);
     if (implicit_) {
       w.attr("fluid_seq_awaited", iterate_ ? iterate_->fluid_seq_awaited
-                                           : seq_.expected_step() + (seq_.expected_received() ? 1 : 0));
+                                           : inbox_.awaited() + (inbox_.awaited_received() ? 1 : 0));
       w.attr("aitken_start", aitken_ ? aitken_->step_start() : 0.0);
       w.attr("start_bulk_velocity_lb", iterate_ ? iterate_->start_bulk_velocity : 0.0);
       w.attr("iterating", static_cast<std::int64_t>(iterate_ ? 1 : 0));
@@ -863,7 +876,7 @@ class CoupledSolid {
     // The parallel scheme awaits fluid_state_t(step) from step D - 1 on (it drives the interval
     // step -> step + 1; protocol/README.md 14), which the fluid publishes again.
     const bool parallel_awaits_step = parallel_ && step >= std::max<std::int64_t>(rigid_steps_, 1) - 1;
-    seq_ = protocol::StepSequencer(implicit_ ? r.int64_attr("fluid_seq_awaited") : parallel_awaits_step ? step : step + 1);
+    inbox_.await_from(implicit_ ? r.int64_attr("fluid_seq_awaited") : parallel_awaits_step ? step : step + 1);
     if (implicit_ && r.int64_attr("iterating") != 0) {
       // The step's first iterate again, from its start, with the sample it began with.
       Iterate it;
@@ -928,9 +941,7 @@ class CoupledSolid {
 
   template <class Message>
   void publish(const std::string& channel, const Message& m) {
-    if (net_->publish(channel, m) != 0 && !fatal_)
-      fatal_ = Ending{exit_code::system, "cannot publish on " + channel + " (LCM at " + c_.lcm_url + ")",
-                      true};
+    link_->publish(channel, m);  // an LCM error ends the run (failure())
   }
 
   /// num_cgps, position_lb and impulse_lb of `m`: the columns of x and j.
@@ -968,50 +979,17 @@ class CoupledSolid {
     cosimlcm::resend_t r{};
     r.token = o_.token;
     // fluid_state_t(n + 1) answers solid_state_t(n); in the parallel scheme the awaited step.
-    r.step = parallel_ ? seq_.expected_step() : last_step_ + 1;
+    r.step = parallel_ ? inbox_.awaited() : last_step_ + 1;
     r.what = "fluid_state";
     publish(ch_.resend, r);
-    ++resends_asked_;
-  }
-
-  void publish_stop(int code, const std::string& reason) {
-    cosimlcm::stop_t m{};
-    m.token = o_.token;
-    m.step = last_step_;
-    m.exit_code = code;
-    m.reason = protocol::bounded_reason(one_line(reason));
-    for (int k = 0; k < kStopCopies; ++k) {
-      if (k > 0) std::this_thread::sleep_for(kStopSpacing);
-      net_->pump();
-      net_->publish(ch_.stop, m);  // best effort: the run ends either way
-    }
+    ++resends_.asked;
   }
 
   // ---- receiving ----
 
-  /// Dispatches what arrives within `wait` (at most kPollMs at a time, never forever).
+  /// Dispatches what arrives within `wait` (at most kPoll at a time, never forever).
   void pump(Clock::duration wait) {
-    const auto ms = std::chrono::duration_cast<std::chrono::milliseconds>(wait).count();
-    const int timeout = static_cast<int>(std::clamp<long long>(ms, 0, kPollMs));
-    net_->pump();
-    if (bus_->handleTimeout(timeout) < 0 && !fatal_)
-      fatal_ = Ending{exit_code::system, "LCM failed while receiving on " + c_.lcm_url, true};
-  }
-
-  /// Decodes a message of the run; false (counted) if it does not decode or carries another
-  /// run's token.
-  template <class Message>
-  bool receive(const lcm::ReceiveBuffer* rbuf, const std::string& channel, Message& m) {
-    // The bytes are checked before the generated decode trusts their lengths and counts
-    // (protocol/message_checks.hpp).
-    if (const auto why = protocol::decode_checked(rbuf->data, rbuf->data_size, m)) {
-      if (undecodable_[channel]++ == 0)
-        out_ << "solid: a message on " << channel << " does not decode as " << Message::getTypeName()
-             << " (" << *why << "; another protocol version on this channel?); such messages "
-                "are counted and ignored\n";
-      return false;
-    }
-    return foreign_->admit(channel, m.token);
+    link_->pump(std::clamp(std::chrono::duration_cast<std::chrono::milliseconds>(wait), std::chrono::milliseconds(0), kPoll));
   }
 
   /// What a message of the run must satisfy now: the token, this solid's CGP count, the
@@ -1029,63 +1007,38 @@ class CoupledSolid {
     return e;
   }
 
-  /// Counts a message that failed the checks; true if it did (drop it).
-  template <class Message>
-  bool refused(const std::string& channel, const Message& m) {
-    const auto r = protocol::check(m, expectation());
-    if (r) rejections_.add(channel, *r);
-    return r.has_value();
+  /// The coordinator answers every hello_t with its welcome_t: only refused copies
+  /// (kRejectedCopiesLimit in a row) end the run, naming the field.
+  void refused_welcome(const protocol::Rejection& r) {
+    if (!welcome_ && ++welcomes_refused_ >= protocol::kRejectedCopiesLimit && !fatal_)
+      fatal_ = Ending{exit_code::bad_input,
+                      r.what + " (" + std::to_string(protocol::kRejectedCopiesLimit) + " copies refused)", true};
   }
 
-  void on_welcome(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
-    cosimlcm::welcome_t m{};
-    if (!receive(rbuf, channel, m)) return;
-    if (const auto r = protocol::check(m, expectation())) {
-      rejections_.add(channel, *r);
-      // The coordinator answers every hello_t with its welcome_t: only refused copies
-      // (kRejectedCopiesLimit in a row) end the run, naming the field.
-      if (!welcome_ && ++welcomes_refused_ >= protocol::kRejectedCopiesLimit && !fatal_)
-        fatal_ = Ending{exit_code::bad_input,
-                        r->what + " (" + std::to_string(protocol::kRejectedCopiesLimit) +
-                            " copies refused)",
-                        true};
-      return;
+  /// A copy of fluid_state_t that was refused (the value checks, or bytes of this run that
+  /// do not decode; `m` is null then): counted, never applied. A refused copy of the awaited
+  /// step is asked for again at once; after kRejectedCopiesLimit refused copies in a row the
+  /// run ends, naming the field, with check_fluid_state's code where it applies (2, or 3 for
+  /// a non-finite number or rho <= 0), else 2.
+  void refused_copy(std::int64_t key, const protocol::Rejection& r, const cosimlcm::fluid_state_t* m) {
+    if (!welcome_ || !welcome_->accepted || fatal_) return;
+    switch (inbox_.refused(key, m == nullptr)) {
+      case FluidInbox::Refusal::Ignore:
+        return;
+      case FluidInbox::Refusal::AskAgain:
+        request_resend();
+        return;
+      case FluidInbox::Refusal::GiveUp:
+        break;
     }
-    if (!welcome_) welcome_ = std::move(m);  // later copies answer our repeated hellos
-  }
-
-  void on_fluid_state(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
-    cosimlcm::fluid_state_t m{};
-    if (!receive(rbuf, channel, m)) return;
-    if (const auto r = protocol::check(m, expectation())) {
-      refuse_state(channel, m, *r);
-      return;
-    }
-    watch_.heard(Clock::now());
-    offer(std::move(m));
-  }
-
-  /// A fluid_state_t that failed the checks: counted, never applied. A refused copy of the
-  /// awaited step is asked for again at once; after kRejectedCopiesLimit refused copies in a
-  /// row the run ends, naming the field, with check_fluid_state's code where it applies (2,
-  /// or 3 for a non-finite number or rho <= 0), else 2.
-  void refuse_state(const std::string& channel, const cosimlcm::fluid_state_t& m,
-                    const protocol::Rejection& r) {
-    rejections_.add(channel, r);
-    if (!welcome_ || !welcome_->accepted || fatal_ || key_of(m) != seq_.expected_step() ||
-        seq_.expected_received())
-      return;
-    if (++states_refused_ < protocol::kRejectedCopiesLimit) {
-      request_resend();
-      return;
-    }
-    if (auto e = check_fluid_state(m)) {
-      fatal_ = *e;
-      return;
-    }
+    if (m != nullptr)
+      if (auto e = check_fluid_state(*m)) {
+        fatal_ = *e;
+        return;
+      }
     fatal_ = Ending{exit_code::bad_input,
-                    "fluid_state_t of step " + std::to_string(m.step) + ": " + r.detail() + " (" +
-                        std::to_string(protocol::kRejectedCopiesLimit) + " copies refused)",
+                    "fluid_state_t of step " + std::to_string(m != nullptr ? m->step : key) + ": " + r.detail() +
+                        " (" + std::to_string(protocol::kRejectedCopiesLimit) + " copies refused)",
                     true};
   }
 
@@ -1093,41 +1046,29 @@ class CoupledSolid {
   /// (implicit: several messages per step, consecutive seq in lock-step).
   std::int64_t key_of(const cosimlcm::fluid_state_t& m) const { return implicit_ ? m.seq : m.step; }
 
-  void offer(cosimlcm::fluid_state_t m) {
-    switch (seq_.offer(key_of(m), m.seq)) {
-      case protocol::StepSequencer::Verdict::Accept:
-        pending_ = std::move(m);
-        break;
-      case protocol::StepSequencer::Verdict::Early: {
-        const std::int64_t key = key_of(m);
-        early_.store(key, std::move(m));
-        if (seq_.missing_expected() && welcome_) request_resend();  // a gap: ask at once
-        break;
-      }
-      case protocol::StepSequencer::Verdict::Duplicate:
-      case protocol::StepSequencer::Verdict::Stale:
-        break;  // counted by the sequencer, never applied twice
-    }
-  }
-
-  void on_resend(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
-    cosimlcm::resend_t m{};
-    if (!receive(rbuf, channel, m) || refused(channel, m)) return;
+  void on_resend(const cosimlcm::resend_t& m) {
     if (m.what != "solid_state") return;  // our own request for fluid_state, heard back
-    ++resend_requests_;
+    ++resends_.requests;
     // Every kept message of that step (the implicit scheme's iterates of one step share it;
     // the fluid drops the copies it has had by their seq).
     for (const cosimlcm::solid_state_t& sent : sent_)
       if (sent.step == m.step) {
         publish(ch_.solid_state, sent);  // unchanged: same seq, bit for bit
-        ++resends_answered_;
+        ++resends_.answered;
       }
     // A step not reached yet (it comes when ready) or no longer kept: ignored.
   }
 
-  void on_stop(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
-    cosimlcm::stop_t m{};
-    if (!receive(rbuf, channel, m) || refused(channel, m)) return;
+  /// The coordinator's stop_t, if it fits the run (protocol/session/stop_rules.hpp): exit
+  /// code 0 only at the run's last step, once this solid has sent its part of it.
+  void on_stop(cosimlcm::stop_t&& m) {
+    // The last solid_state_t the fluid needs: of step N - 1, or N (the implicit scheme's closing one).
+    const bool at_end = total_steps_ > 0 && last_step_ >= total_steps_ - (implicit_ ? 0 : 1);
+    const protocol::StopFit fit = protocol::fit_stop(m, {"solid", total_steps_, at_end});
+    if (fit.verdict == protocol::StopVerdict::Refuse) {
+      link_->refuse(ch_.stop, *fit.rejection);
+      return;
+    }
     if (!stop_) stop_ = std::move(m);
   }
 
@@ -1261,15 +1202,8 @@ class CoupledSolid {
   }
 
   std::string counters() const {
-    std::int64_t undecodable = 0;
-    for (const auto& [channel, n] : undecodable_) undecodable += n;
-    return "foreign " + std::to_string(foreign_ ? foreign_->total() : 0) + ", duplicates " +
-           std::to_string(seq_.duplicates()) + ", stale " + std::to_string(seq_.stale()) +
-           ", early " + std::to_string(seq_.early()) + ", resends asked " +
-           std::to_string(resends_asked_) + ", resend requests " + std::to_string(resend_requests_) +
-           " answered " + std::to_string(resends_answered_) + ", undecodable " +
-           std::to_string(undecodable) + ", " + rejections_.summary() +
-           (net_ && net_->active() ? "; " + net_->summary() : std::string());
+    if (!link_) return "no transport opened";
+    return protocol::session_counters(*link_, inbox_, resends_);
   }
 
   /// Ends the run: stop_t for our own errors, solid.h5, the counters, the one-line reason.
@@ -1283,8 +1217,7 @@ class CoupledSolid {
         e.reason += "; no checkpoint: " + one_line(x.what());
       }
     }
-    if (e.publish_stop && bus_ != nullptr) publish_stop(e.code, e.reason);
-    if (net_) net_->flush();
+    if (e.publish_stop && link_) link_->publish_stop(last_step_, e.code, one_line(e.reason));
     if (series_.rows() > 0) {
       try {
         write_series();
@@ -1352,22 +1285,15 @@ class CoupledSolid {
   std::optional<protocol::EnergyWatch> energy_watch_;  ///< the watchdog's energy sentinel
   Eigen::Index n_ = 0;
 
-  std::unique_ptr<lcm::LCM> own_bus_;
-  std::optional<protocol::FaultyTransport> net_;  ///< every publish goes through it
-  lcm::LCM* bus_ = nullptr;
-  std::vector<lcm::Subscription*> subs_;
-
-  std::optional<protocol::ForeignCounter> foreign_;
-  protocol::StepSequencer seq_{1};  // fluid_state_t(1) is the first the solid waits for
-  protocol::PeerWatch watch_;
-  protocol::EarlyBuffer<cosimlcm::fluid_state_t> early_{kEarlyHeld};
-  protocol::MessageRejections rejections_;
+  /// The transport: every message in and out goes through it (opened after the model is
+  /// built: a --check run needs no token and no bus).
+  std::optional<protocol::PeerLink> link_;
+  /// fluid_state_t by step (by the fluid's seq in the implicit scheme), the resend timer.
+  FluidInbox inbox_;
   int welcomes_refused_ = 0;  ///< welcome_t refused by the checks before one was taken
-  int states_refused_ = 0;    ///< refused copies of the awaited fluid_state_t
 
   std::optional<cosimlcm::welcome_t> welcome_;
   std::optional<cosimlcm::stop_t> stop_;
-  std::optional<cosimlcm::fluid_state_t> pending_;
   std::optional<Ending> fatal_;  // an LCM failure seen inside a handler
   std::deque<cosimlcm::solid_state_t> sent_;
 
@@ -1382,8 +1308,8 @@ class CoupledSolid {
   int iterations_max_ = 0;
   double unconverged_residual_max_ = 0.0;
   std::int64_t first_step_ = 0;  ///< 0, or the step of --restart
-  std::int64_t hellos_ = 0, resends_asked_ = 0, resend_requests_ = 0, resends_answered_ = 0;
-  std::map<std::string, std::int64_t> undecodable_;
+  std::int64_t hellos_ = 0;
+  protocol::ResendCounts resends_;
 
   CoupledSeries series_;
   std::unique_ptr<SheetSnapshotWriter> snapshots_;  ///< [output] sheets_every > 0

@@ -10,6 +10,7 @@
 #include <string>
 
 #include "protocol/fault_injection.hpp"
+#include "protocol/session/exit_codes.hpp"
 #include "solid/solid_scene.hpp"
 
 namespace lcm {
@@ -18,14 +19,8 @@ class LCM;
 
 namespace cosim::solid {
 
-/// Exit codes of both servers (protocol/README.md section 9).
-namespace exit_code {
-inline constexpr int ok = 0;         ///< done: the fluid's stop_t with exit code 0
-inline constexpr int system = 1;     ///< output, or LCM could not be opened or published to
-inline constexpr int bad_input = 2;  ///< scene, command line, refused handshake, malformed message
-inline constexpr int unhealthy = 3;  ///< non-finite or rho <= 0 fluid sample, non-finite CGP state
-inline constexpr int peer_lost = 4;  ///< the fluid silent past a timeout, or it stopped with a code
-}  // namespace exit_code
+/// Exit codes of both servers (protocol/README.md section 9), defined once in the session layer.
+namespace exit_code = protocol::exit_code;
 
 struct CoupledSolidOptions {
   /// The run's token (the launcher's new_run_token()); every message carries it. Required

@@ -150,7 +150,7 @@ int main(int argc, char** argv) {
   solid_hello.token = token;
   solid_hello.role = "solid";
   solid_hello.model = "rcgp";
-  solid_hello.version = "2";  // protocol/README.md (this process links no project library)
+  solid_hello.version = "3";  // protocol/README.md (this process links no project library)
   solid_hello.scene_hash = scene.empty() ? "0123456789abcdef" : scene_hash(scene);
   solid_hello.dx_m = dx_m;
   solid_hello.dt_lb_s = dt_lb;
@@ -246,6 +246,7 @@ int main(int argc, char** argv) {
       case 13: {
         cosimlcm::stop_t s{};
         s.token = token;
+        s.sender = k == 12 ? "fluid" : "solid";
         s.step = step;
         s.exit_code = k == 12 ? 0 : 3;
         s.reason = k == 12 ? "" : "foreign_publisher: an unhealthy foreign run";

@@ -114,6 +114,7 @@ std::vector<Event> synthetic_events() {
   hf.model = "d3q19-bgk";
   hf.version = cosim::protocol::kProtocolVersion;
   hf.scene_hash = "0123456789abcdef";
+  hf.scheme = "serial";
   hf.dx_m = 2.561e-7;
   hf.dt_lb_s = 4.46e-10;
   hf.sound_speed_m_s = 331.5;
@@ -133,6 +134,7 @@ std::vector<Event> synthetic_events() {
   w.total_steps = 20;
   w.rigid_steps = 5;
   w.time_ratio = 150;
+  w.scheme = "serial";
   ev.push_back({kT0 + 2000, kPrefix + "WELCOME", encode(w)});
 
   // SOLID_STATE in log order: {step, seq} or a special entry.
@@ -168,6 +170,7 @@ std::vector<Event> synthetic_events() {
         {solid_time(int(n)) + 5000, kPrefix + "FLUID_STATE", encode(fluid_state(n, n - 1))});
   cosimlcm::stop_t stop{};
   stop.token = kToken;
+  stop.sender = "fluid";
   stop.step = 20;
   stop.exit_code = 0;
   for (int i = 0; i < 3; ++i)
@@ -554,7 +557,7 @@ TEST(LogInspector, LogInspectorRefusesBadInput) {
   EXPECT_NE(r.out.find("warning: the log ends inside event 48 at byte"), std::string::npos)
       << r.out;
   std::ofstream(dir / "junk.lcmlog", std::ios::binary)
-      << bytes.substr(0, 200) << "JUNKJUNK" << bytes.substr(200);
+      << bytes.substr(0, 211) << "JUNKJUNK" << bytes.substr(211);  // inside the 2nd event's header (the 1st ends at byte 207)
   const lt::LogSummary junk = lt::summarize_log((dir / "junk.lcmlog").string());
   EXPECT_EQ(junk.events, 48);  // the event the junk landed in is lost, the rest is found again
   EXPECT_GT(junk.skipped_bytes, 8u);

@@ -37,6 +37,7 @@
 #include "fluid/scene_config.hpp"
 #include "protocol/channels.hpp"
 #include "protocol/handshake.hpp"
+#include "protocol/hello_lcm.hpp"
 #include "protocol/message_checks.hpp"
 #include "protocol/units.hpp"
 #include "solid/solid_scene.hpp"
@@ -142,6 +143,7 @@ cosimlcm::resend_t valid_resend() {
 cosimlcm::stop_t valid_stop() {
   cosimlcm::stop_t m{};
   m.token = kToken;
+  m.sender = "fluid";
   m.step = 200;
   m.exit_code = 0;
   return m;
@@ -289,6 +291,7 @@ TEST(MessageChecks, MalformedMessagesAreRejected) {
                           {"exit_code", [](ST& m) { m.exit_code = 256; }, RC::Range, "exit_code = 256; allowed: 0 to 255"},
                           {"exit_code negative", [](ST& m) { m.exit_code = -1; }, RC::Range, "exit_code = -1"},
                           {"step", [](ST& m) { m.step = -2; }, RC::Range, "step = -2"},
+                          {"sender", [](ST& m) { m.sender = "coordinator"; }, RC::Text, "sender = 'coordinator'"},
                           {"reason", [](ST& m) { m.reason = std::string(4097, 'x'); }, RC::Text, "has 4097 bytes; at most 4096"},
                       });
 }
@@ -433,6 +436,8 @@ struct FakeSolid {
   /// Applied to every copy of this step's state (first copy and resends).
   std::int64_t spoil_step = -1;
   std::function<void(cosimlcm::solid_state_t&)> spoil;
+  /// Applied to the bytes of every copy of this step's state, after `spoil`.
+  std::function<std::vector<std::uint8_t>(std::vector<std::uint8_t>)> raw_spoil;
   /// Applied to every hello_t this solid sends.
   std::function<void(cosimlcm::hello_t&)> spoil_hello;
 
@@ -476,6 +481,11 @@ struct FakeSolid {
         bus.publish(ch.solid_state, raw.data(), static_cast<unsigned int>(raw.size()));
     cosimlcm::solid_state_t m = good;
     if (m.step == spoil_step && spoil) spoil(m);
+    if (m.step == spoil_step && raw_spoil) {
+      const std::vector<std::uint8_t> raw = raw_spoil(encode(m));
+      bus.publish(ch.solid_state, raw.data(), static_cast<unsigned int>(raw.size()));
+      return;
+    }
     bus.publish(ch.solid_state, &m);
   }
 
@@ -678,6 +688,152 @@ TEST(FluidCoupled, MalformedMessagesAreRejected) {
   EXPECT_EQ(gas.welcomes[0].reason, "handshake refused: hello_t: role = 'gas'; allowed: 'fluid', 'solid'");
   fs::remove_all(dir);
 }
+
+/// The fluid scene of these tests with lines added to its [coupling] section (the last one).
+fs::path fluid_scene_with(const fs::path& dir, const std::string& coupling_lines) {
+  const fs::path base = write_fluid_scene(dir);
+  std::ifstream in(base);
+  std::stringstream text;
+  text << in.rdbuf() << coupling_lines;
+  const fs::path p = dir / "scene_with.toml";
+  std::ofstream(p) << text.str();
+  return p;
+}
+
+// Undecodable bytes whose header names this run count toward the three-copies rule of the
+// awaited step: a solid that answers every resend of step 3 with bytes that do not decode
+// ends the run with 2, naming the reason, long before the peer timeout (3 s here), instead
+// of "silent" after it.
+TEST(FluidCoupled, UndecodableCopiesCountTowardTheLimit) {
+  const fs::path dir = scratch_dir("undecodable");
+  const fs::path scene = write_fluid_scene(dir);
+  lcm::LCM bus("memq://");
+  FakeSolid solid(bus, scene, 2);
+  solid.spoil_step = 3;
+  solid.raw_spoil = [](std::vector<std::uint8_t> b) {
+    b.resize(b.size() - 5);  // truncated: the header (token, seq, step) still reads
+    return b;
+  };
+  const auto t0 = std::chrono::steady_clock::now();
+  const FluidOutcome r = run_fluid(scene, bus);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  EXPECT_EQ(r.code, 2) << r.out << r.err;
+  EXPECT_NE(r.err.find("fluid: coupled run stopped: solid_state_t of step 3: "), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("(3 copies refused)"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find("silent"), std::string::npos) << r.err;
+  EXPECT_LT(seconds, 3.0) << "ended by the peer timeout, not by the three-copies rule";
+  EXPECT_EQ(solid.samples.size(), 3u) << "steps 1..3 only";
+  EXPECT_GE(solid.resends_for_state, 2) << "each undecodable copy is asked for again";
+  ASSERT_FALSE(solid.stops.empty());
+  EXPECT_EQ(solid.stops.back().exit_code, 2);
+  EXPECT_EQ(solid.stops.back().sender, "fluid");
+  EXPECT_EQ(solid.stops.back().step, 3);
+  fs::remove_all(dir);
+}
+
+// solid_state_t(0) opens the run: no interval precedes it, so step 0 -> 1 must not spread
+// an impulse (protocol/README.md 5). A non-zero impulse there is refused with 2, naming the
+// field and its value (it was neither refused nor applied before).
+TEST(FluidCoupled, ImpulseAtStepZeroIsRefusedOrApplied) {
+  const fs::path dir = scratch_dir("impulse0");
+  const fs::path scene = write_fluid_scene(dir);
+  lcm::LCM bus("memq://");
+  FakeSolid solid(bus, scene, 2);
+  solid.spoil_step = 0;
+  solid.spoil = [](cosimlcm::solid_state_t& m) { m.impulse_lb[2][1] = 1.25e-3; };
+  const FluidOutcome r = run_fluid(scene, bus);
+  EXPECT_EQ(r.code, 2) << r.out << r.err;
+  EXPECT_EQ(r.err,
+            "fluid: coupled run stopped: solid_state_t of step 0: impulse_lb[2][1] = 0.00125; allowed: 0 at "
+            "step 0 (no interval precedes it; protocol/README.md 5)\n");
+  EXPECT_TRUE(solid.samples.empty()) << "no fluid_state_t after a refused step 0";
+  ASSERT_FALSE(solid.stops.empty());
+  EXPECT_EQ(solid.stops.back().exit_code, 2);
+  fs::remove_all(dir);
+}
+
+// A solid that announces a self-consistent A_T of its own (time_ratio = 300 with dt_CG =
+// dt_LB / 300) on a scene of A_T = 150 is refused at the handshake, naming both values
+// (it was welcomed and died at the first free step).
+TEST(FluidCoupled, HandshakeRefusesAnotherTimeRatio) {
+  // The pure check: the fluid announces its own A_T.
+  const cosim::protocol::UnitConverter u150, u300(cosim::protocol::UnitInputs{.time_ratio = 300});
+  cosim::protocol::Hello fluid = cosim::protocol::from_lcm(valid_hello());
+  fluid.role = "fluid";
+  fluid.time_ratio = 150;
+  cosim::protocol::Hello solid = cosim::protocol::from_lcm(valid_hello());
+  solid.time_ratio = 300;
+  solid.dt_cg_s = u300.dt_cg_s();
+  const cosim::protocol::HandshakeResult v = cosim::protocol::check_handshake(fluid, solid, kToken);
+  EXPECT_FALSE(v.accepted);
+  EXPECT_NE(v.reason.find("time_ratio mismatch: the solid runs A_T = 300"), std::string::npos) << v.reason;
+  EXPECT_NE(v.reason.find("the fluid's scene A_T = 150"), std::string::npos) << v.reason;
+  solid.time_ratio = 150;
+  solid.dt_cg_s = u150.dt_cg_s();
+  EXPECT_TRUE(cosim::protocol::check_handshake(fluid, solid, kToken).accepted);
+
+  // The coordinator on the wire.
+  const fs::path dir = scratch_dir("time_ratio");
+  const fs::path scene = write_fluid_scene(dir);
+  lcm::LCM bus("memq://");
+  FakeSolid fake(bus, scene, 2);
+  fake.spoil_hello = [&](cosimlcm::hello_t& h) {
+    h.time_ratio = 300;
+    h.dt_cg_s = u300.dt_cg_s();
+    h.stable_dt_cg_s = 1e-11;
+  };
+  const FluidOutcome r = run_fluid(scene, bus);
+  EXPECT_EQ(r.code, 2) << r.out << r.err;
+  EXPECT_NE(r.err.find("handshake refused: time_ratio mismatch: the solid runs A_T = 300"), std::string::npos)
+      << r.err;
+  ASSERT_FALSE(fake.welcomes.empty());
+  EXPECT_EQ(fake.welcomes[0].accepted, 0);
+  EXPECT_TRUE(fake.samples.empty());
+  fs::remove_all(dir);
+}
+
+// hello_t and welcome_t carry the coupling scheme: a serial solid (or one that names none)
+// on a parallel scene is refused at the handshake, naming both schemes (it ran 98 of 100
+// steps and then reported a silent peer).
+TEST(FluidCoupled, HandshakeRefusesAnotherScheme) {
+  cosim::protocol::Hello fluid = cosim::protocol::from_lcm(valid_hello());
+  fluid.role = "fluid";
+  fluid.scheme = "parallel";
+  cosim::protocol::Hello solid = cosim::protocol::from_lcm(valid_hello());
+  for (const char* announced : {"serial", ""}) {
+    solid.scheme = announced;
+    const cosim::protocol::HandshakeResult v = cosim::protocol::check_handshake(fluid, solid, kToken);
+    EXPECT_FALSE(v.accepted) << announced;
+    EXPECT_NE(v.reason.find("coupling scheme mismatch: the fluid runs the 'parallel' scheme"), std::string::npos)
+        << v.reason;
+    EXPECT_NE(v.reason.find("the solid announced 'serial'"), std::string::npos) << v.reason;
+  }
+  solid.scheme = "parallel";
+  EXPECT_TRUE(cosim::protocol::check_handshake(fluid, solid, kToken).accepted);
+  fluid.scheme = "";  // empty is read as serial on both sides
+  solid.scheme = "serial";
+  EXPECT_TRUE(cosim::protocol::check_handshake(fluid, solid, kToken).accepted);
+
+  const fs::path dir = scratch_dir("scheme");
+  const fs::path scene = fluid_scene_with(dir, "scheme = \"parallel\"\n");
+  for (const char* announced : {"serial", "implicit"}) {
+    lcm::LCM bus("memq://");
+    FakeSolid fake(bus, scene, 2);
+    fake.spoil_hello = [&](cosimlcm::hello_t& h) { h.scheme = announced; };
+    const FluidOutcome r = run_fluid(scene, bus);
+    EXPECT_EQ(r.code, 2) << r.out << r.err;
+    EXPECT_NE(r.err.find("handshake refused: coupling scheme mismatch: the fluid runs the 'parallel' scheme"),
+              std::string::npos)
+        << r.err;
+    EXPECT_NE(r.err.find(std::string("the solid announced '") + announced + "'"), std::string::npos) << r.err;
+    ASSERT_FALSE(fake.welcomes.empty());
+    EXPECT_EQ(fake.welcomes[0].accepted, 0);
+    EXPECT_EQ(fake.welcomes[0].scheme, "parallel");
+    EXPECT_TRUE(fake.samples.empty());
+  }
+  fs::remove_all(dir);
+}
+
 
 // ---- fuzzing ----
 

@@ -203,6 +203,7 @@ struct FakeFluid {
     if (next == stop_with_error_at || next >= total_steps) {
       cosimlcm::stop_t s{};
       s.token = kToken;
+      s.sender = "fluid";
       s.step = m->step + 1;
       s.exit_code = next >= total_steps ? 0 : 3;
       s.reason = next >= total_steps ? "" : "unhealthy flow after step 1: rho = -0.1 at cell (1, 2, 3)";

@@ -385,7 +385,12 @@ static void on_stop(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
   cosimlcm_stop_t m;
   memset(&m, 0, sizeof m);
   if (cosimlcm_stop_t_decode(rbuf->data, 0, (int)rbuf->data_size, &m) < 0) { ++p->undecodable; return; }
-  if (own_token(p, m.token, 3, channel) && !p->stopped) {
+  /* Our own copies come back on the bus; only the coordinator ends a run with success, and
+     only at its last step (section 8): anything else with exit code 0 is not applied. */
+  const int own = m.sender && strcmp(m.sender, "solid") == 0;
+  const int fits = m.exit_code != 0 || (m.sender && strcmp(m.sender, "fluid") == 0 && p->welcomed &&
+                                        m.step == p->total_steps && p->awaited >= p->total_steps);
+  if (own_token(p, m.token, 3, channel) && !own && fits && !p->stopped) {
     p->stopped = 1;
     p->stop_code = m.exit_code;
     snprintf(p->stop_reason, sizeof p->stop_reason, "%s", m.reason ? m.reason : "");
@@ -399,8 +404,9 @@ static int publish_hello(Plate *p, const char *hash, double dx_m, double rho_air
   m.token = (char *)p->token;
   m.role = "solid";
   m.model = "prescribed-plate";
-  m.version = "2"; /* protocol/README.md */
+  m.version = "3"; /* protocol/README.md */
   m.scene_hash = (char *)hash;
+  m.scheme = "serial"; /* the only scheme this solid runs (section 6) */
   m.dx_m = dx_m;
   m.dt_lb_s = p->dt_lb_s;
   m.sound_speed_m_s = kSoundSpeed_m_s;
@@ -416,7 +422,7 @@ static int publish_hello(Plate *p, const char *hash, double dx_m, double rho_air
 
 /* stop_t three times, 20 ms apart (section 8). */
 static void publish_stop(Plate *p, int32_t code, const char *reason) {
-  cosimlcm_stop_t m = {(char *)p->token, p->awaited > 0 ? p->awaited - 1 : 0, code, (char *)reason};
+  cosimlcm_stop_t m = {(char *)p->token, "solid", p->awaited > 0 ? p->awaited - 1 : 0, code, (char *)reason};
   for (int k = 0; k < 3; ++k) {
     if (k) sleep_s(0.02);
     cosimlcm_stop_t_publish(p->lcm, p->ch_stop, &m);

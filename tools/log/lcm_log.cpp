@@ -162,6 +162,7 @@ std::vector<Field> layout(MsgType t) {
               {'S', "model"},
               {'S', "version"},
               {'S', "scene_hash"},
+              {'S', "scheme"},
               {'D', "dx_m"},
               {'D', "dt_lb_s"},
               {'D', "sound_speed_m_s"},
@@ -174,7 +175,7 @@ std::vector<Field> layout(MsgType t) {
               {'D', "light_cgp_area_m2"}};
     case MsgType::welcome:
       return {{'S', "token"},       {'B', "accepted"},    {'S', "reason"},
-              {'L', "total_steps"}, {'L', "rigid_steps"}, {'I', "time_ratio"}};
+              {'L', "total_steps"}, {'L', "rigid_steps"}, {'I', "time_ratio"}, {'S', "scheme"}};
     case MsgType::solid_state:
       return {{'S', "token"},        {'L', "seq"},      {'L', "step"},        {'I', "iteration"},
               {'I', "substeps"},     {'D', "solid_time_s"}, {'N', "num_cgps"}, {'3', "position_lb"},
@@ -186,7 +187,7 @@ std::vector<Field> layout(MsgType t) {
     case MsgType::resend:
       return {{'S', "token"}, {'L', "step"}, {'S', "what"}};
     case MsgType::stop:
-      return {{'S', "token"}, {'L', "step"}, {'I', "exit_code"}, {'S', "reason"}};
+      return {{'S', "token"}, {'S', "sender"}, {'L', "step"}, {'I', "exit_code"}, {'S', "reason"}};
     case MsgType::unknown:
       break;
   }
