@@ -4,13 +4,8 @@
 
 #include <algorithm>
 #include <array>
-#include <charconv>
 #include <cmath>
 #include <cstdio>
-#include <filesystem>
-#include <fstream>
-#include <sstream>
-#include <system_error>
 #include <vector>
 
 #include "fluid/d3q19.hpp"
@@ -48,12 +43,10 @@ namespace cosim::fluid {
 
 namespace {
 
-namespace fs = std::filesystem;
 using protocol::config::SceneReader;
 using protocol::config::SectionSchema;
 using protocol::config::Table;
 using protocol::config::format_double;
-using protocol::config::one_line;
 
 constexpr const char* kKindList = "\"periodic\", \"wall\", \"free_slip\", \"inlet\", \"outflow\"";
 
@@ -130,7 +123,7 @@ void load_grid(const SceneReader& r, FluidScene& s) {
   }
   if (const auto dx = grid.number("dx_um")) {
     if (!(*dx > 0.0)) grid.bad("dx_um", "must be > 0 (micrometres per cell)");
-    if (!(*dx >= SceneLimits::length_min_um && *dx <= SceneLimits::length_max_um))
+    if (!(*dx >= Table::length_min_um && *dx <= Table::length_max_um))
       grid.bad("dx_um", "must be in [1e-9, 1e6] micrometres per cell");
     s.dx_um = *dx;
   }
@@ -296,7 +289,7 @@ void load_fluid(const SceneReader& r, FluidScene& s) {
   s.reference_speed = speed;
   if (length) {
     if (!(*length > 0.0)) fl.bad("reference_length_um", "must be > 0 (micrometres)");
-    if (!(*length >= SceneLimits::length_min_um && *length <= SceneLimits::length_max_um))
+    if (!(*length >= Table::length_min_um && *length <= Table::length_max_um))
       fl.bad("reference_length_um", "must be in [1e-9, 1e6] micrometres");
     s.reference_length_um = *length;
   }
@@ -424,16 +417,12 @@ double reference_speed(const FluidParams& params) {
 }
 
 FluidScene load_scene(const std::string& path) {
-  try {
-    return read_scene(path);
-  } catch (const protocol::config::ConfigError& e) {
-    throw SceneError(e.what());
-  }
+  return protocol::config::rethrow_as<SceneError>([&] { return read_scene(path); });
 }
 
 void apply_overrides(FluidScene& s, const SceneOverrides& o) {
   const auto fail = [](const std::string& opt, const std::string& value, const std::string& msg) {
-    throw SceneError(one_line("command line: " + opt + " = " + value + ": " + msg));
+    throw SceneError(protocol::config::command_line_problem(opt, value, msg));
   };
   if (o.steps) {
     if (*o.steps < 1) fail("--steps", std::to_string(*o.steps), "must be an integer >= 1");

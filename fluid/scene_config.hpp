@@ -38,9 +38,8 @@ struct SceneLimits {
   static constexpr int grid_max = 65536;
   static constexpr int threads_max = 1024;
   static constexpr double paper_dx_um = 0.2561;  ///< Table 1
-  /// Lengths in micrometres (dx_um, reference_length_um) within [length_min_um, length_max_um].
-  static constexpr double length_min_um = 1e-9;
-  static constexpr double length_max_um = 1e6;
+  // Lengths in micrometres (dx_um, reference_length_um) lie within
+  // protocol::config::Table::length_min_um and length_max_um, as in every scene.
 };
 
 /// [coupling] of a coupled scene: the one struct both processes read

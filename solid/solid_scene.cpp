@@ -2,16 +2,11 @@
 
 #include <algorithm>
 #include <cctype>
-#include <charconv>
 #include <array>
 #include <cmath>
 #include <cstdio>
-#include <filesystem>
-#include <fstream>
-#include <sstream>
 #include <string_view>
 #include <stdexcept>
-#include <system_error>
 #include <utility>
 #include <vector>
 
@@ -43,13 +38,11 @@ namespace cosim::solid {
 
 namespace {
 
-namespace fs = std::filesystem;
 using protocol::PhysicalConstants;
 using protocol::config::SceneReader;
 using protocol::config::SectionSchema;
 using protocol::config::Table;
 using protocol::config::Use;
-using protocol::config::one_line;
 using protocol::config::quoted;
 
 constexpr double kMicrometre = 1e-6;
@@ -87,10 +80,10 @@ std::vector<SectionSchema> schema() {
   return s;
 }
 
-/// |v| within [length_min_um, length_max_um].
+/// |v| within [Table::length_min_um, Table::length_max_um].
 bool length_in_range(double v) {
   const double a = std::abs(v);
-  return a >= SolidSceneLimits::length_min_um && a <= SolidSceneLimits::length_max_um;
+  return a >= Table::length_min_um && a <= Table::length_max_um;
 }
 
 std::string length_range_text() { return "must be in [1e-9, 1e6] micrometres"; }
@@ -175,7 +168,7 @@ void load_sheets(const SceneReader& r, SolidScene& s) {
                                       "must be an array of three finite numbers [x, y, z] in micrometres"))
       for (int c = 0; c < 3; ++c) {
         const double v = (*base)[std::size_t(c)];
-        if (std::abs(v) > SolidSceneLimits::length_max_um)
+        if (std::abs(v) > Table::length_max_um)
           sec.bad("base_um", "must lie within 1e6 micrometres of the origin on each axis");
         spec.base_bohr[c] = v * kMicrometre / PhysicalConstants::bohr_m;
       }
@@ -319,16 +312,12 @@ protocol::UnitInputs SolidScene::unit_inputs() const {
 double cantilever_load_shape(double s) { return (6.0 * s * s - 4.0 * s * s * s + s * s * s * s) / 3.0; }
 
 SolidScene load_solid_scene(const std::string& path) {
-  try {
-    return read_solid_scene(path);
-  } catch (const protocol::config::ConfigError& e) {
-    throw SolidSceneError(e.what());
-  }
+  return protocol::config::rethrow_as<SolidSceneError>([&] { return read_solid_scene(path); });
 }
 
 void apply_overrides(SolidScene& s, const SolidSceneOverrides& o) {
   const auto fail = [](const std::string& opt, const std::string& value, const std::string& msg) {
-    throw SolidSceneError(one_line("command line: " + opt + " = " + value + ": " + msg));
+    throw SolidSceneError(protocol::config::command_line_problem(opt, value, msg));
   };
   const char* only_coupled = "only for a coupled scene (one with a [coupling] section)";
   if (o.substeps) {

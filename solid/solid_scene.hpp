@@ -39,11 +39,9 @@ enum class SolidRunMode {
 /// options: beside the models, e.g. solid/elastic_sheet_options.cpp).
 struct SolidSceneLimits {
   static constexpr int cgps_per_axis_max = 65536;
-  /// Lengths in micrometres (dx_um, spacing_um, cutoff_um, base_um, tip_displacement_um):
-  /// magnitudes in [length_min_um, length_max_um], so that every conversion to bohr and to
-  /// the lattice stays a positive finite number.
-  static constexpr double length_min_um = 1e-9;
-  static constexpr double length_max_um = 1e6;
+  // Lengths in micrometres (dx_um, spacing_um, cutoff_um, base_um, tip_displacement_um):
+  // magnitudes within protocol::config::Table::length_min_um and length_max_um, as in every
+  // scene, so that every conversion to bohr and to the lattice stays a positive finite number.
 };
 
 /// [coupling] of a coupled scene: the one struct both processes read

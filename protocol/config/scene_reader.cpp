@@ -107,6 +107,11 @@ std::string one_line(std::string s) {
   return s;
 }
 
+std::string command_line_problem(const std::string& option, const std::string& value,
+                                 const std::string& msg) {
+  return one_line("command line: " + option + " = " + value + ": " + msg);
+}
+
 std::string quoted(const std::string& s) {
   std::string out(1, '"');  // not "\"" + ...: GCC 12 warns falsely (-Wrestrict)
   out += one_line(s);

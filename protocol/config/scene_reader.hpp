@@ -138,7 +138,22 @@ class SceneReader {
   toml::table root_;
 };
 
+/// `read()`, with a ConfigError turned into the caller's error type E (each server has its
+/// own: fluid::SceneError, solid::SolidSceneError).
+template <class E, class Read>
+auto rethrow_as(Read&& read) {
+  try {
+    return read();
+  } catch (const ConfigError& e) {
+    throw E(e.what());
+  }
+}
+
 // Text helpers of the one-line messages.
+
+/// "command line: OPTION = VALUE: msg" on one line: a refused command-line override.
+std::string command_line_problem(const std::string& option, const std::string& value,
+                                 const std::string& msg);
 
 /// Control characters become spaces, so that a message stays on one line.
 std::string one_line(std::string s);
