@@ -375,9 +375,7 @@ FluidScene read_scene(const std::string& path) {
 
   FluidScene s;
   s.path = path;
-  const protocol::config::SceneHeader h = protocol::config::read_scene_header(r);
-  s.name = h.name;
-  s.description = h.description;
+  protocol::config::read_scene_header(r, s.name, s.description);
 
   load_grid(r, s);
   load_run(r, s);

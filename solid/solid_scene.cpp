@@ -268,9 +268,7 @@ SolidScene read_solid_scene(const std::string& path) {
 
   SolidScene s;
   s.path = path;
-  const protocol::config::SceneHeader h = protocol::config::read_scene_header(r);
-  s.name = h.name;
-  s.description = h.description;
+  protocol::config::read_scene_header(r, s.name, s.description);
 
   load_solid(r, s);
   load_sheets(r, s);

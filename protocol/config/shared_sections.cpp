@@ -37,18 +37,17 @@ bool valid_name(const std::string& s) {
 
 }  // namespace
 
-SceneHeader read_scene_header(const SceneReader& scene) {
-  SceneHeader h;
-  h.name = std::filesystem::path(scene.path()).stem().string();
+void read_scene_header(const SceneReader& scene, std::string& name, std::string& description) {
+  name = std::filesystem::path(scene.path()).stem().string();
+  description.clear();
   const Table sec = scene.section("scene");
   if (const auto n = sec.string("name")) {
     if (!valid_name(*n))
       sec.bad("name", "must be 1 to 64 characters from A-Z a-z 0-9 _ - . (it names the output "
                       "directory)");
-    h.name = *n;
+    name = *n;
   }
-  if (const auto d = sec.string("description")) h.description = one_line(*d);
-  return h;
+  if (const auto d = sec.string("description")) description = one_line(*d);
 }
 
 std::string read_output_directory(const SceneReader& scene, const std::string& scene_name) {

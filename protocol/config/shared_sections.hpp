@@ -14,12 +14,8 @@
 namespace cosim::protocol::config {
 
 /// [scene] name (default: the file name without .toml; it names the output directory) and
-/// description (on one line).
-struct SceneHeader {
-  std::string name;
-  std::string description;
-};
-SceneHeader read_scene_header(const SceneReader& scene);
+/// description (on one line; default "").
+void read_scene_header(const SceneReader& scene, std::string& name, std::string& description);
 
 /// [output] directory; default "out/" + the scene's name.
 std::string read_output_directory(const SceneReader& scene, const std::string& scene_name);
