@@ -262,7 +262,9 @@ int main_impl(int argc, char** argv) {
                  "coupled scenes: the run's token (default: the environment's COSIM_RUN_TOKEN)");
   app.add_option("--channel-prefix", channel_prefix,
                  "coupled scenes: LCM channel prefix (overrides coupling.channel_prefix)");
-  app.add_option("--lcm-url", lcm_url, "coupled scenes: LCM URL (overrides coupling.lcm_url)");
+  CLI::Option* o_url = app.add_option(
+      "--lcm-url", lcm_url,
+      "coupled scenes: LCM URL (overrides coupling.lcm_url; udpm://ADDR:PORT?ttl=0 or memq://)");
   CLI::Option* o_time_ratio = app.add_option(
       "--time-ratio", time_ratio,
       "coupled scenes: A_T, substeps per LB step (overrides coupling.time_ratio; the "
@@ -296,6 +298,7 @@ int main_impl(int argc, char** argv) {
     if (o_threads->count()) ov.threads = threads;
     if (o_output->count()) ov.output_dir = output;
     if (o_time_ratio->count()) ov.time_ratio = time_ratio;
+    if (o_url->count()) ov.lcm_url = lcm_url;
     apply_overrides(scene, ov);
   } catch (const SceneError& e) {
     std::fprintf(stderr, "%s\n", e.what());

@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "fluid/fluid_solver.hpp"
-#include "protocol/coupling_scheme.hpp"
+#include "protocol/config/coupling_settings.hpp"
 #include "protocol/watchdog.hpp"
 
 namespace cosim::fluid {
@@ -38,26 +38,13 @@ struct SceneLimits {
   static constexpr int grid_max = 65536;
   static constexpr int threads_max = 1024;
   static constexpr double paper_dx_um = 0.2561;  ///< Table 1
-  /// Lengths in micrometres (dx_um, reference_length_um) within [length_min_um, length_max_um].
-  static constexpr double length_min_um = 1e-9;
-  static constexpr double length_max_um = 1e6;
+  // Lengths in micrometres (dx_um, reference_length_um) lie within
+  // protocol::config::Table::length_min_um and length_max_um, as in every scene.
 };
 
-/// [coupling] of a coupled scene (protocol/README.md): read by both processes.
-struct CouplingSettings {
-  int time_ratio = 150;            ///< A_T = dt_LB / dt_CG (Eq. 16)
-  std::int64_t rigid_steps = 0;    ///< spin-up LB steps with the sheets held rigid
-  double handshake_timeout_s = 120.0;
-  double peer_timeout_s = 30.0;
-  double resend_after_s = 0.5;
-  std::string lcm_url = "udpm://239.255.76.67:7667?ttl=0";
-  std::string channel_prefix = "COSIM_";
-  /// Coupled checkpoints (DESIGN 2.4) every this many LB steps into OUTPUT/checkpoints/;
-  /// 0: none (a clean abort still writes one).
-  std::int64_t checkpoint_every = 0;
-  /// serial (the paper's) or implicit sub-iterations (protocol/coupling_scheme.hpp).
-  protocol::SchemeSettings scheme;
-};
+/// [coupling] of a coupled scene: the one struct both processes read
+/// (protocol/config/coupling_settings.hpp).
+using CouplingSettings = protocol::config::CouplingSettings;
 
 /// A validated fluid-only scene: the solver's parameters plus what the run needs.
 struct FluidScene {
@@ -103,6 +90,9 @@ struct SceneOverrides {
   std::optional<std::int64_t> steps, monitor_every, fields_every;
   /// [coupling] time_ratio of a coupled scene (the launcher's retry with a larger A_T).
   std::optional<std::int64_t> time_ratio;
+  /// [coupling] lcm_url (--lcm-url): the rule of protocol/lcm_url.hpp, checked with any
+  /// scene; a fluid-only scene does not use it.
+  std::optional<std::string> lcm_url;
   std::optional<std::string> output_dir;
   std::optional<int> threads;
 };

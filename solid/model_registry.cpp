@@ -4,6 +4,7 @@
 #include <stdexcept>
 
 #include "solid/elastic_sheet_model.hpp"
+#include "solid/elastic_sheet_options.hpp"
 #include "solid/rigid_model.hpp"
 
 namespace cosim::solid {
@@ -23,11 +24,13 @@ std::unique_ptr<SolidModel> make_corotational(const SolidConfig& config) {
   return std::make_unique<ElasticSheetModel>(config, SheetKinematics::Corotational);
 }
 
-// The registry: add a model here, and only here.
+constexpr std::array kElasticSheetOptions{&kRcgpOptions, &kContactOptions};
+
+// The registry: add a model here, and only here (name, factory, the options it reads).
 constexpr std::array kSolidModels{
-    SolidModelEntry{ElasticSheetModel::kRcgpName, &make_rcgp},
+    SolidModelEntry{ElasticSheetModel::kRcgpName, &make_rcgp, kElasticSheetOptions},
     SolidModelEntry{RigidModel::kName, &make<RigidModel>},
-    SolidModelEntry{ElasticSheetModel::kCorotationalName, &make_corotational},
+    SolidModelEntry{ElasticSheetModel::kCorotationalName, &make_corotational, kElasticSheetOptions},
 };
 
 }  // namespace

@@ -13,7 +13,7 @@
 #include <string_view>
 
 #include "protocol/units.hpp"
-#include "protocol/coupling_scheme.hpp"
+#include "protocol/config/coupling_settings.hpp"
 #include "protocol/watchdog.hpp"
 #include "solid/solid_config.hpp"
 
@@ -35,42 +35,18 @@ enum class SolidRunMode {
   Static,
 };
 
-/// Limits that the validation enforces; the reasons are in solid_scene.cpp.
+/// Limits that the validation enforces; the reasons are in solid_scene.cpp (the models'
+/// options: beside the models, e.g. solid/elastic_sheet_options.cpp).
 struct SolidSceneLimits {
-  static constexpr int stages_min = 1, stages_max = 16;
   static constexpr int cgps_per_axis_max = 65536;
-  static constexpr double bending_poisson_max = 0.5;  ///< exclusive
-  /// Lengths in micrometres (dx_um, spacing_um, cutoff_um, base_um, tip_displacement_um):
-  /// magnitudes in [length_min_um, length_max_um], so that every conversion to bohr and to
-  /// the lattice stays a positive finite number.
-  static constexpr double length_min_um = 1e-9;
-  static constexpr double length_max_um = 1e6;
+  // Lengths in micrometres (dx_um, spacing_um, cutoff_um, base_um, tip_displacement_um):
+  // magnitudes within protocol::config::Table::length_min_um and length_max_um, as in every
+  // scene, so that every conversion to bohr and to the lattice stays a positive finite number.
 };
 
-/// [coupling] of a coupled scene (protocol/README.md sections 1, 2, 6-8); the fluid reads
-/// the same keys from the same file.
-struct CouplingSettings {
-  static constexpr std::string_view default_lcm_url = "udpm://239.255.76.67:7667?ttl=0";
-  static constexpr int time_ratio_max = 1000000;
-  static constexpr double timeout_max_s = 86400.0;
-
-  int time_ratio = 150;               ///< A_T = dt_LB / dt_CG (Eq. 16), CGP substeps per LB step
-  std::int64_t rigid_steps = 0;       ///< spin-up LB steps with the sheets held rigid
-  double handshake_timeout_s = 120.0; ///< no welcome_t within it: exit 4
-  double peer_timeout_s = 30.0;       ///< the fluid silent this long: stop_t(4), exit 4
-  double resend_after_s = 0.5;        ///< silence before a resend_t; < peer_timeout_s
-  std::string lcm_url = std::string(default_lcm_url);  ///< udpm with ttl=0, or memq://
-  std::string channel_prefix = "COSIM_";  ///< protocol/channels.hpp
-  /// Coupled checkpoints (DESIGN 2.4) every this many LB steps into OUTPUT/checkpoints/;
-  /// 0: none (a clean abort still writes one).
-  std::int64_t checkpoint_every = 0;
-  /// serial (the paper's) or implicit sub-iterations (protocol/coupling_scheme.hpp).
-  protocol::SchemeSettings scheme;
-};
-
-/// Why an LCM URL may not be used ("" if it may): a coupled run talks over udpm:// with
-/// ttl=0 only (packets never leave this machine), or over memq:// (one process, tests).
-std::string lcm_url_problem(std::string_view url);
+/// [coupling] of a coupled scene: the one struct both processes read
+/// (protocol/config/coupling_settings.hpp).
+using CouplingSettings = protocol::config::CouplingSettings;
 
 /// A validated solid scene, standalone or coupled. Every quantity a model sees is in Hartree atomic
 /// units (inside `config`); the run settings keep the SI units of the file.
@@ -118,11 +94,13 @@ struct SolidScene {
 };
 
 /// Reads and validates a solid scene file. Unknown keys or sections, wrong types, values
-/// out of range, a missing required key, an unknown model name, TOML syntax errors and a
-/// missing file all throw SolidSceneError; nothing else escapes.
+/// out of range, a missing required key, an unknown model name, an option the chosen model
+/// does not read (solid/model_registry.hpp), TOML syntax errors and a missing file all throw
+/// SolidSceneError; nothing else escapes.
 ///
 /// A scene with a [coupling] section is coupled: the solid reads [scene], [solid],
-/// [[sheet]], [contact], [output] directory and sheets_every, [grid] dx_um and [coupling];
+/// [[sheet]], [contact], [output] directory and sheets_every, [grid] dx_um, [coupling] and
+/// [watchdog] (which process owns which section: protocol/config/scene_sections.cpp);
 /// the fluid's sections ([grid] nx/ny/nz, [fluid], [inlet], [boundaries], [wall_velocity],
 /// [body_force], [run], [output] fields_every, planes_every, planes_y) are left to the
 /// fluid, unread; [perturbation] and [load] belong to standalone runs and are refused.

@@ -1,0 +1,46 @@
+#include "protocol/config/scene_sections.hpp"
+
+namespace cosim::protocol::config {
+
+const std::vector<SectionOwner>& scene_sections() {
+  using enum Owner;
+  static const std::vector<SectionOwner> table = {
+      // fluid/scene_config.cpp
+      {"fluid", Fluid},
+      {"inlet", Fluid},
+      {"boundaries", Fluid},
+      {"wall_velocity", Fluid},
+      {"body_force", Fluid},
+      // The fluid's in a coupled scene (the length of the run); a standalone solid scene has
+      // a [run] of its own (solid/solid_scene.cpp).
+      {"run", Fluid},
+      // Both processes.
+      {"scene", Both, false, {{"name", Both}, {"description", Both}}},
+      {"grid", Both, false, {{"nx", Fluid}, {"ny", Fluid}, {"nz", Fluid}, {"dx_um", Both}}},
+      {"output",
+       Both,
+       false,
+       {{"directory", Both},
+        {"fields_every", Fluid},
+        {"planes_every", Fluid},
+        {"planes_y", Fluid},
+        {"sheets_every", Solid}}},
+      {"coupling", Both},
+      {"watchdog", Both},
+      // solid/solid_scene.cpp and the models' options (solid/model_registry.cpp).
+      {"solid", Solid},
+      {"sheet", Solid, true},
+      {"contact", Solid},
+      {"perturbation", Solid},
+      {"load", Solid},
+  };
+  return table;
+}
+
+const SectionOwner* find_section_owner(std::string_view name) {
+  for (const SectionOwner& s : scene_sections())
+    if (s.name == name) return &s;
+  return nullptr;
+}
+
+}  // namespace cosim::protocol::config

@@ -1,0 +1,34 @@
+// The sections both processes read with the same rules (protocol/config/scene_sections.hpp):
+// [scene], [output] directory, [coupling] (a coupled scene) and [watchdog]
+// (protocol/watchdog.hpp). One parser each, for the fluid and the solid alike.
+#pragma once
+
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "protocol/config/coupling_settings.hpp"
+#include "protocol/config/scene_reader.hpp"
+#include "protocol/watchdog.hpp"
+
+namespace cosim::protocol::config {
+
+/// [scene] name (default: the file name without .toml; it names the output directory) and
+/// description (on one line; default "").
+void read_scene_header(const SceneReader& scene, std::string& name, std::string& description);
+
+/// [output] directory; default "out/" + the scene's name.
+std::string read_output_directory(const SceneReader& scene, const std::string& scene_name);
+
+/// The keys of [coupling], in the order of scenes/README.md.
+const std::vector<std::string_view>& coupling_keys();
+/// The keys of [watchdog] (protocol::watchdog_keys()).
+std::vector<std::string_view> watchdog_key_names();
+
+/// [coupling] with its defaults for what the file leaves out. @pre scene.coupled()
+CouplingSettings read_coupling(const SceneReader& scene);
+
+/// [watchdog] with its defaults; all defaults when the section is absent.
+WatchdogSettings read_watchdog(const SceneReader& scene);
+
+}  // namespace cosim::protocol::config

@@ -1,0 +1,18 @@
+// The options of the elastic sheet models (rcgp, corotational; solid/elastic_sheet_model.hpp),
+// parsed beside them from a scene with the shared reader (protocol/config/scene_reader.hpp):
+// the RCGP keys of [solid] and the Lennard-Jones contact of [contact]. The model itself takes
+// the typed structs of solid/solid_config.hpp and never sees the file.
+#pragma once
+
+#include "solid/model_registry.hpp"
+
+namespace cosim::solid {
+
+/// [solid] stages, flexural_scaling, truncation_range, moment_matching, bending_poisson,
+/// cache_dir -> SolidConfig::rcgp.
+extern const ModelOptions kRcgpOptions;
+
+/// [contact] epsilon_eV, cutoff_um -> SolidConfig::contact (used with two or more sheets).
+extern const ModelOptions kContactOptions;
+
+}  // namespace cosim::solid

@@ -1,0 +1,281 @@
+// The one scene-config layer (protocol/config/): one LCM URL rule for both servers, for the
+// scene and for --lcm-url; the models' options refused when the chosen model does not read
+// them; one table of which process owns which section, and the did-you-mean of both parsers.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "fluid/scene_config.hpp"
+#include "protocol/config/scene_sections.hpp"
+#include "protocol/lcm_url.hpp"
+#include "solid/solid_scene.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct RunResult {
+  int status = -1;
+  std::string out, err;
+};
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+std::string quote(const std::string& s) { return "'" + s + "'"; }
+
+std::size_t lines(const std::string& s) { return std::size_t(std::count(s.begin(), s.end(), '\n')); }
+
+/// Runs `EXE ARGS` with stdout and stderr captured in files of `scratch`.
+RunResult run(const std::string& exe, const std::string& args, const fs::path& scratch) {
+  const fs::path out = scratch / "stdout.txt", err = scratch / "stderr.txt";
+  const std::string cmd = quote(exe) + " " + args + " >" + quote(out.string()) + " 2>" +
+                          quote(err.string()) + " </dev/null";
+  const int raw = std::system(cmd.c_str());
+  RunResult r;
+  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+  r.out = slurp(out);
+  r.err = slurp(err);
+  return r;
+}
+
+class Scratch {
+ public:
+  explicit Scratch(const char* name)
+      : dir_(fs::temp_directory_path() /
+             ("cosim_test_config_" + std::to_string(getpid()) + "_" + name)) {
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  ~Scratch() { fs::remove_all(dir_); }
+  const fs::path& dir() const { return dir_; }
+  /// Writes `text` to NAME in the folder.
+  fs::path file(const std::string& name, const std::string& text) const {
+    const fs::path p = dir_ / name;
+    std::ofstream(p) << text;
+    return p;
+  }
+
+ private:
+  fs::path dir_;
+};
+
+/// A small coupled scene that both servers load: the fluid's sections, a rigid sheet, and
+/// [coupling] with `coupling_extra` (e.g. an lcm_url line).
+std::string coupled_scene(const std::string& solid = "model = \"rigid\"\n",
+                          const std::string& coupling_extra = "", const std::string& extra = "") {
+  return "[scene]\nname = \"config_test\"\n\n[grid]\nnx = 16\nny = 16\nnz = 16\ndx_um = 0.2561\n\n"
+         "[fluid]\ntau = 0.8\n\n[boundaries]\nx_min = \"periodic\"\nx_max = \"periodic\"\n"
+         "y_min = \"wall\"\ny_max = \"free_slip\"\nz_min = \"periodic\"\nz_max = \"periodic\"\n\n"
+         "[run]\nsteps = 4\n\n[solid]\n" + solid +
+         "\n[[sheet]]\nnx_cg = 2\nny_cg = 3\nbase_um = [1.0, 0, 2.0]\n\n"
+         "[coupling]\n" + coupling_extra + "\n" + extra;
+}
+
+template <class Load, class Error>
+std::string refusal(Load load, const fs::path& p) {
+  try {
+    load(p.string());
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+std::string fluid_refusal(const fs::path& p) {
+  return refusal<decltype(&cosim::fluid::load_scene), cosim::fluid::SceneError>(
+      &cosim::fluid::load_scene, p);
+}
+
+std::string solid_refusal(const fs::path& p) {
+  return refusal<decltype(&cosim::solid::load_solid_scene), cosim::solid::SolidSceneError>(
+      &cosim::solid::load_solid_scene, p);
+}
+
+// One rule (protocol/lcm_url.hpp) for the scene's [coupling] lcm_url in both parsers and for
+// --lcm-url of both executables: memq://, or udpm://ADDR:PORT (an IPv4 multicast group) with
+// a query of exactly ttl=0. Anything else is one line naming the key or flag, the value and
+// what is allowed, and exit status 2.
+TEST(SceneConfig, LcmUrlRuleIsOneRule) {
+  using cosim::protocol::lcm_url_problem;
+  const std::vector<std::string> good = {"memq://", "udpm://239.255.76.67:7667?ttl=0",
+                                         "udpm://224.0.0.1:1?ttl=0",
+                                         "udpm://239.255.255.255:65535?ttl=0"};
+  const std::vector<std::string> bad = {
+      "udpm://239.255.76.67:7667?ttl=0&ttl=1",  // the fluid used to take this one
+      "udpm://239.255.76.67:7667?ttl=1&ttl=0",
+      "udpm://239.255.76.67:7667?ttl=0&ttl=0",
+      "udpm://239.255.76.67:7667?ttl=1",
+      "udpm://239.255.76.67:7667?ttl=00",
+      "udpm://239.255.76.67:7667",
+      "udpm://239.255.76.67:7667?",
+      "udpm://239.255.76.67:7667?ttl=0&recv_buf_size=65536",
+      "udpm://10.0.0.1:7667?ttl=0",  // not a multicast group
+      "udpm://239.255.76.67?ttl=0",
+      "udpm://239.255.76.67:0?ttl=0",
+      "udpm://239.255.76.67:65536?ttl=0",
+      "udpm://239.255.76:7667?ttl=0",
+      "udpm://?ttl=0",
+      "tcpq://localhost:7700",  // made the fluid abort (SIGABRT)
+      "file:///tmp/log?mode=w",
+      "memq://elsewhere",
+      "MEMQ://",
+      "",
+  };
+  for (const std::string& u : good) EXPECT_FALSE(lcm_url_problem(u).has_value()) << u << ": " << *lcm_url_problem(u);
+  for (const std::string& u : bad) {
+    const auto why = lcm_url_problem(u);
+    ASSERT_TRUE(why.has_value()) << u << " accepted";
+    EXPECT_EQ(why->find('\n'), std::string::npos) << *why;
+    EXPECT_NE(why->find("memq://"), std::string::npos) << u << ": does not say what is allowed: " << *why;
+  }
+  EXPECT_NE(lcm_url_problem("udpm://239.255.76.67:7667?ttl=0&ttl=1")->find("ttl=1 is not allowed"),
+            std::string::npos);
+
+  // Both scene parsers: the same URLs accepted, the same refused, naming coupling.lcm_url.
+  const Scratch s("url");
+  for (const std::string& u : good) {
+    const fs::path p = s.file("good.toml", coupled_scene("model = \"rigid\"\n", "lcm_url = \"" + u + "\"\n"));
+    EXPECT_EQ(fluid_refusal(p), "") << u;
+    EXPECT_EQ(solid_refusal(p), "") << u;
+    EXPECT_EQ(cosim::fluid::load_scene(p.string()).coupling->lcm_url, u);
+    EXPECT_EQ(cosim::solid::load_solid_scene(p.string()).coupling->lcm_url, u);
+  }
+  for (const std::string& u : bad) {
+    const fs::path p = s.file("bad.toml", coupled_scene("model = \"rigid\"\n", "lcm_url = \"" + u + "\"\n"));
+    for (const std::string& msg : {fluid_refusal(p), solid_refusal(p)}) {
+      ASSERT_FALSE(msg.empty()) << u << " accepted by a parser";
+      EXPECT_EQ(msg.find('\n'), std::string::npos) << msg;
+      EXPECT_NE(msg.find("coupling.lcm_url = \"" + u + "\": "), std::string::npos) << msg;
+      EXPECT_NE(msg.find(*lcm_url_problem(u)), std::string::npos) << "not the rule's reason: " << msg;
+    }
+  }
+
+  // Both executables' --lcm-url, with the same coupled scene (--check: nothing is opened).
+  const fs::path scene = s.file("coupled.toml", coupled_scene("model = \"rigid\"\n", "lcm_url = \"memq://\"\n"));
+  const std::string out = " --output " + quote((s.dir() / "out").string());
+  for (const char* exe : {FLUID_EXE, SOLID_EXE}) {
+    const RunResult ok = run(exe, quote(scene.string()) + " --check --quiet --lcm-url " +
+                                      quote("udpm://239.255.76.67:7667?ttl=0") + out, s.dir());
+    EXPECT_EQ(ok.status, 0) << exe << ": " << ok.out << ok.err;
+    for (const std::string& u : {std::string("udpm://239.255.76.67:7667?ttl=0&ttl=1"),
+                                 std::string("tcpq://localhost:7700"), std::string("")}) {
+      const RunResult r = run(exe, quote(scene.string()) + " --check --quiet --lcm-url " + quote(u) + out, s.dir());
+      EXPECT_EQ(r.status, 2) << exe << " --lcm-url " << u << ": " << r.out << r.err;
+      EXPECT_EQ(lines(r.err), 1u) << exe << ": " << r.err;
+      EXPECT_NE(r.err.find("--lcm-url = \"" + u + "\": "), std::string::npos) << exe << ": " << r.err;
+      EXPECT_NE(r.err.find(*lcm_url_problem(u)), std::string::npos) << exe << ": " << r.err;
+    }
+  }
+}
+
+// Each model's options are read beside the model and named in the registry: a key that the
+// chosen model does not read is refused with one line (today's "rigid" reads none), after
+// its value has passed the key's own check.
+TEST(SceneConfig, ModelRefusesKeysItDoesNotUse) {
+  const Scratch s("model");
+  const std::string standalone_tail =
+      "\n[[sheet]]\n\n[run]\nmode = \"free\"\nsubsteps = 10\n\n[perturbation]\ntip_displacement_um = 0.5\n";
+  const auto standalone = [&](const std::string& solid, const std::string& extra = "") {
+    return s.file("standalone.toml", "[solid]\n" + solid + standalone_tail + extra);
+  };
+
+  std::string msg = solid_refusal(standalone("model = \"rigid\"\nstages = 3\n"));
+  EXPECT_NE(msg.find(":3: solid.stages = 3: not used by solid.model = \"rigid\""), std::string::npos) << msg;
+  EXPECT_NE(msg.find("rcgp, corotational"), std::string::npos) << msg;
+  EXPECT_EQ(msg.find('\n'), std::string::npos) << msg;
+
+  msg = solid_refusal(standalone("model = \"rigid\"\n", "\n[contact]\nepsilon_eV = 500\n"));
+  EXPECT_NE(msg.find("contact.epsilon_eV = 500: not used by solid.model = \"rigid\""), std::string::npos) << msg;
+
+  // The value's own check comes first (as for every key): out of range for anyone.
+  msg = solid_refusal(standalone("model = \"rigid\"\nstages = 17\n"));
+  EXPECT_NE(msg.find("solid.stages = 17: must be an integer from 1 to 16"), std::string::npos) << msg;
+
+  // The models that read the keys take them.
+  for (const char* model : {"rcgp", "corotational"}) {
+    const fs::path p = standalone(std::string("model = \"") + model + "\"\nstages = 3\nbending_poisson = 0.2\n",
+                                  "\n[contact]\nepsilon_eV = 500\n");
+    EXPECT_EQ(solid_refusal(p), "") << model;
+    const cosim::solid::SolidScene scene = cosim::solid::load_solid_scene(p.string());
+    EXPECT_EQ(scene.config.rcgp.stages, 3);
+    EXPECT_EQ(scene.config.rcgp.bending_poisson, 0.2);
+    EXPECT_EQ(scene.config.contact.epsilon_eV, 500.0);
+  }
+
+  // The same in a coupled scene; the fluid leaves [solid] to the solid.
+  const fs::path coupled = s.file("coupled.toml", coupled_scene("model = \"rigid\"\ntruncation_range = 3\n"));
+  EXPECT_NE(solid_refusal(coupled).find("solid.truncation_range = 3: not used by solid.model = \"rigid\""),
+            std::string::npos)
+      << solid_refusal(coupled);
+  EXPECT_EQ(fluid_refusal(coupled), "");
+}
+
+// Which process owns which section is one table: in a coupled scene each server leaves the
+// other's sections and keys unread; without [coupling] they are refused; a section or key
+// that no one reads is refused by both, with a did-you-mean that also finds a name with its
+// unit suffix left off.
+TEST(SceneConfig, OneTableOwnsTheSections) {
+  using cosim::protocol::config::Owner;
+  using cosim::protocol::config::find_section_owner;
+  ASSERT_NE(find_section_owner("inlet"), nullptr);
+  EXPECT_EQ(find_section_owner("inlet")->owner, Owner::Fluid);
+  EXPECT_EQ(find_section_owner("sheet")->owner, Owner::Solid);
+  EXPECT_TRUE(find_section_owner("sheet")->array);
+  EXPECT_EQ(find_section_owner("coupling")->owner, Owner::Both);
+  EXPECT_EQ(find_section_owner("no_such_section"), nullptr);
+
+  const Scratch s("owners");
+  // A coupled scene with keys of both in the shared [output]: both load it.
+  const fs::path both = s.file("both.toml", coupled_scene("model = \"rigid\"\n", "",
+                                                          "[output]\nfields_every = 2\nsheets_every = 3\n"));
+  EXPECT_EQ(fluid_refusal(both), "");
+  EXPECT_EQ(solid_refusal(both), "");
+  EXPECT_EQ(cosim::fluid::load_scene(both.string()).fields_every, 2);
+  EXPECT_EQ(cosim::solid::load_solid_scene(both.string()).sheets_every, 3);
+
+  // An unknown section: both refuse it, naming the closest.
+  const fs::path typo = s.file("typo.toml", coupled_scene("model = \"rigid\"\n", "", "[boundary]\nx_min = \"wall\"\n"));
+  for (const std::string& msg : {fluid_refusal(typo), solid_refusal(typo)}) {
+    EXPECT_NE(msg.find("[boundary]: unknown section"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("did you mean \"boundaries\""), std::string::npos) << msg;
+  }
+
+  // Without [coupling]: the solid's sections and keys in a fluid scene are refused.
+  const fs::path fluid_only = s.file(
+      "fluid_only.toml",
+      "[grid]\nnx = 16\nny = 16\nnz = 16\n\n[fluid]\ntau = 0.8\n\n[boundaries]\nx_min = \"periodic\"\n"
+      "x_max = \"periodic\"\ny_min = \"wall\"\ny_max = \"wall\"\nz_min = \"periodic\"\nz_max = \"periodic\"\n\n"
+      "[run]\nsteps = 4\n\n[output]\nsheets_every = 3\n");
+  std::string msg = fluid_refusal(fluid_only);
+  EXPECT_NE(msg.find("output.sheets_every = 3: is the solid's: only in a coupled scene"), std::string::npos) << msg;
+  std::ofstream(fluid_only, std::ios::app) << "\n[contact]\nepsilon_eV = 1\n";
+  msg = fluid_refusal(fluid_only);
+  EXPECT_NE(msg.find("[contact]: a solid section needs a [coupling] section"), std::string::npos) << msg;
+
+  // Did-you-mean with a unit suffix left off, and for a model name.
+  const fs::path theta = s.file("theta.toml", coupled_scene("model = \"corotation\"\n"));
+  msg = solid_refusal(theta);
+  EXPECT_NE(msg.find("did you mean \"corotational\""), std::string::npos) << msg;
+  std::ofstream(theta) << coupled_scene("model = \"rigid\"\n") + "\n[[sheet]]\ntheta = 30\n";
+  msg = solid_refusal(theta);
+  EXPECT_NE(msg.find("sheet[1].theta = 30: unknown key in [[sheet]]"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("did you mean \"theta_deg\""), std::string::npos) << msg;
+  std::ofstream(theta) << coupled_scene("model = \"rigid\"\n", "", "[watchdog]\nmax_cgp_speed_c = 0.3\n");
+  for (const std::string& m : {fluid_refusal(theta), solid_refusal(theta)})
+    EXPECT_NE(m.find("did you mean \"max_cgp_speed\""), std::string::npos) << m;
+}
+
+}  // namespace
