@@ -117,8 +117,8 @@ std::optional<Message> decode(const lcm::LogEvent& e) {
 struct RunTraffic {
   std::optional<cosimlcm::hello_t> fluid_hello, solid_hello;  ///< the first of each role
   std::optional<cosimlcm::welcome_t> welcome;  ///< the first accepted one, else the first
-  std::optional<cosimlcm::stop_t> stop;        ///< the first
-  std::optional<cosimlcm::stop_t> error_stop;  ///< the first with a non-zero exit code
+  /// By sender: the first stop_t, and the first with a non-zero exit code.
+  std::map<std::string, std::pair<std::optional<cosimlcm::stop_t>, std::optional<cosimlcm::stop_t>>> stops;
   /// step -> offset of the first copy (later copies are resends or duplicates, section 7)
   std::map<std::int64_t, long> solid_states, fluid_states;
   std::int64_t messages = 0, copies = 0;
@@ -210,8 +210,10 @@ LogScan scan(LogReader& log) {
       case Kind::Stop:
         if (const auto m = decode<cosimlcm::stop_t>(*e)) {
           RunTraffic& r = run_of(m->token);
-          if (!r.stop) r.stop = *m;
-          if (!r.error_stop && m->exit_code != 0) r.error_stop = *m;
+          // By sender: the replayed server is given the stop_t of the side it does not run.
+          auto& [stop, error_stop] = r.stops[m->sender];
+          if (!stop) stop = *m;
+          if (!error_stop && m->exit_code != 0) error_stop = *m;
         } else {
           ++s.undecodable;
         }
@@ -553,16 +555,18 @@ class Peer {
     }
     stopped_ = true;
     const bool end = !fluid && step >= run_.welcome->total_steps;
-    if (end && run_.stop) {
-      bus_.publish(ch_.stop, &*run_.stop);
+    const auto logged = run_.stops.find(peer_role());
+    if (end && logged != run_.stops.end() && logged->second.first) {
+      bus_.publish(ch_.stop, &*logged->second.first);
       return;
     }
-    if (!end && run_.error_stop) {  // the logged run ended here with an error
-      bus_.publish(ch_.stop, &*run_.error_stop);
+    if (!end && logged != run_.stops.end() && logged->second.second) {  // the logged run ended here with an error
+      bus_.publish(ch_.stop, &*logged->second.second);
       return;
     }
     cosimlcm::stop_t s{};
     s.token = token_;
+    s.sender = peer_role();
     s.step = end ? run_.welcome->total_steps : step;
     s.exit_code = end ? 0 : 4;
     if (!end) {
@@ -572,6 +576,9 @@ class Peer {
     }
     bus_.publish(ch_.stop, &s);
   }
+
+  /// The side this peer plays: the one the replayed server talks to.
+  std::string peer_role() const { return side_ == Side::Fluid ? "solid" : "fluid"; }
 
   void publish_logged(const std::string& channel, long offset) {
     const lcm::LogEvent& e = log_.at(offset);
@@ -590,6 +597,7 @@ class Peer {
         stopped_ = true;
         cosimlcm::stop_t s{};
         s.token = token_;
+        s.sender = peer_role();
         s.step = fed_;
         s.exit_code = 1;
         s.reason = "cosim-replay: " + failure;
