@@ -35,13 +35,14 @@
 #include "fluid/scene_config.hpp"
 #include "fluid/snapshots.hpp"
 #include "protocol/channels.hpp"
+#include "protocol/session/exit_codes.hpp"
 #include "protocol/text.hpp"
 #include "protocol/units.hpp"
 
 namespace cosim::fluid {
 namespace {
 
-constexpr int kExitOk = 0, kExitRuntime = 1, kExitBadInput = 2, kExitUnhealthy = 3;
+namespace exit_code = protocol::exit_code;  // protocol/README.md section 9, defined once
 
 using Clock = std::chrono::steady_clock;
 using protocol::fmt;
@@ -186,7 +187,7 @@ int run(const FluidScene& s, bool quiet) {
   };
 
   const std::optional<FlowSummary> first = healthy_summary();
-  if (!first) return kExitUnhealthy;
+  if (!first) return exit_code::unhealthy;
   const double mass0 = first->mass;
 
   std::filesystem::create_directories(s.output_dir);
@@ -206,14 +207,14 @@ int run(const FluidScene& s, bool quiet) {
         progress.clear();
         std::fflush(stdout);
         std::fprintf(stderr, "fluid: unhealthy flow, run stopped: %s\n", one_line(problem).c_str());
-        return kExitUnhealthy;
+        return exit_code::unhealthy;
       }
     const bool last = step == s.steps;
     const bool monitor = step % s.monitor_every == 0 || last;
     const bool snapshot = snapshots.due(step, last);
     if (monitor || snapshot) {
       const std::optional<FlowSummary> sum = healthy_summary();
-      if (!sum) return kExitUnhealthy;
+      if (!sum) return exit_code::unhealthy;
       if (monitor) {
         log.append(*sum);
         progress.clear();
@@ -230,7 +231,7 @@ int run(const FluidScene& s, bool quiet) {
               static_cast<long long>(s.steps), double(s.steps) * dt_us, wall,
               wall > 0 ? double(s.params.shape.cells()) * double(s.steps) / wall * 1e-6 : 0.0,
               s.output_dir.c_str());
-  return kExitOk;
+  return exit_code::ok;
 }
 
 int main_impl(int argc, char** argv) {
@@ -285,7 +286,7 @@ int main_impl(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     if (e.get_exit_code() == 0) return app.exit(e);  // --help
     std::fprintf(stderr, "fluid: %s (see fluid --help)\n", one_line(e.what()).c_str());
-    return kExitBadInput;
+    return exit_code::bad_input;
   }
 
   FluidScene scene;
@@ -302,14 +303,14 @@ int main_impl(int argc, char** argv) {
     apply_overrides(scene, ov);
   } catch (const SceneError& e) {
     std::fprintf(stderr, "%s\n", e.what());
-    return kExitBadInput;
+    return exit_code::bad_input;
   }
   if (check) {
     protocol::UnitInputs in;
     in.dx_m = scene.dx_um * 1e-6;
     if (scene.threads > 0) omp_set_num_threads(scene.threads);
     print_header(scene, protocol::UnitConverter(in));
-    return kExitOk;
+    return exit_code::ok;
   }
   if (scene.coupling) {
     if (token.empty())
@@ -319,7 +320,7 @@ int main_impl(int argc, char** argv) {
         protocol::validate_channel_prefix(channel_prefix);
       } catch (const std::invalid_argument& e) {
         std::fprintf(stderr, "fluid: --channel-prefix %s: %s\n", channel_prefix.c_str(), e.what());
-        return kExitBadInput;
+        return exit_code::bad_input;
       }
     }
     protocol::UnitInputs in;
@@ -336,7 +337,7 @@ int main_impl(int argc, char** argv) {
       co.faults = protocol::fault_settings_from(o_faults->count() ? &faults : nullptr);
     } catch (const std::invalid_argument& e) {
       std::fprintf(stderr, "fluid: %s\n", e.what());
-      return kExitBadInput;
+      return exit_code::bad_input;
     }
     return run_coupled_fluid(scene, co, std::cout, std::cerr);
   }
@@ -352,6 +353,6 @@ int main(int argc, char** argv) {
   } catch (const std::exception& e) {
     std::fflush(stdout);
     std::fprintf(stderr, "fluid: %s\n", cosim::fluid::one_line(e.what()).c_str());
-    return cosim::fluid::kExitRuntime;
+    return cosim::protocol::exit_code::system;
   }
 }

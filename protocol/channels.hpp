@@ -9,6 +9,8 @@
 #include <string>
 #include <string_view>
 
+#include "protocol/text.hpp"
+
 namespace cosim::protocol {
 
 inline constexpr std::string_view default_channel_prefix = "COSIM_";
@@ -18,20 +20,7 @@ inline constexpr std::size_t max_channel_prefix_length = 32;
 /// @post returns normally, or throws std::invalid_argument with a one-line message that
 ///       names the prefix (non-printable characters escaped) and what is allowed.
 inline void validate_channel_prefix(std::string_view prefix) {
-  const auto quoted = [prefix] {
-    std::string q = "\"";
-    for (const char ch : prefix) {
-      const auto b = static_cast<unsigned char>(ch);
-      if (b >= 0x20 && b < 0x7f && ch != '"' && ch != '\\') {
-        q += ch;
-      } else {
-        char hex[8];
-        std::snprintf(hex, sizeof hex, "\\x%02x", static_cast<unsigned>(b));
-        q += hex;
-      }
-    }
-    return q + "\"";
-  };
+  const auto quoted = [prefix] { return escaped(prefix); };
   const std::string allowed =
       "; a channel prefix is 1 to " + std::to_string(max_channel_prefix_length) +
       " characters from A-Z, a-z, 0-9 and '_'";

@@ -3,6 +3,7 @@
 
 #include <cstdio>
 #include <string>
+#include <string_view>
 
 namespace cosim::protocol {
 
@@ -19,6 +20,23 @@ inline std::string fmt(const char* f, double v) {
   char buf[64];
   std::snprintf(buf, sizeof buf, f, v);
   return buf;
+}
+
+/// `s` in double quotes, printable ASCII as it is, anything else (and '"', '\\') as \xNN:
+/// a value from a file or a message shown safely on one line.
+inline std::string escaped(std::string_view s) {
+  std::string q = "\"";
+  for (const char ch : s) {
+    const auto b = static_cast<unsigned char>(ch);
+    if (b >= 0x20 && b < 0x7f && ch != '"' && ch != '\\') {
+      q += ch;
+    } else {
+      char hex[8];
+      std::snprintf(hex, sizeof hex, "\\x%02x", static_cast<unsigned>(b));
+      q += hex;
+    }
+  }
+  return q + "\"";
 }
 
 /// "  " before every line of a multi-line text.

@@ -48,6 +48,7 @@
 #include <Eigen/Core>
 
 #include "protocol/hdf5_handle.hpp"
+#include "protocol/session/exit_codes.hpp"
 #include "protocol/hdf5_quiet.hpp"
 #include "protocol/text.hpp"
 #include "protocol/units.hpp"
@@ -62,7 +63,7 @@
 namespace cosim::solid {
 namespace {
 
-constexpr int kExitOk = 0, kExitRuntime = 1, kExitBadInput = 2, kExitNonFinite = 3;
+namespace exit_code = protocol::exit_code;  // protocol/README.md section 9, defined once
 
 using Clock = std::chrono::steady_clock;
 using protocol::fmt;
@@ -439,7 +440,7 @@ int run(const SolidScene& s, SolidModel& model, bool quiet) {
     std::fprintf(stderr, "solid: non-finite state, run stopped: substep %lld, %s\n",
                  static_cast<long long>(k), one_line(problem).c_str());
     write_series(s, series);  // the finite records before it
-    return kExitNonFinite;
+    return exit_code::unhealthy;
   };
 
   std::optional<SheetSnapshotWriter> snapshots;
@@ -452,7 +453,7 @@ int run(const SolidScene& s, SolidModel& model, bool quiet) {
   if (const std::string bad = non_finite_state(model, s.config); !bad.empty()) return stop(0, bad);
   if (!record(0)) {
     write_series(s, series);
-    return kExitNonFinite;
+    return exit_code::unhealthy;
   }
   snapshot(0);
   Eigen::Matrix3Xd external = load;
@@ -472,7 +473,7 @@ int run(const SolidScene& s, SolidModel& model, bool quiet) {
       if (!record(k)) {
         progress.clear();
         write_series(s, series);
-        return kExitNonFinite;
+        return exit_code::unhealthy;
       }
     }
     snapshot(k);
@@ -493,7 +494,7 @@ int run(const SolidScene& s, SolidModel& model, bool quiet) {
     print_free_summary(model, series);
   else
     print_static_summary(s, model, series);
-  return kExitOk;
+  return exit_code::ok;
 }
 
 int main_impl(int argc, char** argv) {
@@ -537,7 +538,7 @@ int main_impl(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     if (e.get_exit_code() == 0) return app.exit(e);  // --help
     std::fprintf(stderr, "solid: %s (see solid --help)\n", one_line(e.what()).c_str());
-    return kExitBadInput;
+    return exit_code::bad_input;
   }
 
   SolidScene scene;
@@ -561,7 +562,7 @@ int main_impl(int argc, char** argv) {
   } catch (const SolidSceneError& e) {
     std::fflush(stdout);
     std::fprintf(stderr, "%s\n", one_line(e.what()).c_str());
-    return kExitBadInput;
+    return exit_code::bad_input;
   }
   if (scene.coupled()) {
     CoupledSolidOptions co;
@@ -576,13 +577,13 @@ int main_impl(int argc, char** argv) {
     } catch (const std::invalid_argument& e) {
       std::fflush(stdout);
       std::fprintf(stderr, "solid: %s\n", e.what());
-      return kExitBadInput;
+      return exit_code::bad_input;
     }
     std::fflush(stdout);
     return run_coupled_solid(scene, co, std::cout, std::cerr);
   }
   print_header(scene, *model);
-  if (check) return kExitOk;
+  if (check) return exit_code::ok;
   try {
     return run(scene, *model, quiet);
   } catch (const std::invalid_argument& e) {
@@ -590,7 +591,7 @@ int main_impl(int argc, char** argv) {
     std::fflush(stdout);
     std::fprintf(stderr, "%s: solid.model = \"%s\": %s\n", scene.path.c_str(), scene.model.c_str(),
                  one_line(e.what()).c_str());
-    return kExitBadInput;
+    return exit_code::bad_input;
   }
 }
 
@@ -603,6 +604,6 @@ int main(int argc, char** argv) {
   } catch (const std::exception& e) {
     std::fflush(stdout);
     std::fprintf(stderr, "solid: %s\n", cosim::solid::one_line(e.what()).c_str());
-    return cosim::solid::kExitRuntime;
+    return cosim::protocol::exit_code::system;
   }
 }

@@ -6,6 +6,7 @@
 
 #include "cosimlcm/stop_t.hpp"
 #include "protocol/handshake.hpp"
+#include "protocol/lcm_url.hpp"
 
 namespace cosim::protocol {
 
@@ -56,6 +57,10 @@ std::optional<Ending> PeerLink::open() {
   if (s_.bus != nullptr) {
     bus_ = s_.bus;
   } else {
+    // The one URL rule (lcm_url.hpp): the parsers refuse a bad URL first; this keeps any
+    // other caller from opening one (tcpq:// aborts inside LCM, a ttl above 0 leaves the host).
+    if (const auto why = lcm_url_problem(s_.lcm_url))
+      return Ending{exit_code::bad_input, "LCM URL \"" + s_.lcm_url + "\": " + *why, false};
     own_bus_ = std::make_unique<lcm::LCM>(s_.lcm_url);
     if (!own_bus_->good())
       return Ending{exit_code::system,

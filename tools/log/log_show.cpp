@@ -8,6 +8,7 @@
 #include "cosimlcm/resend_t.hpp"
 #include "cosimlcm/solid_state_t.hpp"
 #include "cosimlcm/stop_t.hpp"
+#include "protocol/text.hpp"
 #include "tools/log/log_inspector.hpp"
 
 namespace cosim::logtool {
@@ -21,20 +22,7 @@ std::string num(double v) {
   return buf;
 }
 
-std::string quoted(const std::string& s) {
-  std::string q = "\"";
-  for (const char ch : s) {
-    const auto b = static_cast<unsigned char>(ch);
-    if (b >= 0x20 && b < 0x7f && ch != '"' && ch != '\\') {
-      q += ch;
-    } else {
-      char hex[8];
-      std::snprintf(hex, sizeof hex, "\\x%02x", static_cast<unsigned>(b));
-      q += hex;
-    }
-  }
-  return q + "\"";
-}
+std::string quoted(const std::string& s) { return protocol::escaped(s); }
 
 void field(std::ostringstream& o, const char* name, const std::string& value) {
   char buf[64];
@@ -154,6 +142,7 @@ std::string show_step(const std::string& path, const ShowOptions& opt) {
         step = x.step;
         if (step != opt.step) break;
         field(m, "token", quoted(x.token));
+        field(m, "sender", quoted(x.sender));
         field(m, "step", std::to_string(x.step));
         field(m, "exit_code", std::to_string(x.exit_code));
         field(m, "reason", quoted(x.reason));

@@ -1,0 +1,345 @@
+#include "fluid/coupled/fluid_run.hpp"
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <stdexcept>
+#include <type_traits>
+
+#include "fluid/coupled/coordinator.hpp"
+#include "fluid/d3q19.hpp"
+#include "fluid/schemes/fluid_scheme.hpp"
+#include "protocol/checkpoint_file.hpp"
+#include "protocol/handshake.hpp"
+#include "protocol/peak_memory.hpp"
+#include "protocol/text.hpp"
+
+namespace cosim::fluid {
+
+namespace {
+
+namespace exit_code = protocol::exit_code;
+using protocol::Ending;
+
+const std::string& created(const std::string& dir) {
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+/// The monitor rows as flat arrays (what monitor.h5 holds), and back.
+void put_rows(protocol::CheckpointWriter& w, const std::vector<FlowSummary>& rows) {
+  std::vector<std::int64_t> steps, cells;
+  std::vector<double> values;
+  for (const FlowSummary& r : rows) {
+    steps.push_back(r.step);
+    for (const double v : {r.mass, r.momentum[0], r.momentum[1], r.momentum[2], r.max_mach, r.rho_min, r.rho_max})
+      values.push_back(v);
+    for (const CellIndex& c : {r.max_mach_cell, r.rho_min_cell, r.rho_max_cell, r.nan_cell})
+      for (const int v : {c.x, c.y, c.z}) cells.push_back(v);
+    cells.push_back(r.has_nan ? 1 : 0);
+  }
+  w.put("monitor_step", steps);
+  w.put("monitor_values", values);
+  w.put("monitor_cells", cells);
+}
+
+std::vector<FlowSummary> get_rows(const protocol::CheckpointReader& r) {
+  const std::vector<std::int64_t> steps = r.int64s("monitor_step"), cells = r.int64s("monitor_cells");
+  const std::vector<double> values = r.doubles("monitor_values");
+  if (values.size() != 7 * steps.size() || cells.size() != 13 * steps.size())
+    throw std::runtime_error("the monitor rows have inconsistent sizes");
+  std::vector<FlowSummary> rows(steps.size());
+  for (std::size_t k = 0; k < rows.size(); ++k) {
+    FlowSummary& s = rows[k];
+    const double* v = &values[7 * k];
+    const std::int64_t* c = &cells[13 * k];
+    s.step = steps[k];
+    s.mass = v[0];
+    s.momentum = {v[1], v[2], v[3]};
+    s.max_mach = v[4];
+    s.rho_min = v[5];
+    s.rho_max = v[6];
+    CellIndex* idx[4] = {&s.max_mach_cell, &s.rho_min_cell, &s.rho_max_cell, &s.nan_cell};
+    for (int i = 0; i < 4; ++i) *idx[i] = {int(c[3 * i]), int(c[3 * i + 1]), int(c[3 * i + 2])};
+    s.has_nan = c[12] != 0;
+  }
+  return rows;
+}
+
+}  // namespace
+
+FluidRun::FluidRun(const FluidScene& scene, const CoupledFluidOptions& options, Coordinator& coordinator,
+                   const FluidScheme& scheme)
+    : s_(scene), restart_(options.restart), quiet_(options.quiet), coord_(coordinator), scheme_(scheme),
+      solver_(scene.params), ib_(solver_),
+      limits_{scene.mach_limit, 0.0, scene.watchdog.rho_min, scene.watchdog.rho_max},
+      dt_us_(coordinator.units().dt_lb_s() * 1e6),
+      log_((std::filesystem::path(created(scene.output_dir)) / "monitor.h5").string(), dt_us_),
+      snapshots_(scene, dt_us_), markers_(scene.watchdog, scene.mach_limit, scene.coupling->time_ratio) {
+  initialize_flow(solver_, s_);
+  coord_.on_end([this](std::ostream& out) {
+    if (markers_.has_reference()) out << "fluid: watchdog margins: " << markers_.margins() << "\n";
+  });
+}
+
+std::int64_t FluidRun::start(std::optional<int>& failed) {
+  std::int64_t first_step = 0;
+  if (!restart_.empty()) {
+    std::optional<cosimlcm::fluid_state_t> in_flight;
+    try {
+      first_step = restore(in_flight);
+    } catch (const std::exception& x) {
+      failed = coord_.stop_and_end({exit_code::bad_input, "--restart " + restart_ + ": " + x.what(), false}, 0);
+      return 0;
+    }
+    coord_.out() << "fluid: restarted from " << restart_ << " at step " << first_step << "\n";
+    if (in_flight) coord_.republish(std::move(*in_flight));
+  } else {
+    const FlowSummary first = summarize(solver_);
+    mass0_ = first.mass;
+    bulk_u_ = first.momentum[0] / first.mass;
+    log_.append(first);
+    rows_.push_back(first);
+    if (snapshots_.due(0, false)) snapshots_.write(solver_, false);
+  }
+  coord_.set_first_step(first_step);
+  start_ = last_progress_ = Clock::now();
+  return first_step;
+}
+
+// ---- the stability watchdog (DESIGN 6; protocol/watchdog.hpp) ----
+
+std::optional<int> FluidRun::check_positions(std::int64_t step, const std::vector<Vec3>& x) {
+  const Clock::time_point w0 = Clock::now();
+  if (const auto t = markers_.check_positions(step, x)) return trip(*t, true, step);
+  timing_.watch += std::chrono::duration<double>(Clock::now() - w0).count();
+  return std::nullopt;
+}
+
+std::optional<int> FluidRun::sample_markers(std::int64_t now, const std::vector<Vec3>& x,
+                                            std::vector<MarkerSample>& samples) {
+  const std::size_t n = x.size();
+  ib_.sample(solver_, x, samples);
+  // rho_l over the kernel's weight in the fluid: the density the kernel sees, also at a
+  // marker on the wall (half the kernel outside).
+  const Clock::time_point w1 = Clock::now();
+  std::vector<double> sample_rho(n);
+  std::vector<Vec3> sample_u(n);
+  for (std::size_t l = 0; l < n; ++l) {
+    const double w = samples[l].weight;
+    sample_rho[l] = w > 0.0 ? samples[l].rho / w : samples[l].rho;
+    sample_u[l] = samples[l].u;
+  }
+  if (const auto t = markers_.check_samples(now, sample_rho, sample_u)) return trip(*t, false, now);
+  timing_.watch += std::chrono::duration<double>(Clock::now() - w1).count();
+  return std::nullopt;
+}
+
+std::optional<int> FluidRun::check_step_read(std::int64_t step) {
+  if (step % s_.watchdog.health_every != 0) return std::nullopt;
+  const Clock::time_point w = Clock::now();
+  const std::string problem = kernel_state_problem(solver_, limits_);
+  timing_.watch += std::chrono::duration<double>(Clock::now() - w).count();
+  if (problem.empty()) return std::nullopt;
+  return unhealthy(problem, step);
+}
+
+/// The trip of flow_health at `step` for health_problem()'s line.
+int FluidRun::unhealthy(const std::string& problem, std::int64_t step) {
+  protocol::Trip t;
+  t.sentinel = "flow_health";
+  t.step = step;
+  // health_problem names the step first ("step N: cell (...): ..."): said once here.
+  const std::string prefix = "step " + std::to_string(step) + ": ";
+  t.diagnosis = "watchdog flow_health at step " + std::to_string(step) + ": unhealthy flow at " +
+                (problem.rfind(prefix, 0) == 0 ? problem.substr(prefix.size()) : problem);
+  return trip(t, false, step);
+}
+
+/// A tripped sentinel: the diagnosis, a checkpoint of the fluid at `step` when
+/// `checkpoint_state` and that state is healthy (else the latest periodic one stands), the
+/// retry advice for the launcher, and stop_t(3) to the solid. Nothing of the tripped state
+/// is written.
+int FluidRun::trip(const protocol::Trip& t, bool checkpoint_state, std::int64_t step) {
+  std::string reason = t.diagnosis;
+  if (checkpoint_state && step >= 1 && step > coord_.first_step()) {
+    const std::string problem = health_problem(summarize(solver_), limits_);
+    if (problem.empty()) reason += checkpoint(step, t.diagnosis);
+    else reason += "; no checkpoint of step " + std::to_string(step) + ": " + problem;
+  }
+  if (t.dt_cure) coord_.announce_retry(step, s_.coupling->time_ratio, 0);
+  return coord_.stop_and_end({exit_code::unhealthy, reason, false}, step);
+}
+
+std::optional<int> FluidRun::step_outputs(std::int64_t now, bool last, bool periodic) {
+  const bool monitor = now % s_.monitor_every == 0 || last;
+  const bool snapshot = snapshots_.due(now, last);
+  if (monitor || snapshot || periodic) {
+    const FlowSummary sum = summarize(solver_);
+    const std::string problem = health_problem(sum, limits_);
+    if (!problem.empty()) return unhealthy(problem, now);
+    if (monitor) {
+      log_.append(sum);
+      rows_.push_back(sum);
+      bulk_u_ = sum.momentum[0] / sum.mass;
+      coord_.out() << format_summary(sum, dt_us_, mass0_) << "\n";
+      coord_.out().flush();
+    }
+  }
+  if (snapshot) snapshots_.write(solver_, last);
+  return std::nullopt;
+}
+
+int FluidRun::peer_ending(Ending e, std::int64_t step, const std::string& note) {
+  e.reason += note;
+  // The solid's watchdog tripped on a sentinel that a smaller dt_CG may cure.
+  if (coord_.peer_code() == exit_code::unhealthy && protocol::dt_curable(e.reason))
+    coord_.announce_retry(step, s_.coupling->time_ratio, 0);
+  return coord_.end(e);
+}
+
+// ---- coupled checkpoints (DESIGN 2.4; protocol/README.md section 10) ----
+
+std::string FluidRun::checkpoint(std::int64_t step, const std::string& reason) {
+  return solver_.precision() == Precision::Double ? checkpoint_of(solver_.state(), step, reason)
+                                                  : checkpoint_of(solver_.state_single(), step, reason);
+}
+std::string FluidRun::checkpoint(const PopulationField& f, std::int64_t step, const std::string& reason) {
+  return checkpoint_of(f, step, reason);
+}
+std::string FluidRun::checkpoint(const PopulationFieldSingle& f, std::int64_t step, const std::string& reason) {
+  return checkpoint_of(f, step, reason);
+}
+
+/// The populations of either store (precision "double" or "single"); a restart reads them
+/// back into a run of the same precision.
+template <class T>
+std::string FluidRun::checkpoint_of(const BasicPopulationField<T>& f, std::int64_t step, const std::string& reason) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::path(s_.output_dir) / "checkpoints";
+  const fs::path file = dir / protocol::checkpoint_name("fluid", step);
+  try {
+    fs::create_directories(dir);
+    protocol::CheckpointWriter w(file);
+    w.attr("step", step);
+    // The counters the scheme continues with (and its messages in flight).
+    scheme_.write_checkpoint(w, step, coord_);
+    w.attr("num_cgps", static_cast<std::int64_t>(coord_.num_cgps()));
+    w.attr("bulk_velocity_lb", bulk_u_);
+    w.attr("mass0", mass0_);
+    w.attr("time_ratio", static_cast<std::int64_t>(s_.coupling->time_ratio));
+    if (markers_.has_reference()) {
+      const protocol::MarkerWatch::Reference ref = markers_.reference();
+      w.put("watchdog_neighbour", ref.neighbour);
+      w.put("watchdog_distance", ref.distance);
+      w.put("watchdog_last_positions", ref.last_positions);
+    }
+    w.text("scene_hash", protocol::scene_hash_of_file(s_.path));
+    w.text("reason", reason.empty() ? "every coupling.checkpoint_every steps" : reason);
+    w.put("populations", f.q(0), std::size_t(D3Q19::Q) * f.layout().stride());
+    w.text("precision", std::is_same_v<T, float> ? "single" : "double");
+    put_rows(w, rows_);
+    w.commit();
+    protocol::prune_checkpoints(dir, "fluid_", 3);
+  } catch (const std::exception& x) {
+    if (reason.empty()) throw;
+    return "; no checkpoint: " + std::string(x.what());
+  }
+  return "; checkpoint " + file.string();
+}
+
+/// Loads --restart: the populations, the step, the counters and the monitor rows; lists
+/// the earlier snapshots; `in_flight`: the scheme's message to publish again. Returns the
+/// step the run continues from. Throws (one line) for a file that is not a checkpoint of
+/// this scene.
+std::int64_t FluidRun::restore(std::optional<cosimlcm::fluid_state_t>& in_flight) {
+  const protocol::CheckpointReader r(restart_);
+  if (r.text("scene_hash") != protocol::scene_hash_of_file(s_.path))
+    throw std::runtime_error("a checkpoint of another scene file (scene_hash differs from " + s_.path + ")");
+  const std::int64_t step = r.int64_attr("step");
+  if (step < 1 || step >= s_.steps)
+    throw std::runtime_error("step = " + std::to_string(step) + ", allowed: 1 to " + std::to_string(s_.steps - 1) +
+                             " (run.steps = " + std::to_string(s_.steps) + ")");
+  if (r.int64_attr("num_cgps") != coord_.num_cgps())
+    throw std::runtime_error("num_cgps = " + std::to_string(r.int64_attr("num_cgps")) + ", but the solid announced " +
+                             std::to_string(coord_.num_cgps()));
+  // The populations in the store's precision (its "precision" text): the scene hash above
+  // ties the checkpoint to this scene file, run.precision included.
+  const std::size_t size = std::size_t(D3Q19::Q) * solver_.layout().stride();
+  if (solver_.precision() == Precision::Double) {
+    const std::vector<double> pop = r.doubles("populations", size);
+    std::copy(pop.begin(), pop.end(), solver_.mutable_state().q(0));
+  } else {
+    const std::vector<float> pop = r.floats("populations", size);
+    std::copy(pop.begin(), pop.end(), solver_.mutable_state_single().q(0));
+  }
+  // The checkpoint holds the whole store, ghost planes included, as the step left them: no
+  // ghost fill here. The kernel writes the x-outflow ghosts from the collided values before
+  // the single store rounds them to floats, so a fill from the stored floats would give other
+  // ghosts than the run had (SinglePrecisionCoupledRestartIsBitIdentical).
+  solver_.set_step_count(step);
+  coord_.set_fluid_seq(r.int64_attr("fluid_seq"));
+  bulk_u_ = r.double_attr("bulk_velocity_lb");
+  mass0_ = r.double_attr("mass0");
+  if (r.has("watchdog_neighbour")) {
+    protocol::MarkerWatch::Reference ref;
+    ref.neighbour = r.int64s("watchdog_neighbour");
+    ref.distance = r.doubles("watchdog_distance");
+    ref.last_positions = r.doubles("watchdog_last_positions");
+    if (std::ssize(ref.neighbour) != coord_.num_cgps())
+      throw std::runtime_error("watchdog_neighbour has " + std::to_string(ref.neighbour.size()) +
+                               " markers, the solid announced " + std::to_string(coord_.num_cgps()));
+    markers_.restore(ref);
+  }
+  in_flight = scheme_.read_checkpoint(r, step);
+  rows_ = get_rows(r);
+  for (const FlowSummary& row : rows_) log_.append(row);
+  snapshots_.adopt_up_to(step);
+  // The in-flight solid_state_t(step) was computed with the checkpoint's A_T (a retry may
+  // run another: the fluid's state does not depend on it). The solid republishes it once
+  // the handshake is done; it may have arrived while this checkpoint was read: the inbox
+  // offers what it holds again.
+  coord_.expect_restart(step, scheme_.restart_key(r),
+                        r.has("time_ratio") ? static_cast<int>(r.int64_attr("time_ratio")) : s_.coupling->time_ratio);
+  return step;
+}
+
+void FluidRun::progress(std::int64_t now, int iteration) {
+  if (quiet_ || Clock::now() - last_progress_ <= std::chrono::seconds(2)) return;
+  last_progress_ = Clock::now();
+  if (iteration < 0)
+    std::fprintf(stderr, "fluid: step %lld/%lld\n", static_cast<long long>(now), static_cast<long long>(s_.steps));
+  else
+    std::fprintf(stderr, "fluid: step %lld/%lld (iteration %d)\n", static_cast<long long>(now),
+                 static_cast<long long>(s_.steps), iteration);
+}
+
+int FluidRun::finish() {
+  coord_.publish_stop(s_.steps, exit_code::ok, "");
+  std::ostream& out = coord_.out();
+  const double wall = std::chrono::duration<double>(Clock::now() - start_).count();
+  out << "fluid: coupled run done, " << s_.steps << " LB steps in " << wall << " s; " << coord_.counters()
+      << "; output in " << s_.output_dir << "\n";
+  const double per = 1e3 / double(s_.steps);
+  const StepTiming& t = timing_;
+  char line[256];
+  std::snprintf(line, sizeof line,
+                "fluid: per LB step: compute %.4g ms (spread, step, health, sample), waiting "
+                "%.4g ms (for solid_state_t), publishing %.4g ms; %.1f MLUPS while computing\n",
+                t.compute * per, t.wait * per, t.publish * per,
+                t.compute > 0 ? double(s_.params.shape.cells()) * double(s_.steps) / t.compute * 1e-6 : 0.0);
+  out << line;
+  std::snprintf(line, sizeof line,
+                "fluid: watchdog: %.4g ms per LB step, %.2g %% of the compute (the markers, the samples "
+                "and the kernel's extrema every %lld steps)\n",
+                t.watch * per, t.compute > 0 ? 100.0 * t.watch / t.compute : 0.0,
+                static_cast<long long>(s_.watchdog.health_every));
+  out << line;
+  out << "fluid: watchdog margins: " << markers_.margins() << "\n";
+  out << "fluid: peak memory " << protocol::fmt("%.1f", protocol::peak_rss_mib()) << " MiB (largest resident set)\n";
+  scheme_.summary(out, s_.steps);
+  coord_.done();
+  return exit_code::ok;
+}
+
+}  // namespace cosim::fluid

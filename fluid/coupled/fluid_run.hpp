@@ -1,0 +1,123 @@
+// The fluid of a coupled run (DESIGN 2.1, 2.4, 6): the solver and its immersed boundary,
+// the watchdog's per-step sentinels on markers and flow, the monitor rows, snapshots and
+// checkpoints, the restart, and the run's closing summary. The schemes (fluid/schemes/)
+// drive it step by step; the coordinator (coordinator.hpp) carries its messages.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "cosimlcm/fluid_state_t.hpp"
+#include "fluid/coupled_fluid.hpp"
+#include "fluid/flow_monitor.hpp"
+#include "fluid/fluid_solver.hpp"
+#include "fluid/immersed_boundary.hpp"
+#include "fluid/monitor_log.hpp"
+#include "fluid/scene_config.hpp"
+#include "fluid/snapshots.hpp"
+#include "protocol/marker_watch.hpp"
+#include "protocol/session/exit_codes.hpp"
+#include "protocol/watchdog.hpp"
+
+namespace cosim::fluid {
+
+class Coordinator;
+class FluidScheme;
+
+/// Where the time of an LB step goes (DESIGN 7), summed over the run, seconds.
+struct StepTiming {
+  double compute = 0.0;  ///< spread, step, health, sample
+  double wait = 0.0;     ///< for solid_state_t
+  double publish = 0.0;  ///< fluid_state_t
+  double watch = 0.0;    ///< the watchdog's share of compute
+};
+
+class FluidRun {
+ public:
+  using Clock = std::chrono::steady_clock;
+
+  /// After an accepted handshake: the solver, its initial flow, monitor.h5 and the snapshots.
+  FluidRun(const FluidScene& scene, const CoupledFluidOptions& options, Coordinator& coordinator,
+           const FluidScheme& scheme);
+  FluidRun(const FluidRun&) = delete;
+  FluidRun& operator=(const FluidRun&) = delete;
+
+  /// Step 0's monitor row and snapshot, or the --restart checkpoint (then its in-flight
+  /// fluid_state_t, if the scheme keeps one, is published again). The first LB step; or,
+  /// in `failed`, the exit code of a checkpoint that cannot be read (stop_t published).
+  std::int64_t start(std::optional<int>& failed);
+
+  FluidSolver& solver() { return solver_; }
+  const ImmersedBoundary& ib() const { return ib_; }
+  StepTiming& timing() { return timing_; }
+  double bulk_velocity() const { return bulk_u_; }
+  std::int64_t total_steps() const { return s_.steps; }
+  std::int64_t rigid_steps() const { return s_.coupling->rigid_steps; }
+  std::int64_t checkpoint_every() const { return s_.coupling->checkpoint_every; }
+
+  // ---- the watchdog (DESIGN 6; protocol/watchdog.hpp) ----
+  /// How far each marker moved, how far apart they are (before the fluid at `step` is
+  /// touched: it is kept, if healthy, as the checkpoint of a trip). The exit code of a trip.
+  std::optional<int> check_positions(std::int64_t step, const std::vector<Vec3>& x);
+  protocol::MarkerWatch& markers() { return markers_; }
+  /// The flow_health sentinel every watchdog.health_every steps on the state `step` that
+  /// the kernel just read, from its extrema; the exit code of a trip.
+  std::optional<int> check_step_read(std::int64_t step);
+  /// Eq. 17 at X_l and the watchdog on the samples, before anything of `now` is written or
+  /// published; the exit code of a trip.
+  std::optional<int> sample_markers(std::int64_t now, const std::vector<Vec3>& x, std::vector<MarkerSample>& samples);
+  /// The whole-grid health check before every write (monitor row, snapshot, checkpoint),
+  /// then the monitor row and the snapshot of step `now`; the exit code of a trip.
+  std::optional<int> step_outputs(std::int64_t now, bool last, bool periodic);
+
+  // ---- checkpoints (DESIGN 2.4; protocol/README.md section 10) ----
+  /// OUTPUT/checkpoints/fluid_NNNNNNNN.h5 of the state at `step` (fluid_state_t(step)
+  /// published, solid_state_t(step) not yet applied); the newest three are kept. Returns
+  /// what to add to an abort's reason (where it went, or why not); a periodic checkpoint
+  /// (empty reason) that cannot be written throws.
+  std::string checkpoint(std::int64_t step, const std::string& reason);
+  /// The same for populations kept apart from the solver (the implicit scheme's committed
+  /// state while a step is iterated).
+  std::string checkpoint(const PopulationField& f, std::int64_t step, const std::string& reason);
+  std::string checkpoint(const PopulationFieldSingle& f, std::int64_t step, const std::string& reason);
+
+  /// The peer lost or stopped with an error while the fluid waited at `step`: `note` (a
+  /// checkpoint's line, or why there is none) added, the retry advice when a smaller dt_CG
+  /// may cure the solid's trip; the exit code.
+  int peer_ending(protocol::Ending e, std::int64_t step, const std::string& note);
+
+  /// Every 2 s: "fluid: step N/M" on stderr (unless quiet).
+  void progress(std::int64_t now, int iteration = -1);
+  /// The end of a run that completed: stop_t(0) and the summary lines; exit code 0.
+  int finish();
+
+ private:
+  int unhealthy(const std::string& problem, std::int64_t step);
+  int trip(const protocol::Trip& t, bool checkpoint_state, std::int64_t step);
+  template <class T>
+  std::string checkpoint_of(const BasicPopulationField<T>& f, std::int64_t step, const std::string& reason);
+  std::int64_t restore(std::optional<cosimlcm::fluid_state_t>& in_flight);
+
+  const FluidScene& s_;
+  const std::string restart_;
+  const bool quiet_;
+  Coordinator& coord_;
+  const FluidScheme& scheme_;
+  FluidSolver solver_;
+  ImmersedBoundary ib_;
+  HealthLimits limits_;
+  double dt_us_;
+  MonitorLog log_;
+  Snapshots snapshots_;
+  protocol::MarkerWatch markers_;  ///< the watchdog's per-step sentinels (DESIGN 6)
+  StepTiming timing_;
+  double bulk_u_ = 0.0;            ///< U_b of the latest health check (Eq. 34), lattice units
+  double mass0_ = 0.0;             ///< the fluid's mass at step 0 (for the drift)
+  std::vector<FlowSummary> rows_;  ///< monitor.h5's rows so far (for checkpoints)
+  Clock::time_point start_ = Clock::now(), last_progress_ = start_;
+};
+
+}  // namespace cosim::fluid
