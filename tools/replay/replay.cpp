@@ -542,6 +542,9 @@ class Peer {
   std::optional<std::string> refused;       ///< the handshake's refusal, if any
   bool welcomed = false;                    ///< an accepted welcome_t went out or came back
   std::string log_gap;                      ///< "" or: the input the log lacks
+  /// The server was given a stop_t with an error (the logged peer's, or the replay's at
+  /// the log's end): the logged run may have ended before what the server published next.
+  bool error_stop_given = false;
   std::string failure;                      ///< "" or: the log could not be read during the replay
 
  private:
@@ -675,6 +678,7 @@ class Peer {
     }
     if (stop_ && !stopped_ && next_ >= stop_after_ && published_up_to_ >= trigger(stop_->where)) {
       stopped_ = true;
+      error_stop_given = stop_->message.exit_code != 0;
       bus_.publish(ch_.stop, &stop_->message);
       ++fed;
     }
@@ -712,6 +716,7 @@ class Peer {
   void end_feeding(const std::string& gap) {
     if (stopped_ || done_) return;
     stopped_ = true;
+    error_stop_given = true;
     if (error_stop_) {
       bus_.publish(ch_.stop, &error_stop_->message);
       return;
@@ -765,6 +770,7 @@ class Peer {
       if (failure.empty()) failure = one_line(e.what());
       if (!stopped_) {
         stopped_ = true;
+        error_stop_given = true;
         cosimlcm::stop_t s{};
         s.token = token_;
         s.sender = peer_role();
@@ -996,14 +1002,15 @@ class Replay {
     }
 
     // Logged outputs the server never published; published ones the log lacks (past the end
-    // of an incomplete log, they are the log's gap, not a difference). By seq.
+    // of an incomplete log, or of a run that the peer stopped with an error, they are the
+    // log's end, not a difference: the logged server may have stopped before them). By seq.
     const auto& logged = fluid ? run.fluid_states : run.solid_states;
     std::vector<std::int64_t> missing;
     std::vector<MessageKey> not_in_log;
     for (const auto& [seq, m] : logged)
       if (!p.published.count(seq)) missing.push_back(seq);
     for (const MessageKey& k : p.not_in_log)
-      if (p.log_gap.empty() || k.seq < logged.rbegin()->first) not_in_log.push_back(k);
+      if (!p.error_stop_given || k.seq < logged.rbegin()->first) not_in_log.push_back(k);
 
     const bool different = p.differing > 0 || !not_in_log.empty() || (code == 0 && !missing.empty());
     if (!different && code == 0 && p.log_gap.empty()) {
