@@ -24,9 +24,10 @@ int main_impl(int argc, char** argv) {
   CLI::App app{
       "Replays one side of a coupled run recorded with launch/run-coupled.sh --log: runs the fluid "
       "(or the solid) server in this process with no peer, feeds it the logged messages of the "
-      "other side in step order, and compares what it publishes (fluid_state_t, or "
-      "solid_state_t) with the log, bit for bit. Reports the first step, CGP and field that "
-      "differ, with the largest absolute and relative differences (docs/replay.md).\n"
+      "other side in the order the log shows them (any coupling scheme: serial, implicit, parallel), "
+      "and compares what it publishes (fluid_state_t, or solid_state_t) with the log by seq, bit "
+      "for bit. Reports the first step, CGP and field that differ, with the largest absolute and "
+      "relative differences (docs/replay.md).\n"
       "Exit status: 0 identical, 1 system error, 2 bad input (command line, log, scene, a scene "
       "that does not match the log, an incomplete log), 10 different, 11 the server stopped with "
       "a non-zero code (no difference before).",

@@ -113,17 +113,40 @@ std::optional<Message> decode(const lcm::LogEvent& e) {
   return m;
 }
 
+/// A logged message of the run with where it stands among the others: the first copy of
+/// one seq (a state message) or one stop_t.
+struct Logged {
+  long offset = 0;           ///< the event's byte offset in the log
+  std::int64_t step = 0;     ///< the message's step
+  std::int32_t iteration = 0;
+  std::int64_t order = 0;    ///< the event's place among the run's messages (1, 2, ...)
+  /// The highest fluid_state_t and solid_state_t seq of the run logged before it, -1 for
+  /// none. Its sender published it after it had heard the other side's messages up to
+  /// these at most, so a server that has published its own up to them can be given it
+  /// (docs/replay.md, "How it replays").
+  std::int64_t after_fluid = -1, after_solid = -1;
+};
+
+struct LoggedStop {
+  cosimlcm::stop_t message;
+  Logged where;
+};
+
 /// The logged traffic of one run: one channel prefix, one token.
 struct RunTraffic {
   std::optional<cosimlcm::hello_t> fluid_hello, solid_hello;  ///< the first of each role
   std::optional<cosimlcm::welcome_t> welcome;  ///< the first accepted one, else the first
   /// By sender: the first stop_t, and the first with a non-zero exit code.
-  std::map<std::string, std::pair<std::optional<cosimlcm::stop_t>, std::optional<cosimlcm::stop_t>>> stops;
-  /// step -> offset of the first copy (later copies are resends or duplicates, section 7)
-  std::map<std::int64_t, long> solid_states, fluid_states;
+  std::map<std::string, std::pair<std::optional<LoggedStop>, std::optional<LoggedStop>>> stops;
+  /// seq -> the first copy (later copies are resends or duplicates, section 7)
+  std::map<std::int64_t, Logged> solid_states, fluid_states;
   std::int64_t messages = 0, copies = 0;
-  /// The first step with a sub-iteration (iteration > 0: the implicit scheme), or -1.
-  std::int64_t iterated_step = -1;
+  /// The highest seq of each state channel logged so far (while scanning: see Logged).
+  std::int64_t max_fluid_seq = -1, max_solid_seq = -1;
+
+  Logged here(long offset, std::int64_t step, std::int32_t iteration) const {
+    return Logged{offset, step, iteration, messages, max_fluid_seq, max_solid_seq};
+  }
 };
 
 struct PrefixTraffic {
@@ -189,8 +212,8 @@ LogScan scan(LogReader& log) {
       case Kind::SolidState:
         if (const auto m = decode<cosimlcm::solid_state_t>(*e)) {
           RunTraffic& r = run_of(m->token);
-          if (!r.solid_states.emplace(m->step, offset).second) ++r.copies;
-          if (m->iteration > 0 && r.iterated_step < 0) r.iterated_step = m->step;
+          if (!r.solid_states.emplace(m->seq, r.here(offset, m->step, m->iteration)).second) ++r.copies;
+          r.max_solid_seq = std::max(r.max_solid_seq, m->seq);
         } else {
           ++s.undecodable;
         }
@@ -198,7 +221,8 @@ LogScan scan(LogReader& log) {
       case Kind::FluidState:
         if (const auto m = decode<cosimlcm::fluid_state_t>(*e)) {
           RunTraffic& r = run_of(m->token);
-          if (!r.fluid_states.emplace(m->step, offset).second) ++r.copies;
+          if (!r.fluid_states.emplace(m->seq, r.here(offset, m->step, m->iteration)).second) ++r.copies;
+          r.max_fluid_seq = std::max(r.max_fluid_seq, m->seq);
         } else {
           ++s.undecodable;
         }
@@ -212,8 +236,9 @@ LogScan scan(LogReader& log) {
           RunTraffic& r = run_of(m->token);
           // By sender: the replayed server is given the stop_t of the side it does not run.
           auto& [stop, error_stop] = r.stops[m->sender];
-          if (!stop) stop = *m;
-          if (!error_stop && m->exit_code != 0) error_stop = *m;
+          const LoggedStop logged{*m, r.here(offset, m->step, 0)};
+          if (!stop) stop = logged;
+          if (!error_stop && m->exit_code != 0) error_stop = logged;
         } else {
           ++s.undecodable;
         }
@@ -278,13 +303,35 @@ Selected select_run(const LogScan& s, const ReplayOptions& o, const std::string&
   return sel;
 }
 
-std::string step_range(const std::map<std::int64_t, long>& steps) {
+/// The steps of a state channel's messages (by seq).
+std::set<std::int64_t> steps_of(const std::map<std::int64_t, Logged>& messages) {
+  std::set<std::int64_t> steps;
+  for (const auto& [seq, m] : messages) steps.insert(m.step);
+  return steps;
+}
+
+std::string step_range(const std::set<std::int64_t>& steps) {
   if (steps.empty()) return "none";
-  return std::to_string(steps.begin()->first) + ".." + std::to_string(steps.rbegin()->first) +
-         (static_cast<std::int64_t>(steps.size()) ==
-                  steps.rbegin()->first - steps.begin()->first + 1
+  return std::to_string(*steps.begin()) + ".." + std::to_string(*steps.rbegin()) +
+         (static_cast<std::int64_t>(steps.size()) == *steps.rbegin() - *steps.begin() + 1
               ? ""
               : " (" + std::to_string(steps.size()) + " steps, with gaps)");
+}
+
+std::int32_t max_iteration(const std::map<std::int64_t, Logged>& messages) {
+  std::int32_t k = 0;
+  for (const auto& [seq, m] : messages) k = std::max(k, m.iteration);
+  return k;
+}
+
+/// "steps 0..199", and with sub-iterations "steps 0..60 (143 messages, iterations 0..3)".
+std::string describe_states(const std::map<std::int64_t, Logged>& messages) {
+  const std::set<std::int64_t> steps = steps_of(messages);
+  std::string text = "steps " + step_range(steps);
+  if (messages.size() != steps.size())
+    text += " (" + std::to_string(messages.size()) + " messages, iterations 0.." +
+            std::to_string(max_iteration(messages)) + ")";
+  return text;
 }
 
 // ---- the comparison ----
@@ -296,9 +343,16 @@ struct FieldDiff {
   double replay = 0.0, logged = 0.0, abs = 0.0, rel = 0.0;
 };
 
-/// One step's comparison.
+/// Which message: the sender's seq, its step and sub-iteration.
+struct MessageKey {
+  std::int64_t seq = 0, step = 0;
+  std::int32_t iteration = 0;
+};
+
+/// One message's comparison (one step's, in a scheme without sub-iterations).
 struct StepResult {
-  std::int64_t step = 0, values = 0, differing = 0;
+  std::int64_t seq = 0, step = 0, values = 0, differing = 0;
+  std::int32_t iteration = 0;
   std::optional<FieldDiff> first, max_abs, max_rel;
 };
 
@@ -333,11 +387,22 @@ class StepComparer {
     if (!r_.max_rel || rel > r_.max_rel->rel) r_.max_rel = make();
   }
 
-  /// Rows of [n][3] vectors: sizes, then the values of CGP l.
-  void rows(const std::vector<std::vector<double>>& replay, const std::vector<std::vector<double>>& logged,
-            std::size_t l, const char* field) {
-    const std::size_t a = l < replay.size() ? replay[l].size() : 0;
-    const std::size_t b = l < logged.size() ? logged[l].size() : 0;
+  /// The sizes of a per-CGP array (a difference is a field of the whole message).
+  template <class A>
+  void size(const A& replay, const A& logged, const char* field) {
+    if (replay.size() == logged.size()) return;
+    const std::string name = std::string("len(") + field + ")";
+    value(double(replay.size()), double(logged.size()), name.c_str());
+  }
+
+  /// CGP l of a per-CGP array of numbers, or of [n][3] vectors (their sizes, then values).
+  void at(const std::vector<double>& replay, const std::vector<double>& logged, std::size_t l, const char* field) {
+    if (l < replay.size() && l < logged.size()) value(replay[l], logged[l], field, std::int64_t(l));
+  }
+  void at(const std::vector<std::vector<double>>& replay, const std::vector<std::vector<double>>& logged,
+          std::size_t l, const char* field) {
+    if (l >= replay.size() || l >= logged.size()) return;
+    const std::size_t a = replay[l].size(), b = logged[l].size();
     if (a != b) {
       const std::string name = std::string("len(") + field + ")";
       value(double(a), double(b), name.c_str(), std::int64_t(l));
@@ -350,59 +415,103 @@ class StepComparer {
   StepResult& r_;
 };
 
-/// fluid_state_t (protocol/README.md section 3): seq, num_cgps, bulk_velocity_lb, then per
-/// CGP rho_lb and velocity_lb.
+/// The CGPs both copies of a per-CGP array have.
+template <class A>
+std::size_t both(const A& a, const A& b) {
+  return std::min(a.size(), b.size());
+}
+
+/// fluid_state_t (protocol/README.md section 3), the logged one of the same seq: step,
+/// iteration, num_cgps, bulk_velocity_lb, then per CGP rho_lb, velocity_lb, rho_start_lb,
+/// velocity_start_lb.
 void compare(const cosimlcm::fluid_state_t& a, const cosimlcm::fluid_state_t& b, StepResult& r) {
   StepComparer c(r);
-  c.value(double(a.seq), double(b.seq), "seq");
+  c.value(double(a.step), double(b.step), "step");
+  c.value(a.iteration, b.iteration, "iteration");
   c.value(a.num_cgps, b.num_cgps, "num_cgps");
   c.value(a.bulk_velocity_lb, b.bulk_velocity_lb, "bulk_velocity_lb");
-  if (a.rho_lb.size() != b.rho_lb.size()) c.value(double(a.rho_lb.size()), double(b.rho_lb.size()), "len(rho_lb)");
-  if (a.velocity_lb.size() != b.velocity_lb.size())
-    c.value(double(a.velocity_lb.size()), double(b.velocity_lb.size()), "len(velocity_lb)");
-  const std::size_t n = std::max(std::min(a.rho_lb.size(), b.rho_lb.size()),
-                                 std::min(a.velocity_lb.size(), b.velocity_lb.size()));
+  c.size(a.rho_lb, b.rho_lb, "rho_lb");
+  c.size(a.velocity_lb, b.velocity_lb, "velocity_lb");
+  c.size(a.rho_start_lb, b.rho_start_lb, "rho_start_lb");
+  c.size(a.velocity_start_lb, b.velocity_start_lb, "velocity_start_lb");
+  const std::size_t n = std::max({both(a.rho_lb, b.rho_lb), both(a.velocity_lb, b.velocity_lb),
+                                   both(a.rho_start_lb, b.rho_start_lb),
+                                   both(a.velocity_start_lb, b.velocity_start_lb)});
   for (std::size_t l = 0; l < n; ++l) {
-    if (l < a.rho_lb.size() && l < b.rho_lb.size()) c.value(a.rho_lb[l], b.rho_lb[l], "rho_lb", std::int64_t(l));
-    if (l < a.velocity_lb.size() && l < b.velocity_lb.size()) c.rows(a.velocity_lb, b.velocity_lb, l, "velocity_lb");
+    c.at(a.rho_lb, b.rho_lb, l, "rho_lb");
+    c.at(a.velocity_lb, b.velocity_lb, l, "velocity_lb");
+    c.at(a.rho_start_lb, b.rho_start_lb, l, "rho_start_lb");
+    c.at(a.velocity_start_lb, b.velocity_start_lb, l, "velocity_start_lb");
   }
 }
 
-/// solid_state_t (section 3): seq, substeps, solid_time_s, num_cgps, then per CGP
-/// position_lb and impulse_lb.
+/// solid_state_t (section 3), the logged one of the same seq: step, iteration, substeps,
+/// solid_time_s, num_cgps, then per CGP position_lb and impulse_lb.
 void compare(const cosimlcm::solid_state_t& a, const cosimlcm::solid_state_t& b, StepResult& r) {
   StepComparer c(r);
-  c.value(double(a.seq), double(b.seq), "seq");
+  c.value(double(a.step), double(b.step), "step");
+  c.value(a.iteration, b.iteration, "iteration");
   c.value(a.substeps, b.substeps, "substeps");
   c.value(a.solid_time_s, b.solid_time_s, "solid_time_s");
   c.value(a.num_cgps, b.num_cgps, "num_cgps");
-  if (a.position_lb.size() != b.position_lb.size())
-    c.value(double(a.position_lb.size()), double(b.position_lb.size()), "len(position_lb)");
-  if (a.impulse_lb.size() != b.impulse_lb.size())
-    c.value(double(a.impulse_lb.size()), double(b.impulse_lb.size()), "len(impulse_lb)");
-  const std::size_t n = std::max(std::min(a.position_lb.size(), b.position_lb.size()),
-                                 std::min(a.impulse_lb.size(), b.impulse_lb.size()));
+  c.size(a.position_lb, b.position_lb, "position_lb");
+  c.size(a.impulse_lb, b.impulse_lb, "impulse_lb");
+  const std::size_t n = std::max(both(a.position_lb, b.position_lb), both(a.impulse_lb, b.impulse_lb));
   for (std::size_t l = 0; l < n; ++l) {
-    if (l < a.position_lb.size() && l < b.position_lb.size()) c.rows(a.position_lb, b.position_lb, l, "position_lb");
-    if (l < a.impulse_lb.size() && l < b.impulse_lb.size()) c.rows(a.impulse_lb, b.impulse_lb, l, "impulse_lb");
+    c.at(a.position_lb, b.position_lb, l, "position_lb");
+    c.at(a.impulse_lb, b.impulse_lb, l, "impulse_lb");
   }
 }
 
+/// What is compared, as the report names it.
+const char* compared_fields(Side side) {
+  return side == Side::Fluid ? "step, iteration, num_cgps, bulk_velocity_lb, rho_lb, velocity_lb, rho_start_lb, "
+                               "velocity_start_lb"
+                             : "step, iteration, substeps, solid_time_s, num_cgps, position_lb, impulse_lb";
+}
+
 // ---- the missing peer ----
+
+/// Unanswerable resend requests in a row (nothing fed in between) after which the server is
+/// taken to wait for a message the log does not give: about 3 resend_after of waiting. A
+/// server given everything the log holds for it asks at most once before it is fed again.
+constexpr int kResendsBeforeGap = 3;
 
 /// Plays the peer of the replayed server from the log, on the server's bus. Its handlers
 /// run inside the server thread's handle calls (memq:// has one queue per lcm_t), so
 /// everything below is touched by that thread only while the server runs, and read by the
 /// caller after the thread joined.
+///
+/// The peer's messages go out by causality, with no knowledge of the scheme (docs/replay.md):
+/// the logged peer's state messages in seq order (first copies; a seq missing from the log
+/// ends the usable ones), each once the handshake is done and the server has published its
+/// own state messages up to the highest seq the log shows before it; the peer's first
+/// stop_t likewise, after the peer's messages logged before it. In a deterministic run the
+/// server published those before it needed the message, so the replay never waits on
+/// itself, whatever the message order of the scheme.
 class Peer {
  public:
-  Peer(lcm::LCM& bus, LogReader& log, const Selected& sel, Side side, bool quiet, std::ostream& err)
-      : bus_(bus), log_(log), run_(*sel.run), token_(sel.token), side_(side), ch_(sel.prefix),
-        quiet_(quiet), err_(err) {
+  Peer(lcm::LCM& bus, LogReader& log, const Selected& sel, Side side, bool implicit, bool parallel, bool quiet,
+       std::ostream& err)
+      : bus_(bus), log_(log), run_(*sel.run), token_(sel.token), side_(side), implicit_(implicit),
+        parallel_(parallel), ch_(sel.prefix), quiet_(quiet), err_(err) {
+    const bool fluid = side_ == Side::Fluid;
+    const auto& inputs = fluid ? run_.solid_states : run_.fluid_states;
+    for (std::int64_t seq = 0;; ++seq) {
+      const auto it = inputs.find(seq);
+      if (it == inputs.end()) break;
+      feed_.push_back(&it->second);
+    }
+    if (const auto it = run_.stops.find(peer_role()); it != run_.stops.end()) {
+      stop_ = it->second.first;
+      error_stop_ = it->second.second;
+      for (std::size_t i = 0; stop_ && i < feed_.size(); ++i)
+        if (feed_[i]->order < stop_->where.order) stop_after_ = i + 1;
+    }
     subs_.push_back(bus_.subscribe(ch_.hello, &Peer::on_hello, this));
     subs_.push_back(bus_.subscribe(ch_.welcome, &Peer::on_welcome, this));
-    subs_.push_back(side_ == Side::Fluid ? bus_.subscribe(ch_.fluid_state, &Peer::on_fluid_state, this)
-                                         : bus_.subscribe(ch_.solid_state, &Peer::on_solid_state, this));
+    subs_.push_back(fluid ? bus_.subscribe(ch_.fluid_state, &Peer::on_fluid_state, this)
+                          : bus_.subscribe(ch_.solid_state, &Peer::on_solid_state, this));
     subs_.push_back(bus_.subscribe(ch_.resend, &Peer::on_resend, this));
   }
   Peer(const Peer&) = delete;
@@ -424,15 +533,18 @@ class Peer {
   }
 
   // ---- results ----
-  std::int64_t compared = 0, differing_steps = 0, duplicates = 0, resends_answered = 0;
+  std::int64_t compared = 0, differing = 0, duplicates = 0, resends_answered = 0;
   std::optional<StepResult> first_different;
   std::optional<FieldDiff> max_abs, max_rel;
-  std::int64_t max_abs_step = -1, max_rel_step = -1;
-  std::set<std::int64_t> published;         ///< steps the server published (first copies)
-  std::vector<std::int64_t> not_in_log;     ///< ... of which the log has no message
+  std::optional<StepResult> max_abs_at, max_rel_at;  ///< the messages they are in (no diffs kept)
+  std::set<std::int64_t> published;         ///< seqs the server published (first copies)
+  std::vector<MessageKey> not_in_log;       ///< ... of which the log has no message
   std::optional<std::string> refused;       ///< the handshake's refusal, if any
   bool welcomed = false;                    ///< an accepted welcome_t went out or came back
   std::string log_gap;                      ///< "" or: the input the log lacks
+  /// The server was given a stop_t with an error (the logged peer's, or the replay's at
+  /// the log's end): the logged run may have ended before what the server published next.
+  bool error_stop_given = false;
   std::string failure;                      ///< "" or: the log could not be read during the replay
 
  private:
@@ -447,7 +559,8 @@ class Peer {
       return;
     }
     if (m->role != "solid") return;  // ours, heard back
-    if (!welcome_) {
+    const bool first = !welcome_;
+    if (first) {
       const protocol::HandshakeResult r = protocol::check_handshake(
           protocol::from_lcm(*run_.fluid_hello), protocol::from_lcm(*m), token_);
       welcome_ = *run_.welcome;
@@ -461,10 +574,14 @@ class Peer {
       bus_.publish(ch_.hello, &*run_.fluid_hello);
     }
     bus_.publish(ch_.welcome, &*welcome_);  // on every hello_t, as the coordinator does
+    if (first && welcomed) {
+      handshake_done_ = true;
+      feed();  // the solid publishes solid_state_t(0) before it awaits anything
+    }
   }
 
-  // The fluid's coordinator decided (replaying the fluid): solid_state_t(0) follows an
-  // accepted welcome_t (section 5).
+  // The fluid's coordinator decided (replaying the fluid): the peer's first messages follow
+  // an accepted welcome_t; the fluid now awaits solid_state_t(0).
   void on_welcome(const lcm::ReceiveBuffer*, const std::string&, const cosimlcm::welcome_t* m) {
     if (side_ != Side::Fluid || m->token != token_ || seen_welcome_) return;
     seen_welcome_ = true;  // a refusal may be read only after the server returned (finish())
@@ -473,112 +590,170 @@ class Peer {
       return;
     }
     welcomed = true;
-    feed(0);
+    handshake_done_ = true;
+    if (feed() == 0) beyond_log(-1, 0);
   }
 
-  // The fluid's output of step n; it now waits for solid_state_t(n).
   void on_fluid_state(const lcm::ReceiveBuffer*, const std::string&, const cosimlcm::fluid_state_t* m) {
-    if (m->token != token_) return;
-    if (output(m->step, *m, run_.fluid_states)) feed(m->step);
+    if (m->token == token_) output(*m, run_.fluid_states);
   }
 
-  // The solid's output of step n; it now waits for fluid_state_t(n + 1).
   void on_solid_state(const lcm::ReceiveBuffer*, const std::string&, const cosimlcm::solid_state_t* m) {
-    if (m->token != token_) return;
-    if (output(m->step, *m, run_.solid_states)) feed(m->step + 1);
+    if (m->token == token_) output(*m, run_.solid_states);
   }
 
-  // The server asks for a peer message again (section 7): the logged one, bit for bit, if
-  // it was fed already; a step not reached yet is ignored.
+  // The server asks for a peer message again (section 7): every logged one of that step it
+  // was fed, bit for bit (in the implicit scheme a step has several); a step not fed yet is
+  // ignored. Asked again and again with nothing fed in between, the server waits for a
+  // message the log does not give it.
   void on_resend(const lcm::ReceiveBuffer*, const std::string&, const cosimlcm::resend_t* m) {
     if (m->token != token_ || done_) return;
     const bool fluid = side_ == Side::Fluid;
-    if (m->what != (fluid ? "solid_state" : "fluid_state") || m->step > fed_) return;
-    const auto& inputs = fluid ? run_.solid_states : run_.fluid_states;
-    if (const auto it = inputs.find(m->step); it != inputs.end()) {
-      guarded([&] { publish_logged(fluid ? ch_.solid_state : ch_.fluid_state, it->second); });
-      ++resends_answered;
-    }
+    if (m->what != (fluid ? "solid_state" : "fluid_state")) return;
+    bool answered = false;
+    for (std::size_t i = 0; i < next_; ++i)
+      if (feed_[i]->step == m->step) {
+        guarded([&] { publish_logged(fluid ? ch_.solid_state : ch_.fluid_state, feed_[i]->offset); });
+        answered = true;
+      }
+    if (answered) ++resends_answered;
+    if (++resends_since_feed_ >= kResendsBeforeGap && !stopped_)
+      end_feeding("the " + std::string(side_name(side_)) + " server waits for a " + peer_type() + " of step " +
+                  std::to_string(m->step) + " that the log does not give it (asked " +
+                  std::to_string(resends_since_feed_) + " times since the last one fed" + last_fed() + ")");
   }
 
-  /// Compares the first copy of a step with the log; true if it was the first copy.
+  /// Compares the first copy of a seq with the log, then feeds what is due.
   template <class Message>
-  bool output(std::int64_t step, const Message& m, const std::map<std::int64_t, long>& logged) {
-    if (!published.insert(step).second) {
+  void output(const Message& m, const std::map<std::int64_t, Logged>& logged) {
+    if (!published.insert(m.seq).second) {
       ++duplicates;
-      return false;
+      return;
     }
-    const auto it = logged.find(step);
-    if (it == logged.end()) {
-      not_in_log.push_back(step);
-      return true;
+    published_up_to_ = std::max(published_up_to_, m.seq);
+    if (const auto it = logged.find(m.seq); it == logged.end()) {
+      not_in_log.push_back({m.seq, m.step, m.iteration});
+    } else {
+      guarded([&] {
+        const std::optional<Message> l = decode<Message>(log_.at(it->second.offset));
+        if (!l) throw std::runtime_error(log_.path() + ": the logged message of seq " + std::to_string(m.seq) +
+                                         " (step " + std::to_string(it->second.step) + ") no longer decodes");
+        StepResult r;
+        r.seq = m.seq;
+        r.step = m.step;
+        r.iteration = m.iteration;
+        compare(m, *l, r);
+        record(r);
+      });
     }
-    guarded([&] {
-      const std::optional<Message> l = decode<Message>(log_.at(it->second));
-      if (!l) throw std::runtime_error(log_.path() + ": the logged message of step " +
-                                       std::to_string(step) + " no longer decodes");
-      StepResult r;
-      r.step = step;
-      compare(m, *l, r);
-      record(r);
-    });
-    progress(step);
-    return true;
+    progress(m.step);
+    if (feed() == 0) beyond_log(m.step, m.iteration);
   }
 
-  void record(const StepResult& r) {
+  void record(StepResult& r) {
     ++compared;
     if (r.differing == 0) return;
-    ++differing_steps;
+    ++differing;
     if (!first_different) first_different = r;
     if (!max_abs || r.max_abs->abs > max_abs->abs) {
       max_abs = r.max_abs;
-      max_abs_step = r.step;
+      max_abs_at = r;
     }
     if (!max_rel || r.max_rel->rel > max_rel->rel) {
       max_rel = r.max_rel;
-      max_rel_step = r.step;
+      max_rel_at = r;
     }
   }
 
-  /// The peer's message of `step`, which the server now waits for; if the log has none,
-  /// the run's end (solid: step = total_steps, the logged stop_t) or the logged run's error
-  /// stop_t, else a stop_t(4) naming the gap.
-  void feed(std::int64_t step) {
-    if (done_ || stopped_) return;
+  /// Publishes the peer's messages that are due (class comment); returns how many.
+  int feed() {
+    if (done_ || stopped_ || !handshake_done_) return 0;
     const bool fluid = side_ == Side::Fluid;
-    const auto& inputs = fluid ? run_.solid_states : run_.fluid_states;
-    if (const auto it = inputs.find(step); it != inputs.end()) {
-      guarded([&] { publish_logged(fluid ? ch_.solid_state : ch_.fluid_state, it->second); });
-      fed_ = std::max(fed_, step);
+    int fed = 0;
+    while (next_ < feed_.size() && published_up_to_ >= trigger(*feed_[next_]) && !stopped_) {
+      guarded([&] { publish_logged(fluid ? ch_.solid_state : ch_.fluid_state, feed_[next_]->offset); });
+      ++next_;
+      ++fed;
+      resends_since_feed_ = 0;
+    }
+    if (stop_ && !stopped_ && next_ >= stop_after_ && published_up_to_ >= trigger(stop_->where)) {
+      stopped_ = true;
+      error_stop_given = stop_->message.exit_code != 0;
+      bus_.publish(ch_.stop, &stop_->message);
+      ++fed;
+    }
+    return fed;
+  }
+
+  /// The server's own seq the log shows before `m`.
+  std::int64_t trigger(const Logged& m) const {
+    return side_ == Side::Fluid ? m.after_fluid : m.after_solid;
+  }
+
+  /// The server published a message (of `step`, `iteration`; -1: the handshake) and nothing
+  /// was due. With the log's peer messages all given and no stop_t of the peer in it, the
+  /// server has gone past the log: at the solid's last message of the run, a log that lost
+  /// the coordinator's stop_t gets stop_t(N, 0); otherwise the server awaits what the log
+  /// does not hold.
+  void beyond_log(std::int64_t step, std::int32_t iteration) {
+    if (stopped_ || done_ || next_ < feed_.size() || stop_) return;
+    const std::int64_t total = run_.welcome->total_steps;
+    if (side_ == Side::Solid && iteration == 0 && step == (implicit_ ? total : total - 1)) {
+      stopped_ = true;
+      cosimlcm::stop_t s{};
+      s.token = token_;
+      s.sender = peer_role();
+      s.step = total;
+      s.exit_code = 0;
+      bus_.publish(ch_.stop, &s);
       return;
     }
+    end_feeding("the log has no " + awaited() + " (nor a stop_t with an error)");
+  }
+
+  /// The log gives the server nothing more: the logged run's error stop_t of the peer if
+  /// there is one (the run ended there), else a stop_t(4) naming `gap`.
+  void end_feeding(const std::string& gap) {
+    if (stopped_ || done_) return;
     stopped_ = true;
-    const bool end = !fluid && step >= run_.welcome->total_steps;
-    const auto logged = run_.stops.find(peer_role());
-    if (end && logged != run_.stops.end() && logged->second.first) {
-      bus_.publish(ch_.stop, &*logged->second.first);
+    error_stop_given = true;
+    if (error_stop_) {
+      bus_.publish(ch_.stop, &error_stop_->message);
       return;
     }
-    if (!end && logged != run_.stops.end() && logged->second.second) {  // the logged run ended here with an error
-      bus_.publish(ch_.stop, &*logged->second.second);
-      return;
-    }
+    log_gap = gap;
     cosimlcm::stop_t s{};
     s.token = token_;
     s.sender = peer_role();
-    s.step = end ? run_.welcome->total_steps : step;
-    s.exit_code = end ? 0 : 4;
-    if (!end) {
-      log_gap = "the log has no " + std::string(fluid ? "solid_state_t" : "fluid_state_t") +
-                " of step " + std::to_string(step) + " (nor a stop_t with an error)";
-      s.reason = "cosim-replay: " + log_gap;
-    }
+    s.step = next_ > 0 ? feed_[next_ - 1]->step : 0;
+    s.exit_code = 4;
+    s.reason = "cosim-replay: " + log_gap;
     bus_.publish(ch_.stop, &s);
+  }
+
+  /// The peer message the server awaits after the log's last usable one: by step where a
+  /// step has one message, else by seq.
+  std::string awaited() const {
+    const std::string type = peer_type();
+    if (implicit_ && next_ > 0)
+      return type + " of seq " + std::to_string(next_) + " (after step " + std::to_string(feed_[next_ - 1]->step) +
+             ", iteration " + std::to_string(feed_[next_ - 1]->iteration) + ")";
+    if (next_ > 0) return type + " of step " + std::to_string(feed_[next_ - 1]->step + 1);
+    if (side_ == Side::Fluid) return type + " of step 0";
+    return type + " of step " +
+           std::to_string(parallel_ ? protocol::parallel_first_fluid_state(run_.welcome->rigid_steps) : 1);
+  }
+
+  std::string last_fed() const {
+    if (next_ == 0) return ": none";
+    const Logged& l = *feed_[next_ - 1];
+    return ": step " + std::to_string(l.step) + (implicit_ ? ", iteration " + std::to_string(l.iteration) : "") +
+           ", seq " + std::to_string(next_ - 1);
   }
 
   /// The side this peer plays: the one the replayed server talks to.
   std::string peer_role() const { return side_ == Side::Fluid ? "solid" : "fluid"; }
+  std::string peer_type() const { return side_ == Side::Fluid ? "solid_state_t" : "fluid_state_t"; }
 
   void publish_logged(const std::string& channel, long offset) {
     const lcm::LogEvent& e = log_.at(offset);
@@ -595,10 +770,11 @@ class Peer {
       if (failure.empty()) failure = one_line(e.what());
       if (!stopped_) {
         stopped_ = true;
+        error_stop_given = true;
         cosimlcm::stop_t s{};
         s.token = token_;
         s.sender = peer_role();
-        s.step = fed_;
+        s.step = next_ > 0 ? feed_[next_ - 1]->step : -1;
         s.exit_code = 1;
         s.reason = "cosim-replay: " + failure;
         bus_.publish(ch_.stop, &s);
@@ -612,7 +788,7 @@ class Peer {
     if (now - last_progress_ < kProgressEvery) return;
     last_progress_ = now;
     err_ << "cosim-replay: step " << step << " of " << run_.welcome->total_steps << ", "
-         << compared << " compared, " << differing_steps << " differ\n";
+         << compared << " compared, " << differing << " differ\n";
     err_.flush();
   }
 
@@ -621,13 +797,20 @@ class Peer {
   const RunTraffic& run_;
   const std::string token_;
   const Side side_;
+  const bool implicit_, parallel_;
   const protocol::Channels ch_;
   const bool quiet_;
   std::ostream& err_;
   std::vector<lcm::Subscription*> subs_;
   std::optional<cosimlcm::welcome_t> welcome_;  ///< what the solid is answered (solid side)
-  bool seen_welcome_ = false, stopped_ = false, done_ = false;
-  std::int64_t fed_ = -1;  ///< the last step whose peer message went out
+  /// The peer's logged state messages of seq 0, 1, 2, ... (up to the first the log lacks).
+  std::vector<const Logged*> feed_;
+  std::size_t next_ = 0;          ///< feed_[next_] goes out next
+  std::optional<LoggedStop> stop_, error_stop_;  ///< the peer's first stop_t, first with an error
+  std::size_t stop_after_ = 0;    ///< stop_ goes out after feed_[0 .. stop_after_ - 1]
+  std::int64_t published_up_to_ = -1;  ///< the server's highest seq published
+  int resends_since_feed_ = 0;      ///< resend requests since the last message fed
+  bool seen_welcome_ = false, handshake_done_ = false, stopped_ = false, done_ = false;
   Clock::time_point last_progress_ = Clock::now();
 };
 
@@ -646,8 +829,6 @@ std::string last_line(const std::string& text) {
     if (!one_line(line).empty()) last = line;
   return one_line(last);
 }
-
-std::string steps(std::size_t n) { return std::to_string(n) + (n == 1 ? " step" : " steps"); }
 
 fs::path make_temp_output() {
   std::string pattern = (fs::temp_directory_path() / "cosim-replay-XXXXXX").string();
@@ -688,9 +869,10 @@ class Replay {
     } catch (const solid::SolidSceneError& e) {
       throw ReplayError(e.what());
     }
-    if (fluid ? fscene->coupling->scheme.parallel_scheme() : sscene->coupling->scheme.parallel_scheme())
-      throw ReplayError(o_.scene_path + " runs coupling.scheme = \"parallel\" (protocol/README.md 14); "
-                        "cosim-replay replays the serial scheme only");
+    // Every scheme is replayed the same way (the peer feeds by causality); the scheme only
+    // words the report (several messages a step) and the end of a log without stop_t.
+    const protocol::SchemeSettings& scheme = fluid ? fscene->coupling->scheme : sscene->coupling->scheme;
+    implicit_ = scheme.implicit_scheme();
     const fs::path output = output_dir();
     if (fluid) {
       fluid::SceneOverrides ov;
@@ -711,8 +893,8 @@ class Replay {
     out_ << "cosim-replay: the " << side_name(o_.side) << " of run " << sel.token << " from "
          << o_.log_path << "\n"
          << "  log: " << s.events << " events, " << run.messages << " of the run on " << sel.prefix
-         << "*; solid_state_t steps " << step_range(run.solid_states) << ", fluid_state_t steps "
-         << step_range(run.fluid_states) << "; " << run.copies << " resent or duplicate copies skipped\n"
+         << "*; solid_state_t " << describe_states(run.solid_states) << ", fluid_state_t "
+         << describe_states(run.fluid_states) << "; " << run.copies << " resent or duplicate copies skipped\n"
          << "  scene " << o_.scene_path << "; server output " << output.string();
     if (fluid) out_ << "; " << threads << " OpenMP thread" << (threads == 1 ? "" : "s");
     out_ << "\n";
@@ -720,7 +902,7 @@ class Replay {
 
     lcm::LCM bus("memq://");
     if (!bus.good()) throw std::runtime_error("cannot open LCM's in-process bus memq://");
-    Peer peer(bus, log, sel, o_.side, o_.quiet, err_);
+    Peer peer(bus, log, sel, o_.side, scheme.implicit_scheme(), scheme.parallel_scheme(), o_.quiet, err_);
     if (!peer.subscribed()) throw std::runtime_error("cannot subscribe to " + sel.prefix + "* on memq://");
 
     std::ostringstream server_out, server_err;
@@ -769,9 +951,6 @@ class Replay {
     if (!run.welcome->accepted)
       throw ReplayError(where + ": the handshake was refused (" + one_line(run.welcome->reason) +
                         "); nothing to replay");
-    if (run.iterated_step >= 0)
-      throw ReplayError(where + " ran the implicit scheme (solid_state_t of step " + std::to_string(run.iterated_step) +
-                        " has sub-iterations, protocol/README.md 13); cosim-replay replays the serial scheme only");
     const bool fluid = o_.side == Side::Fluid;
     const auto& outputs = fluid ? run.fluid_states : run.solid_states;
     if (outputs.empty())
@@ -823,48 +1002,49 @@ class Replay {
     }
 
     // Logged outputs the server never published; published ones the log lacks (past the end
-    // of an incomplete log, they are the log's gap, not a difference).
+    // of an incomplete log, or of a run that the peer stopped with an error, they are the
+    // log's end, not a difference: the logged server may have stopped before them). By seq.
     const auto& logged = fluid ? run.fluid_states : run.solid_states;
-    std::vector<std::int64_t> missing, not_in_log;
-    for (const auto& [step, offset] : logged)
-      if (!p.published.count(step)) missing.push_back(step);
-    for (const std::int64_t step : p.not_in_log)
-      if (p.log_gap.empty() || step < logged.rbegin()->first) not_in_log.push_back(step);
+    std::vector<std::int64_t> missing;
+    std::vector<MessageKey> not_in_log;
+    for (const auto& [seq, m] : logged)
+      if (!p.published.count(seq)) missing.push_back(seq);
+    for (const MessageKey& k : p.not_in_log)
+      if (!p.error_stop_given || k.seq < logged.rbegin()->first) not_in_log.push_back(k);
 
-    const bool different = p.differing_steps > 0 || !not_in_log.empty() || (code == 0 && !missing.empty());
+    const bool different = p.differing > 0 || !not_in_log.empty() || (code == 0 && !missing.empty());
     if (!different && code == 0 && p.log_gap.empty()) {
-      out_ << "identical: " << p.compared << " steps compared (" << type << " "
-           << step_range(logged) << ": "
-           << (fluid ? "seq, num_cgps, bulk_velocity_lb, rho_lb, velocity_lb"
-                     : "seq, substeps, solid_time_s, num_cgps, position_lb, impulse_lb")
-           << ", bit for bit)\n";
+      out_ << "identical: " << units(p.compared) << " compared (" << type << " " << step_range(steps_of(logged))
+           << (implicit_ ? ", iterations 0.." + std::to_string(max_iteration(logged)) : std::string())
+           << ", by seq: " << compared_fields(o_.side) << ", bit for bit)\n";
       cleanup(output, false);
       return exit_code::identical;
     }
     if (p.first_different) {
       const StepResult& r = *p.first_different;
       const FieldDiff& d = *r.first;
-      out_ << "different: first at step " << r.step << " (" << type << "), "
+      out_ << "different: first at " << where(r.step, r.iteration) << " (" << type << "), "
            << (d.cgp >= 0 ? "CGP " + std::to_string(d.cgp) + ", " : std::string()) << describe(d) << "\n";
-      out_ << "  at step " << r.step << ": " << r.differing << " of " << r.values
+      out_ << "  at " << where(r.step, r.iteration) << ": " << r.differing << " of " << r.values
            << " values differ; largest abs " << fmt("%.3g", r.max_abs->abs) << " (" << r.max_abs->field
            << "), largest rel " << fmt("%.3g", r.max_rel->rel) << " (" << r.max_rel->field << ")\n";
-      out_ << "  over the replay: " << p.differing_steps << " of " << p.compared
-           << " steps differ; largest abs " << fmt("%.3g", p.max_abs->abs) << " (step "
-           << p.max_abs_step << ", " << p.max_abs->field << "), largest rel "
-           << fmt("%.3g", p.max_rel->rel) << " (step " << p.max_rel_step << ", " << p.max_rel->field
-           << ")\n";
+      out_ << "  over the replay: " << p.differing << " of " << units(p.compared) << " differ; largest abs "
+           << fmt("%.3g", p.max_abs->abs) << " (" << where(p.max_abs_at->step, p.max_abs_at->iteration) << ", "
+           << p.max_abs->field << "), largest rel " << fmt("%.3g", p.max_rel->rel) << " ("
+           << where(p.max_rel_at->step, p.max_rel_at->iteration) << ", " << p.max_rel->field << ")\n";
     } else if (different) {
-      out_ << "different: " << steps(std::size_t(p.compared)) << " compared and identical, but\n";
+      out_ << "different: " << units(p.compared) << " compared and identical, but\n";
     } else {
-      out_ << "identical so far: " << steps(std::size_t(p.compared)) << " compared\n";
+      out_ << "identical so far: " << units(p.compared) << " compared\n";
     }
     if (!not_in_log.empty())
-      out_ << "  the server published " << type << " of " << steps(not_in_log.size())
-           << " the log lacks (first: step " << not_in_log.front() << ")\n";
-    if (!missing.empty())
-      out_ << "  the server published no " << type << " of " << steps(missing.size())
-           << " of the log (first: step " << missing.front() << ")\n";
+      out_ << "  the server published " << type << " of " << units(not_in_log.size())
+           << " the log lacks (first: " << where(not_in_log.front().step, not_in_log.front().iteration) << ")\n";
+    if (!missing.empty()) {
+      const Logged& first = logged.at(missing.front());
+      out_ << "  the server published no " << type << " of " << units(missing.size()) << " of the log (first: "
+           << where(first.step, first.iteration) << ")\n";
+    }
     if (!p.log_gap.empty()) out_ << "  the replay stopped early: " << p.log_gap << "\n";
     if (code != 0)
       out_ << "  the " << server << " server exited " << code << ": " << reason << "\n";
@@ -879,6 +1059,18 @@ class Replay {
     return exit_code::server_failed;
   }
 
+  /// "59 steps", or in the implicit scheme (several messages a step) "143 messages".
+  std::string units(std::size_t n) const {
+    const char* unit = implicit_ ? " message" : " step";
+    return std::to_string(n) + unit + (n == 1 ? "" : "s");
+  }
+  std::string units(std::int64_t n) const { return units(static_cast<std::size_t>(n)); }
+
+  /// "step 37", or in the implicit scheme "step 37, iteration 1".
+  std::string where(std::int64_t step, std::int32_t iteration) const {
+    return "step " + std::to_string(step) + (implicit_ ? ", iteration " + std::to_string(iteration) : std::string());
+  }
+
   /// The default temporary folder goes when the replay is identical or refused.
   void cleanup(const fs::path& output, bool refused) {
     if (!temporary_) return;
@@ -891,6 +1083,7 @@ class Replay {
   std::ostream& out_;
   std::ostream& err_;
   bool temporary_ = false;
+  bool implicit_ = false;  ///< the scene's scheme has several messages a step
 };
 
 }  // namespace

@@ -3,10 +3,11 @@
 // It reads the LCM log of a run (launch/run-coupled.sh --log, lcm-logger's format), starts
 // the chosen server in this process (run_coupled_fluid or run_coupled_solid) on a memq://
 // bus with the logged token, and plays the missing peer from the log: the peer's hello_t
-// (and, for the solid, the coordinator's welcome_t), then the peer's messages in step
-// order as the server asks for them (protocol/README.md sections 5-7). Every message the
-// server publishes (fluid_state_t, or solid_state_t) is compared, bit for bit, with the
-// logged message of the same step.
+// (and, for the solid, the coordinator's welcome_t), then the peer's messages in seq order,
+// each once the server has published what the log shows before it (causality: no
+// scheme-specific order, so the serial, implicit and parallel schemes of protocol/README.md
+// sections 5, 13 and 14 all replay). Every message the server publishes (fluid_state_t, or
+// solid_state_t) is compared, bit for bit, with the logged first copy of the same seq.
 #pragma once
 
 #include <cstdint>
