@@ -14,6 +14,7 @@
 #include "protocol/peak_memory.hpp"
 #include "protocol/text.hpp"
 #include "solid/model_registry.hpp"
+#include "solid/output_units.hpp"
 #include "solid/sheet_spec.hpp"
 
 namespace cosim::solid {
@@ -26,17 +27,10 @@ using protocol::one_line;
 using protocol::PhysicalConstants;
 using protocol::UnitConverter;
 
-constexpr double kMicrometre = 1e-6;
-
 /// The solid's frame on the lattice: its plate surface y = 0 is the fluid's half-way
 /// bounce-back wall at lattice y = -1/2; x and z: lattice = physical / dx
 /// (protocol/README.md section 4).
 const Eigen::Vector3d kOriginLb(0.0, -0.5, 0.0);
-
-double um_from_bohr(double bohr) { return bohr * PhysicalConstants::bohr_m / kMicrometre; }
-double joule_from_hartree(double e) {
-  return e * UnitConverter::force_au_N() * PhysicalConstants::bohr_m;  // E_h = F_AU l_AU
-}
 
 }  // namespace
 
