@@ -4,6 +4,10 @@
 // (SolidCoupler) and solid_state_t(m) back, with resends, timeouts, foreign tokens and
 // stop_t as the protocol says. The `solid` executable is a thin wrapper around
 // run_coupled_solid; the tests call it in-process over memq://.
+//
+// Inside: the solid's physics (solid_run.hpp), its session with the coordinator
+// (solid_peer.hpp), its output (coupled_series.hpp, solid_checkpoints.hpp) and the coupling
+// scheme's side, chosen by name ([coupling] scheme) from solid/schemes/registry.cpp.
 #pragma once
 
 #include <ostream>

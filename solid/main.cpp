@@ -58,6 +58,7 @@
 #include "solid/sheet_spec.hpp"
 #include "solid/solid_h5.hpp"
 #include "solid/solid_model.hpp"
+#include "solid/output_units.hpp"
 #include "solid/solid_scene.hpp"
 
 namespace cosim::solid {
@@ -73,14 +74,8 @@ using protocol::PhysicalConstants;
 using protocol::UnitConverter;
 using protocol::H5Id;
 
-constexpr double kMicrometre = 1e-6;
 /// First root of cos(x) cosh(x) = -1: the clamped-free beam's first mode (Euler-Bernoulli).
 constexpr double kBeamRoot1 = 1.8751040687119611;
-
-double um_from_bohr(double bohr) { return bohr * PhysicalConstants::bohr_m / kMicrometre; }
-double joule_from_hartree(double e) {
-  return e * UnitConverter::force_au_N() * PhysicalConstants::bohr_m;  // E_h = F_AU l_AU
-}
 
 /// The first CGP with a non-finite position or velocity, as a diagnosis; "" if none.
 std::string non_finite_state(const SolidModel& model, const SolidConfig& config) {

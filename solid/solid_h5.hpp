@@ -1,6 +1,6 @@
 // Writing the solid server's time series (OUTPUT/solid.h5) with the HDF5 C API: one dataset
 // per quantity, scalar attributes. Shared by the standalone run (main.cpp) and the coupled
-// run (coupled_solid.cpp); internal to those .cpp files, like protocol/hdf5_handle.hpp.
+// run (coupled_series.cpp); internal to those .cpp files, like protocol/hdf5_handle.hpp.
 #pragma once
 
 #include <hdf5.h>
