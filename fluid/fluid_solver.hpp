@@ -64,7 +64,7 @@ class FluidSolver {
   /// cells that receive a force (add_force, before or after begin_step) are collided again
   /// with it by finish_step(), from the same state, which then makes the new state current:
   /// the same result as step(). A coupled step runs the bulk while the solid computes the
-  /// impulses it spreads (fluid/coupled_fluid.cpp). @throws std::logic_error out of order
+  /// impulses it spreads (fluid/schemes/serial_scheme.cpp). @throws std::logic_error out of order
   void begin_step();
   void finish_step();
   /// Between begin_step() and finish_step().

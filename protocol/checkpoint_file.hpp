@@ -5,7 +5,7 @@
 // Internal to the .cpp files of the servers, like hdf5_handle.hpp.
 //
 // The layout of the files themselves (which arrays, which attributes) is the servers'
-// (fluid/coupled_fluid.cpp, solid/coupled_solid.cpp) and protocol/README.md section 10.
+// (fluid/coupled/fluid_run.cpp, solid/solid_checkpoints.cpp) and protocol/README.md section 10.
 #pragma once
 
 #include <hdf5.h>

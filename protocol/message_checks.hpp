@@ -17,7 +17,7 @@
 // first of each (channel, category) once, like ForeignCounter does for foreign tokens.
 //
 // What is not checked here: per-step consistency (the substeps and solid_time_s a given step
-// must have; fluid/coupled_fluid.cpp), and positions against the fluid's domain (the fluid
+// must have; fluid/coupled/coordinator.cpp), and positions against the fluid's domain (the fluid
 // knows it).
 #pragma once
 

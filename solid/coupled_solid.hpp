@@ -15,6 +15,7 @@
 
 #include "protocol/fault_injection.hpp"
 #include "protocol/session/exit_codes.hpp"
+#include "protocol/session/session_options.hpp"
 #include "solid/solid_scene.hpp"
 
 namespace lcm {
@@ -26,23 +27,11 @@ namespace cosim::solid {
 /// Exit codes of both servers (protocol/README.md section 9), defined once in the session layer.
 namespace exit_code = protocol::exit_code;
 
-struct CoupledSolidOptions {
-  /// The run's token (the launcher's new_run_token()); every message carries it. Required
-  /// unless check_only.
-  std::string token;
-  /// No progress line on `err`.
-  bool quiet = false;
+/// The run's token (required unless check_only), quiet, an in-process bus, faults, --restart
+/// (protocol/session/session_options.hpp), and:
+struct CoupledSolidOptions : protocol::SessionOptions {
   /// Build the model, print the header and return 0: no LCM, no token needed.
   bool check_only = false;
-  /// A bus to use instead of opening the scene's [coupling] lcm_url: the tests share one
-  /// memq:// bus (one queue per lcm_t) with a fake fluid in the same process. Not owned;
-  /// the subscriptions made on it are removed before run_coupled_solid returns.
-  lcm::LCM* bus = nullptr;
-  /// Faults injected into what this side publishes (protocol/fault_injection.hpp; tests).
-  protocol::FaultSettings faults;
-  /// A checkpoint file (OUTPUT/checkpoints/solid_NNNNNNNN.h5) to continue from; the fluid
-  /// restarts from its own checkpoint of the same step (DESIGN 2.4).
-  std::string restart;
 };
 
 /// Runs a coupled scene (scene.coupled()) to its end and returns the exit code of

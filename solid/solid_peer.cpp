@@ -18,7 +18,6 @@ using protocol::fmt;
 using protocol::one_line;
 
 constexpr auto kHelloEvery = std::chrono::milliseconds(200);  // section 6
-constexpr std::size_t kKeptMessages = 2;  // section 7: at least the last two
 constexpr auto kPoll = std::chrono::milliseconds(20);  // the longest single wait for LCM, so that timers are checked
 
 SolidPeer::Clock::duration seconds(double s) {
@@ -66,6 +65,7 @@ std::optional<Ending> SolidPeer::open(Eigen::Index num_cgps) {
   ls.faults = o_.faults;
   link_.emplace(ls, out_);
   if (auto e = link_->open()) return e;
+  outbox_.emplace(*link_, ch_.solid_state);
   link_->expect([this] { return expectation(); });
   link_->on_undecodable([this](const std::string& channel, const protocol::MessageHeader& h, const std::string& why) {
     if (channel != ch_.fluid_state) return;
@@ -189,25 +189,17 @@ protocol::Expectation SolidPeer::expectation() const {
 
 void SolidPeer::publish_state(std::int64_t step, int substeps, double solid_time_s, const Eigen::Matrix3Xd& x,
                               const Eigen::Matrix3Xd& j, int iteration) {
-  cosimlcm::solid_state_t m{};
-  m.token = o_.token;
-  m.seq = solid_seq_++;
-  m.step = step;
-  m.iteration = iteration;
+  cosimlcm::solid_state_t m = outbox_->next(step, iteration);
   m.substeps = substeps;
   m.solid_time_s = solid_time_s;
   set_positions_impulses(m, x, j);
-  link_->publish(ch_.solid_state, m);  // an LCM error ends the run (failure())
+  outbox_->publish(std::move(m));  // an LCM error ends the run (failure())
   last_step_ = step;
-  sent_.push_back(std::move(m));
-  while (sent_.size() > kKeptMessages) sent_.pop_front();
 }
 
 void SolidPeer::resume(cosimlcm::solid_state_t in_flight, std::int64_t next_seq) {
-  solid_seq_ = next_seq;
-  link_->publish(ch_.solid_state, in_flight);
   last_step_ = in_flight.step;
-  sent_.push_back(std::move(in_flight));
+  outbox_->republish(std::move(in_flight), next_seq);
 }
 
 void SolidPeer::request_resend() {
@@ -265,11 +257,7 @@ void SolidPeer::on_resend(const cosimlcm::resend_t& m) {
   ++resends_.requests;
   // Every kept message of that step (the implicit scheme's iterates of one step share it;
   // the fluid drops the copies it has had by their seq).
-  for (const cosimlcm::solid_state_t& sent : sent_)
-    if (sent.step == m.step) {
-      link_->publish(ch_.solid_state, sent);  // unchanged: same seq, bit for bit
-      ++resends_.answered;
-    }
+  resends_.answered += outbox_->answer_resend(m.step);  // unchanged: same seq, bit for bit
   // A step not reached yet (it comes when ready) or no longer kept: ignored.
 }
 

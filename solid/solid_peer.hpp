@@ -27,6 +27,7 @@
 #include "protocol/session/peer_link.hpp"
 #include "protocol/session/session_counters.hpp"
 #include "protocol/session/state_inbox.hpp"
+#include "protocol/session/state_outbox.hpp"
 #include "solid/coupled_solid.hpp"
 #include "solid/solid_scene.hpp"
 
@@ -85,9 +86,9 @@ class SolidPeer {
   /// A restart: `in_flight`, the checkpoint's solid_state_t, published again; solid_state_t
   /// go on from seq `next_seq`.
   void resume(cosimlcm::solid_state_t in_flight, std::int64_t next_seq);
-  bool sent_any() const { return !sent_.empty(); }
-  const cosimlcm::solid_state_t& last_sent() const { return sent_.back(); }
-  std::int64_t next_seq() const { return solid_seq_; }
+  bool sent_any() const { return outbox_ && !outbox_->empty(); }
+  const cosimlcm::solid_state_t& last_sent() const { return outbox_->last(); }
+  std::int64_t next_seq() const { return outbox_ ? outbox_->seq() : 0; }
   /// The step of the last solid_state_t published.
   std::int64_t last_step() const { return last_step_; }
 
@@ -133,9 +134,10 @@ class SolidPeer {
   std::optional<cosimlcm::welcome_t> welcome_;
   std::optional<cosimlcm::stop_t> stop_;
   std::optional<Ending> fatal_;  ///< found inside a handler
-  std::deque<cosimlcm::solid_state_t> sent_;
+  /// solid_state_t out: the token, the next seq, the last two kept for resends.
+  std::optional<protocol::StateOutbox<cosimlcm::solid_state_t>> outbox_;
   std::int64_t total_steps_ = 0, rigid_steps_ = 0;
-  std::int64_t solid_seq_ = 0, last_step_ = 0;
+  std::int64_t last_step_ = 0;
   std::int64_t hellos_ = 0;
   protocol::ResendCounts resends_;
 };

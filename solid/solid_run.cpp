@@ -11,6 +11,8 @@
 #include <tuple>
 
 #include "protocol/handshake.hpp"
+#include "protocol/hello_lcm.hpp"
+#include "protocol/session/announcement.hpp"
 #include "protocol/peak_memory.hpp"
 #include "protocol/text.hpp"
 #include "solid/model_registry.hpp"
@@ -157,19 +159,8 @@ std::optional<Ending> SolidRun::open_output() {
 }
 
 cosimlcm::hello_t SolidRun::hello(const std::string& token) const {
-  cosimlcm::hello_t h{};
-  h.token = token;
-  h.role = "solid";
-  h.model = s_.model;
-  h.version = std::string(protocol::kProtocolVersion);  // GCC 12: a -Wrestrict false positive on assigning the char*
-  h.scene_hash = protocol::scene_hash_of_file(s_.path);
-  h.scheme = protocol::scheme_name(c_.scheme.scheme);
-  h.dx_m = units_.dx_m();
-  h.dt_lb_s = units_.dt_lb_s();
-  h.sound_speed_m_s = units_.inputs().sound_speed_m_s;
-  h.air_density_kg_m3 = units_.air_density_kg_m3();
-  h.time_ratio = c_.time_ratio;
-  h.dt_cg_s = units_.dt_cg_s();
+  cosimlcm::hello_t h = protocol::to_lcm(
+      protocol::announcement("solid", token, s_.model, s_.path, c_.scheme.scheme, units_, c_.time_ratio));
   h.stable_dt_cg_s = stable_dt_cg_s();
   h.num_cgps = static_cast<std::int32_t>(n_);
   std::tie(h.light_cgp_mass_kg, h.light_cgp_area_m2) = light_cgp();

@@ -9,6 +9,7 @@
 #include "protocol/handshake.hpp"
 #include "protocol/hello_lcm.hpp"
 #include "protocol/message_checks.hpp"
+#include "protocol/session/announcement.hpp"
 #include "protocol/session/stop_rules.hpp"
 #include "protocol/text.hpp"
 #include "protocol/watchdog.hpp"
@@ -45,7 +46,8 @@ Coordinator::Coordinator(const FluidScene& scene, const CoupledFluidOptions& opt
     : s_(scene), c_(*scene.coupling), o_(options), scheme_(scheme), out_(out), link_(link_settings(c_, options), out),
       ch_(link_.channels()),
       inbox_(0, [this](const cosimlcm::solid_state_t& m) { return scheme_.key_of(m); }, ms(c_.peer_timeout_s),
-             ms(c_.resend_after_s)) {
+             ms(c_.resend_after_s)),
+      outbox_(link_, ch_.fluid_state) {
   protocol::UnitInputs in;
   in.dx_m = scene.dx_um * 1e-6;
   in.time_ratio = c_.time_ratio;
@@ -72,20 +74,9 @@ void Coordinator::expect_restart(std::int64_t step, std::int64_t key, int time_r
 }
 
 protocol::Hello Coordinator::fluid_hello() const {
-  protocol::Hello h;
-  h.token = o_.token;
-  h.role = "fluid";
-  h.model = kFluidModel;
-  h.version = protocol::kProtocolVersion;
-  h.scene_hash = protocol::scene_hash_of_file(s_.path);
-  h.scheme = protocol::scheme_name(c_.scheme.scheme);
-  h.dx_m = units_.dx_m();
-  h.dt_lb_s = units_.dt_lb_s();
-  h.sound_speed_m_s = units_.inputs().sound_speed_m_s;
-  h.air_density_kg_m3 = units_.air_density_kg_m3();
-  h.time_ratio = c_.time_ratio;
-  h.dt_cg_s = units_.dt_cg_s();
-  h.stable_dt_cg_s = 0.0;
+  protocol::Hello h =
+      protocol::announcement("fluid", o_.token, kFluidModel, s_.path, c_.scheme.scheme, units_, c_.time_ratio);
+  h.stable_dt_cg_s = 0.0;  // the solid's fields
   h.num_cgps = 0;
   return h;
 }
@@ -267,11 +258,7 @@ void Coordinator::on_resend(const cosimlcm::resend_t& m) {
   // (protocol/README.md 7-8): silence counts from the last message applied.
   if (m.what != "fluid_state") return;
   ++resends_.requests;
-  for (const cosimlcm::fluid_state_t& f : sent_)
-    if (f.step == m.step) {
-      link_.publish(ch_.fluid_state, f);
-      ++resends_.answered;
-    }
+  resends_.answered += outbox_.answer_resend(m.step);
 }
 
 /// The solid's stop_t, if it fits the run (protocol/session/stop_rules.hpp): the solid never
@@ -397,11 +384,7 @@ std::optional<Ending> Coordinator::check_solid_state(const cosimlcm::solid_state
 void Coordinator::publish_fluid_state(std::int64_t step, double bulk_velocity_lb,
                                       const std::vector<MarkerSample>& samples,
                                       const std::vector<MarkerSample>& start, int iteration) {
-  cosimlcm::fluid_state_t m{};
-  m.token = o_.token;
-  m.seq = fluid_seq_++;
-  m.step = step;
-  m.iteration = iteration;
+  cosimlcm::fluid_state_t m = outbox_.next(step, iteration);
   m.bulk_velocity_lb = bulk_velocity_lb;
   m.num_cgps = num_cgps_;
   m.rho_lb.resize(samples.size());
@@ -416,22 +399,12 @@ void Coordinator::publish_fluid_state(std::int64_t step, double bulk_velocity_lb
     m.rho_start_lb[l] = start[l].rho;
     m.velocity_start_lb[l] = {start[l].u[0], start[l].u[1], start[l].u[2]};
   }
-  link_.publish(ch_.fluid_state, m);
-  sent_.push_back(std::move(m));
-  while (sent_.size() > 2) sent_.pop_front();
+  outbox_.publish(std::move(m));
 }
 
 void Coordinator::republish(cosimlcm::fluid_state_t m) {
   // The token is this run's; the rest is the message sent before, bit for bit.
-  m.token = o_.token;
-  link_.publish(ch_.fluid_state, m);
-  sent_.push_back(std::move(m));
-}
-
-const cosimlcm::fluid_state_t* Coordinator::sent_state(std::int64_t step) const {
-  for (const cosimlcm::fluid_state_t& m : sent_)
-    if (m.step == step) return &m;
-  return nullptr;
+  outbox_.republish(std::move(m), outbox_.seq());
 }
 
 void Coordinator::publish_stop(std::int64_t step, int code, const std::string& reason) {

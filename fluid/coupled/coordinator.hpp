@@ -32,6 +32,7 @@
 #include "protocol/session/peer_link.hpp"
 #include "protocol/session/run_phase.hpp"
 #include "protocol/session/state_inbox.hpp"
+#include "protocol/session/state_outbox.hpp"
 #include "protocol/session/session_counters.hpp"
 #include "protocol/units.hpp"
 
@@ -86,7 +87,7 @@ class Coordinator {
   /// A fluid_state_t of a checkpoint published again (the parallel scheme's restart).
   void republish(cosimlcm::fluid_state_t m);
   /// The message of `step` among the last ones sent, if kept.
-  const cosimlcm::fluid_state_t* sent_state(std::int64_t step) const;
+  const cosimlcm::fluid_state_t* sent_state(std::int64_t step) const { return outbox_.find(step); }
   void publish_stop(std::int64_t step, int code, const std::string& reason);
   /// Ends the run on the fluid's own error: stop_t to the solid, then end().
   int stop_and_end(const protocol::Ending& e, std::int64_t step);
@@ -98,8 +99,8 @@ class Coordinator {
   // ---- what the run knows ----
   const protocol::UnitConverter& units() const { return units_; }
   std::int32_t num_cgps() const { return num_cgps_; }
-  std::int64_t fluid_seq() const { return fluid_seq_; }
-  void set_fluid_seq(std::int64_t seq) { fluid_seq_ = seq; }
+  std::int64_t fluid_seq() const { return outbox_.seq(); }
+  void set_fluid_seq(std::int64_t seq) { outbox_.set_seq(seq); }
   int restart_ratio() const { return restart_ratio_; }
   int peer_code() const { return peer_code_; }
   std::int64_t first_step() const { return first_step_; }
@@ -133,6 +134,8 @@ class Coordinator {
   protocol::PeerLink link_;
   const protocol::Channels& ch_;
   protocol::StateInbox<cosimlcm::solid_state_t> inbox_;
+  /// fluid_state_t out: the token, the next seq, the last two kept for resends.
+  protocol::StateOutbox<cosimlcm::fluid_state_t> outbox_;
   protocol::UnitConverter units_;
   protocol::PhaseMachine phases_;
 
@@ -146,8 +149,6 @@ class Coordinator {
   std::optional<std::pair<std::optional<cosimlcm::solid_state_t>, protocol::Rejection>> refused_state_;
   std::int32_t time_ratio_ = 0;  ///< A_T agreed in the handshake
   std::int32_t num_cgps_ = 0;
-  std::deque<cosimlcm::fluid_state_t> sent_;
-  std::int64_t fluid_seq_ = 0;
   std::int64_t first_step_ = 0;    ///< 0, or the step of --restart
   int restart_ratio_ = 0;          ///< the A_T of the --restart checkpoint
   int peer_code_ = 0;              ///< the exit code of the solid's stop_t

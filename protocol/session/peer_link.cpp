@@ -83,6 +83,12 @@ void PeerLink::count_undecodable(const std::string& channel, const char* type, c
   if (const auto h = peek_state_header(data, size); h && h->token == s_.token) undecodable_hook_(channel, *h, why);
 }
 
+bool PeerLink::publish_bytes(const std::string& channel, const void* data, std::size_t size) {
+  if (bus_->publish(channel, data, static_cast<unsigned int>(size)) == 0) return true;
+  if (!fatal_) fatal_ = Ending{exit_code::system, "cannot publish on " + channel + " (LCM at " + url() + ")", true};
+  return false;
+}
+
 void PeerLink::publish_stop(std::int64_t step, int code, const std::string& reason) {
   if (!net_) return;
   cosimlcm::stop_t m{};

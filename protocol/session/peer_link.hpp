@@ -95,6 +95,10 @@ class PeerLink {
     return false;
   }
 
+  /// Bytes published as they are (a logged message replayed bit for bit: cosim-replay), past
+  /// the fault injector; on an LCM error, fatal() is set (exit code 1).
+  bool publish_bytes(const std::string& channel, const void* data, std::size_t size);
+
   /// stop_t(step, code, reason) from this peer, three copies 20 ms apart (best effort: the
   /// run ends either way), then whatever the fault injector still holds.
   void publish_stop(std::int64_t step, int code, const std::string& reason);

@@ -36,6 +36,7 @@
 #include "protocol/channels.hpp"
 #include "protocol/handshake.hpp"
 #include "protocol/hello_lcm.hpp"
+#include "protocol/session/peer_link.hpp"
 #include "protocol/text.hpp"
 #include "solid/coupled_solid.hpp"
 #include "solid/solid_scene.hpp"
@@ -489,12 +490,23 @@ constexpr int kResendsBeforeGap = 3;
 /// stop_t likewise, after the peer's messages logged before it. In a deterministic run the
 /// server published those before it needed the message, so the replay never waits on
 /// itself, whatever the message order of the scheme.
+/// The transport settings of the peer the replay plays, on the replayed server's bus.
+protocol::PeerLink::Settings link_settings(lcm::LCM& bus, const Selected& sel, Side side) {
+  protocol::PeerLink::Settings s;
+  s.role = side == Side::Fluid ? "solid" : "fluid";
+  s.token = sel.token;
+  s.channel_prefix = sel.prefix;
+  s.bus = &bus;
+  return s;
+}
+
 class Peer {
  public:
   Peer(lcm::LCM& bus, LogReader& log, const Selected& sel, Side side, bool implicit, bool parallel, bool quiet,
        std::ostream& err)
       : bus_(bus), log_(log), run_(*sel.run), token_(sel.token), side_(side), implicit_(implicit),
-        parallel_(parallel), ch_(sel.prefix), quiet_(quiet), err_(err) {
+        parallel_(parallel), quiet_(quiet), err_(err), link_(link_settings(bus, sel, side), err),
+        ch_(link_.channels()) {
     const bool fluid = side_ == Side::Fluid;
     const auto& inputs = fluid ? run_.solid_states : run_.fluid_states;
     for (std::int64_t seq = 0;; ++seq) {
@@ -508,22 +520,23 @@ class Peer {
       for (std::size_t i = 0; stop_ && i < feed_.size(); ++i)
         if (feed_[i]->order < stop_->where.order) stop_after_ = i + 1;
     }
-    subs_.push_back(bus_.subscribe(ch_.hello, &Peer::on_hello, this));
-    subs_.push_back(bus_.subscribe(ch_.welcome, &Peer::on_welcome, this));
-    subs_.push_back(fluid ? bus_.subscribe(ch_.fluid_state, &Peer::on_fluid_state, this)
-                          : bus_.subscribe(ch_.solid_state, &Peer::on_solid_state, this));
-    subs_.push_back(bus_.subscribe(ch_.resend, &Peer::on_resend, this));
+    // The session layer's transport (protocol/session/peer_link.hpp) on the server's bus: the
+    // bytes checked before decoding, another run's token dropped; no value checks, so that
+    // whatever the server publishes is compared with the log.
+    subscribed_ = !link_.open() &&
+                  link_.subscribe<cosimlcm::hello_t>(ch_.hello, [this](cosimlcm::hello_t&& m) { on_hello(&m); }) &&
+                  link_.subscribe<cosimlcm::welcome_t>(ch_.welcome,
+                                                       [this](cosimlcm::welcome_t&& m) { on_welcome(&m); }) &&
+                  (fluid ? link_.subscribe<cosimlcm::fluid_state_t>(
+                               ch_.fluid_state, [this](cosimlcm::fluid_state_t&& m) { on_fluid_state(&m); })
+                         : link_.subscribe<cosimlcm::solid_state_t>(
+                               ch_.solid_state, [this](cosimlcm::solid_state_t&& m) { on_solid_state(&m); })) &&
+                  link_.subscribe<cosimlcm::resend_t>(ch_.resend, [this](cosimlcm::resend_t&& m) { on_resend(&m); });
   }
   Peer(const Peer&) = delete;
   Peer& operator=(const Peer&) = delete;
-  ~Peer() {
-    for (lcm::Subscription* s : subs_)
-      if (s != nullptr) bus_.unsubscribe(s);
-  }
 
-  bool subscribed() const {
-    return std::none_of(subs_.begin(), subs_.end(), [](const lcm::Subscription* s) { return s == nullptr; });
-  }
+  bool subscribed() const { return subscribed_; }
 
   /// After the server returned: what is left on the bus is compared, nothing more is fed.
   void finish() {
@@ -552,10 +565,10 @@ class Peer {
   // logged fluid's hello_t and a welcome_t from the coordinator's check (protocol/README.md
   // section 6) of the logged fluid hello_t against the server's own: the logged welcome_t if
   // accepted, else a refusal with the reason.
-  void on_hello(const lcm::ReceiveBuffer*, const std::string&, const cosimlcm::hello_t* m) {
+  void on_hello(const cosimlcm::hello_t* m) {
     if (m->token != token_ || done_) return;
     if (side_ == Side::Fluid) {
-      if (m->role == "fluid") bus_.publish(ch_.hello, &*run_.solid_hello);
+      if (m->role == "fluid") link_.publish(ch_.hello, *run_.solid_hello);
       return;
     }
     if (m->role != "solid") return;  // ours, heard back
@@ -571,9 +584,9 @@ class Peer {
       } else {
         welcomed = true;
       }
-      bus_.publish(ch_.hello, &*run_.fluid_hello);
+      link_.publish(ch_.hello, *run_.fluid_hello);
     }
-    bus_.publish(ch_.welcome, &*welcome_);  // on every hello_t, as the coordinator does
+    link_.publish(ch_.welcome, *welcome_);  // on every hello_t, as the coordinator does
     if (first && welcomed) {
       handshake_done_ = true;
       feed();  // the solid publishes solid_state_t(0) before it awaits anything
@@ -582,7 +595,7 @@ class Peer {
 
   // The fluid's coordinator decided (replaying the fluid): the peer's first messages follow
   // an accepted welcome_t; the fluid now awaits solid_state_t(0).
-  void on_welcome(const lcm::ReceiveBuffer*, const std::string&, const cosimlcm::welcome_t* m) {
+  void on_welcome(const cosimlcm::welcome_t* m) {
     if (side_ != Side::Fluid || m->token != token_ || seen_welcome_) return;
     seen_welcome_ = true;  // a refusal may be read only after the server returned (finish())
     if (!m->accepted) {
@@ -594,11 +607,11 @@ class Peer {
     if (feed() == 0) beyond_log(-1, 0);
   }
 
-  void on_fluid_state(const lcm::ReceiveBuffer*, const std::string&, const cosimlcm::fluid_state_t* m) {
+  void on_fluid_state(const cosimlcm::fluid_state_t* m) {
     if (m->token == token_) output(*m, run_.fluid_states);
   }
 
-  void on_solid_state(const lcm::ReceiveBuffer*, const std::string&, const cosimlcm::solid_state_t* m) {
+  void on_solid_state(const cosimlcm::solid_state_t* m) {
     if (m->token == token_) output(*m, run_.solid_states);
   }
 
@@ -606,7 +619,7 @@ class Peer {
   // was fed, bit for bit (in the implicit scheme a step has several); a step not fed yet is
   // ignored. Asked again and again with nothing fed in between, the server waits for a
   // message the log does not give it.
-  void on_resend(const lcm::ReceiveBuffer*, const std::string&, const cosimlcm::resend_t* m) {
+  void on_resend(const cosimlcm::resend_t* m) {
     if (m->token != token_ || done_) return;
     const bool fluid = side_ == Side::Fluid;
     if (m->what != (fluid ? "solid_state" : "fluid_state")) return;
@@ -679,7 +692,7 @@ class Peer {
     if (stop_ && !stopped_ && next_ >= stop_after_ && published_up_to_ >= trigger(stop_->where)) {
       stopped_ = true;
       error_stop_given = stop_->message.exit_code != 0;
-      bus_.publish(ch_.stop, &stop_->message);
+      link_.publish(ch_.stop, stop_->message);
       ++fed;
     }
     return fed;
@@ -705,7 +718,7 @@ class Peer {
       s.sender = peer_role();
       s.step = total;
       s.exit_code = 0;
-      bus_.publish(ch_.stop, &s);
+      link_.publish(ch_.stop, s);
       return;
     }
     end_feeding("the log has no " + awaited() + " (nor a stop_t with an error)");
@@ -718,7 +731,7 @@ class Peer {
     stopped_ = true;
     error_stop_given = true;
     if (error_stop_) {
-      bus_.publish(ch_.stop, &error_stop_->message);
+      link_.publish(ch_.stop, error_stop_->message);
       return;
     }
     log_gap = gap;
@@ -728,7 +741,7 @@ class Peer {
     s.step = next_ > 0 ? feed_[next_ - 1]->step : 0;
     s.exit_code = 4;
     s.reason = "cosim-replay: " + log_gap;
-    bus_.publish(ch_.stop, &s);
+    link_.publish(ch_.stop, s);
   }
 
   /// The peer message the server awaits after the log's last usable one: by step where a
@@ -757,7 +770,7 @@ class Peer {
 
   void publish_logged(const std::string& channel, long offset) {
     const lcm::LogEvent& e = log_.at(offset);
-    bus_.publish(channel, e.data, static_cast<unsigned int>(e.datalen));
+    link_.publish_bytes(channel, e.data, static_cast<std::size_t>(e.datalen));  // bit for bit as logged
   }
 
   /// Runs `f`; an exception (the log cannot be read again) ends the server with stop_t(1):
@@ -777,7 +790,7 @@ class Peer {
         s.step = next_ > 0 ? feed_[next_ - 1]->step : -1;
         s.exit_code = 1;
         s.reason = "cosim-replay: " + failure;
-        bus_.publish(ch_.stop, &s);
+        link_.publish(ch_.stop, s);
       }
     }
   }
@@ -798,10 +811,11 @@ class Peer {
   const std::string token_;
   const Side side_;
   const bool implicit_, parallel_;
-  const protocol::Channels ch_;
   const bool quiet_;
   std::ostream& err_;
-  std::vector<lcm::Subscription*> subs_;
+  protocol::PeerLink link_;  ///< the session layer's transport, on the server's bus
+  const protocol::Channels& ch_;
+  bool subscribed_ = false;
   std::optional<cosimlcm::welcome_t> welcome_;  ///< what the solid is answered (solid side)
   /// The peer's logged state messages of seq 0, 1, 2, ... (up to the first the log lacks).
   std::vector<const Logged*> feed_;
