@@ -42,6 +42,7 @@
 #include "protocol/units.hpp"
 #include "solid/solid_scene.hpp"
 #include "tests/scene_invariants.hpp"
+#include "tests/support/fake_peer.hpp"
 
 namespace {
 
@@ -415,17 +416,18 @@ fs::path write_fluid_scene(const fs::path& dir) {
 /// substeps and solid time of protocol/README.md section 5. The knobs send malformed copies.
 struct FakeSolid {
   FakeSolid(lcm::LCM& bus_, const fs::path& scene_path, std::int64_t rigid_steps_)
-      : bus(bus_), ch("SEC_"), rigid_steps(rigid_steps_) {
+      : bus(bus_), ch("SEC_"), link("solid", kToken, "SEC_", bus_), rigid_steps(rigid_steps_) {
     const cosim::protocol::UnitConverter u;
     dt_lb_s = u.dt_lb_s();
     hello = valid_hello();
     hello.scene_hash = cosim::protocol::scene_hash_of_file(scene_path.string());
     hello.num_cgps = kCgps;
-    bus.subscribe(ch.hello, &FakeSolid::on_hello, this);
-    bus.subscribe(ch.welcome, &FakeSolid::on_welcome, this);
-    bus.subscribe(ch.fluid_state, &FakeSolid::on_fluid_state, this);
-    bus.subscribe(ch.resend, &FakeSolid::on_resend, this);
-    bus.subscribe(ch.stop, &FakeSolid::on_stop, this);
+    link.on<cosimlcm::hello_t>(ch.hello, [this](const cosimlcm::hello_t& m) { on_hello(nullptr, ch.hello, &m); });
+    link.on<cosimlcm::welcome_t>(ch.welcome, [this](const cosimlcm::welcome_t& m) { on_welcome(nullptr, ch.welcome, &m); });
+    link.on<cosimlcm::fluid_state_t>(ch.fluid_state,
+                                     [this](const cosimlcm::fluid_state_t& m) { on_fluid_state(nullptr, ch.fluid_state, &m); });
+    link.on<cosimlcm::resend_t>(ch.resend, [this](const cosimlcm::resend_t& m) { on_resend(nullptr, ch.resend, &m); });
+    link.on<cosimlcm::stop_t>(ch.stop, [this](const cosimlcm::stop_t& m) { on_stop(nullptr, ch.stop, &m); });
   }
 
   static constexpr std::int32_t kCgps = 4;
@@ -449,6 +451,7 @@ struct FakeSolid {
 
   lcm::LCM& bus;
   cosim::protocol::Channels ch;
+  cosim::test::FakePeerLink link;  ///< receives through the session layer's gate
   std::int64_t rigid_steps;
   double dt_lb_s = 0.0;
   cosimlcm::hello_t hello;

@@ -36,6 +36,7 @@
 #include "cosimlcm/stop_t.hpp"
 #include "cosimlcm/welcome_t.hpp"
 #include "protocol/channels.hpp"
+#include "support/fake_peer.hpp"
 #include "protocol/coupling_scheme.hpp"
 #include "protocol/handshake.hpp"
 #include "protocol/units.hpp"
@@ -94,8 +95,9 @@ fs::path write_scene(const fs::path& dir, std::int64_t rigid_steps, double peer_
 /// The knobs make it misbehave for the error tests.
 struct FakeFluid {
   FakeFluid(lcm::LCM& bus_, const SolidScene& scene, std::int64_t total_steps_)
-      : bus(bus_), ch(scene.coupling->channel_prefix), total_steps(total_steps_),
-        rigid_steps(scene.coupling->rigid_steps), parallel(scene.coupling->scheme.parallel_scheme()) {
+      : bus(bus_), ch(scene.coupling->channel_prefix), link("fluid", kToken, scene.coupling->channel_prefix, bus_),
+        total_steps(total_steps_), rigid_steps(scene.coupling->rigid_steps),
+        parallel(scene.coupling->scheme.parallel_scheme()) {
     const UnitConverter u(scene.unit_inputs());
     own.token = kToken;
     own.role = "fluid";
@@ -106,10 +108,11 @@ struct FakeFluid {
     own.dt_lb_s = u.dt_lb_s();
     own.sound_speed_m_s = u.inputs().sound_speed_m_s;
     own.air_density_kg_m3 = u.air_density_kg_m3();
-    bus.subscribe(ch.hello, &FakeFluid::on_hello, this);
-    bus.subscribe(ch.solid_state, &FakeFluid::on_solid_state, this);
-    bus.subscribe(ch.resend, &FakeFluid::on_resend, this);
-    bus.subscribe(ch.stop, &FakeFluid::on_stop, this);
+    link.on<cosimlcm::hello_t>(ch.hello, [this](const cosimlcm::hello_t& m) { on_hello(nullptr, ch.hello, &m); });
+    link.on<cosimlcm::solid_state_t>(ch.solid_state,
+                                     [this](const cosimlcm::solid_state_t& m) { on_solid_state(nullptr, ch.solid_state, &m); });
+    link.on<cosimlcm::resend_t>(ch.resend, [this](const cosimlcm::resend_t& m) { on_resend(nullptr, ch.resend, &m); });
+    link.on<cosimlcm::stop_t>(ch.stop, [this](const cosimlcm::stop_t& m) { on_stop(nullptr, ch.stop, &m); });
   }
 
   // ---- knobs ----
@@ -134,6 +137,7 @@ struct FakeFluid {
 
   lcm::LCM& bus;
   Channels ch;
+  cosim::test::FakePeerLink link;  ///< receives through the session layer's gate
   std::int64_t total_steps, rigid_steps;
   /// The parallel scheme (protocol/README.md 14): publish fluid_state_t(m) only where
   /// parallel_fluid_state_needed(m), fluid_state_t(0) on solid_state_t(0) included.
