@@ -27,6 +27,7 @@
 #include <cstdlib>
 #include <iostream>
 
+#include "protocol/cli_parse.hpp"
 #include "fluid/coupled_fluid.hpp"
 #include "fluid/field_writer.hpp"
 #include "fluid/flow_monitor.hpp"
@@ -281,13 +282,7 @@ int main_impl(int argc, char** argv) {
       "coupled scenes, tests: inject transport faults into what the fluid publishes, e.g. "
       "drop=0.01,duplicate=0.01,reorder=0.01,delay=0.01,delay_ms=20,seed=1 (default: the "
       "environment's COSIM_FAULTS; protocol/fault_injection.hpp)");
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    if (e.get_exit_code() == 0) return app.exit(e);  // --help
-    std::fprintf(stderr, "fluid: %s (see fluid --help)\n", one_line(e.what()).c_str());
-    return exit_code::bad_input;
-  }
+  if (const auto code = cosim::protocol::parse_command_line(app, argc, argv, "fluid")) return *code;
 
   FluidScene scene;
   try {

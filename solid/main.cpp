@@ -47,6 +47,7 @@
 
 #include <Eigen/Core>
 
+#include "protocol/cli_parse.hpp"
 #include "protocol/hdf5_handle.hpp"
 #include "protocol/session/exit_codes.hpp"
 #include "protocol/hdf5_quiet.hpp"
@@ -528,13 +529,7 @@ int main_impl(int argc, char** argv) {
       "$COSIM_FAULTS; protocol/fault_injection.hpp)");
   app.add_flag("--quiet", quiet, "no progress line on stderr");
   app.add_flag("--check", check, "validate the scene, build the model, print the header, and exit");
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    if (e.get_exit_code() == 0) return app.exit(e);  // --help
-    std::fprintf(stderr, "solid: %s (see solid --help)\n", one_line(e.what()).c_str());
-    return exit_code::bad_input;
-  }
+  if (const auto code = cosim::protocol::parse_command_line(app, argc, argv, "solid")) return *code;
 
   SolidScene scene;
   std::unique_ptr<SolidModel> model;

@@ -82,6 +82,8 @@ FluidRun::FluidRun(const FluidScene& scene, const CoupledFluidOptions& options, 
   });
 }
 
+FluidRun::~FluidRun() { coord_.on_end({}); }
+
 std::int64_t FluidRun::start(std::optional<int>& failed) {
   std::int64_t first_step = 0;
   if (!restart_.empty()) {

@@ -42,6 +42,8 @@ class FluidRun {
   /// After an accepted handshake: the solver, its initial flow, monitor.h5 and the snapshots.
   FluidRun(const FluidScene& scene, const CoupledFluidOptions& options, Coordinator& coordinator,
            const FluidScheme& scheme);
+  /// The coordinator no longer prints this run's margins (an ending after it is gone).
+  ~FluidRun();
   FluidRun(const FluidRun&) = delete;
   FluidRun& operator=(const FluidRun&) = delete;
 

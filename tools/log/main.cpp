@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <string>
 
+#include "protocol/cli_parse.hpp"
 #include "protocol/text.hpp"
 #include "tools/log/log_inspector.hpp"
 
@@ -65,15 +66,7 @@ int main_impl(int argc, char** argv) {
       return kExitBadInput;
     }
   }
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    if (e.get_exit_code() == 0) return app.exit(e);  // --help
-    std::string what = one_line(e.what());
-    if (what.empty()) what = e.get_name();
-    std::fprintf(stderr, "cosim-log: %s (see cosim-log --help)\n", what.c_str());
-    return kExitBadInput;
-  }
+  if (const auto code = cosim::protocol::parse_command_line(app, argc, argv, "cosim-log")) return *code;
 
   try {
     if (summary->parsed()) {

@@ -14,6 +14,7 @@
 #include <iostream>
 #include <string>
 
+#include "protocol/cli_parse.hpp"
 #include "protocol/text.hpp"
 #include "tools/replay/replay.hpp"
 
@@ -44,14 +45,7 @@ int main_impl(int argc, char** argv) {
   app.add_option("--channel-prefix", prefix, "the run's channel prefix, when the log holds several");
   app.add_option("--token", token, "the run's token, when the log holds several runs");
   app.add_flag("--quiet", quiet, "no progress lines on stderr");
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    if (e.get_exit_code() == 0) return app.exit(e);  // --help
-    std::fprintf(stderr, "cosim-replay: %s (see cosim-replay --help)\n",
-                 cosim::protocol::one_line(e.what()).c_str());
-    return exit_code::bad_input;
-  }
+  if (const auto code = cosim::protocol::parse_command_line(app, argc, argv, "cosim-replay")) return *code;
   ReplayOptions o;
   if (side == "fluid") {
     o.side = Side::Fluid;
