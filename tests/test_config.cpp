@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "support/run_command.hpp"
 #include "fluid/scene_config.hpp"
 #include "protocol/config/scene_sections.hpp"
 #include "protocol/lcm_url.hpp"
@@ -21,34 +22,14 @@
 namespace {
 
 namespace fs = std::filesystem;
-
-struct RunResult {
-  int status = -1;
-  std::string out, err;
-};
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-std::string quote(const std::string& s) { return "'" + s + "'"; }
-
-std::size_t lines(const std::string& s) { return std::size_t(std::count(s.begin(), s.end(), '\n')); }
+using cosim::test::lines;
+using cosim::test::RunResult;
+using cosim::test::slurp;
+const auto& quote = cosim::test::quoted;
 
 /// Runs `EXE ARGS` with stdout and stderr captured in files of `scratch`.
 RunResult run(const std::string& exe, const std::string& args, const fs::path& scratch) {
-  const fs::path out = scratch / "stdout.txt", err = scratch / "stderr.txt";
-  const std::string cmd = quote(exe) + " " + args + " >" + quote(out.string()) + " 2>" +
-                          quote(err.string()) + " </dev/null";
-  const int raw = std::system(cmd.c_str());
-  RunResult r;
-  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-  r.out = slurp(out);
-  r.err = slurp(err);
-  return r;
+  return cosim::test::run_command(quote(exe) + " " + args, scratch);
 }
 
 class Scratch {

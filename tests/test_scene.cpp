@@ -14,11 +14,16 @@
 #include <string>
 #include <vector>
 
+#include "support/run_command.hpp"
 #include "fluid/scene_config.hpp"
 
 namespace {
 
 namespace fs = std::filesystem;
+using cosim::test::lines;
+using cosim::test::RunResult;
+using cosim::test::slurp;
+const auto& quote = cosim::test::quoted;
 using cosim::fluid::FaceKind;
 using cosim::fluid::FluidScene;
 using cosim::fluid::SceneError;
@@ -195,35 +200,10 @@ TEST(Scene, CommandLineOverridesAreValidated) {
 
 // ---- the executable ----
 
-struct RunResult {
-  int status = -1;
-  std::string out, err;
-};
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-std::string quote(const std::string& s) { return "'" + s + "'"; }
-
 /// Runs `fluid ARGS` with stdout and stderr captured in files of a scratch directory.
 RunResult run_fluid(const std::string& args, const fs::path& scratch) {
-  fs::create_directories(scratch);
-  const fs::path out = scratch / "stdout.txt", err = scratch / "stderr.txt";
-  const std::string cmd = quote(FLUID_EXE) + " " + args + " >" + quote(out.string()) + " 2>" +
-                          quote(err.string()) + " </dev/null";
-  const int raw = std::system(cmd.c_str());
-  RunResult r;
-  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-  r.out = slurp(out);
-  r.err = slurp(err);
-  return r;
+  return cosim::test::run_command(quote(FLUID_EXE) + " " + args, scratch);
 }
-
-std::size_t lines(const std::string& s) { return std::size_t(std::count(s.begin(), s.end(), '\n')); }
 
 fs::path scratch_dir(const char* name) {
   return fs::temp_directory_path() /

@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "support/run_command.hpp"
 #include "protocol/units.hpp"
 #include "solid/model_registry.hpp"
 #include "solid/solid_scene.hpp"
@@ -25,6 +26,10 @@
 namespace {
 
 namespace fs = std::filesystem;
+using cosim::test::lines;
+using cosim::test::RunResult;
+using cosim::test::slurp;
+const auto& quote = cosim::test::quoted;
 using cosim::protocol::PhysicalConstants;
 using cosim::solid::SolidScene;
 using cosim::solid::SolidSceneError;
@@ -374,36 +379,11 @@ TEST(SolidScene, PerturbationIsTheUniformLoadDeflection) {
 
 // ---- the executable ----
 
-struct RunResult {
-  int status = -1;
-  std::string out, err;
-};
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-std::string quote(const std::string& s) { return "'" + s + "'"; }
-
 /// Runs `solid ARGS` with stdout and stderr captured in files of a scratch directory
 /// (`args` is the whole command line when with_exe is false).
 RunResult run_solid(const std::string& args, const fs::path& scratch, bool with_exe = true) {
-  fs::create_directories(scratch);
-  const fs::path out = scratch / "stdout.txt", err = scratch / "stderr.txt";
-  const std::string cmd = (with_exe ? quote(SOLID_EXE) + " " : std::string()) + args + " >" +
-                          quote(out.string()) + " 2>" + quote(err.string()) + " </dev/null";
-  const int raw = std::system(cmd.c_str());
-  RunResult r;
-  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-  r.out = slurp(out);
-  r.err = slurp(err);
-  return r;
+  return cosim::test::run_command((with_exe ? quote(SOLID_EXE) + " " : std::string()) + args, scratch);
 }
-
-std::size_t lines(const std::string& s) { return std::size_t(std::count(s.begin(), s.end(), '\n')); }
 
 fs::path scratch_dir(const char* name) {
   return fs::temp_directory_path() /

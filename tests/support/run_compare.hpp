@@ -20,16 +20,12 @@
 #include <string>
 #include <vector>
 
+#include "run_command.hpp"
+
 namespace cosim::test {
 
 namespace fs = std::filesystem;
 
-inline std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 /// A fresh, empty folder under the test's temporary directory.
 inline fs::path scratch(const std::string& name) {
@@ -39,12 +35,6 @@ inline fs::path scratch(const std::string& name) {
   return dir;
 }
 
-/// `s` quoted for sh.
-inline std::string quoted(const std::string& s) {
-  std::string q = "'";
-  for (const char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return q + "'";
-}
 
 /// Runs `scene` through launch/run-coupled.sh (--no-build --quiet) into `output`, with
 /// `args` appended to its command line and `env` (e.g. "COSIM_FAULTS=drop=0.01") set; the

@@ -1,0 +1,52 @@
+// Running a command from a test: the shell line, its exit status and what it printed
+// (stdout and stderr captured in files of a scratch folder), and the small text helpers the
+// executables' tests share.
+#pragma once
+
+#include <sys/wait.h>
+
+#include <algorithm>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+namespace cosim::test {
+
+inline std::string slurp(const std::filesystem::path& p) {
+  std::ifstream in(p);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+/// `s` quoted for sh.
+inline std::string quoted(const std::string& s) {
+  std::string q = "'";
+  for (const char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return q + "'";
+}
+
+inline std::size_t lines(const std::string& s) { return std::size_t(std::count(s.begin(), s.end(), '\n')); }
+
+struct RunResult {
+  int status = -1;
+  std::string out, err;
+};
+
+/// Runs the shell command line `command` (stdin from /dev/null), stdout and stderr captured
+/// in files of `scratch` (created if missing).
+inline RunResult run_command(const std::string& command, const std::filesystem::path& scratch) {
+  std::filesystem::create_directories(scratch);
+  const std::filesystem::path out = scratch / "stdout.txt", err = scratch / "stderr.txt";
+  const std::string cmd = command + " >" + quoted(out.string()) + " 2>" + quoted(err.string()) + " </dev/null";
+  const int raw = std::system(cmd.c_str());
+  RunResult r;
+  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+  r.out = slurp(out);
+  r.err = slurp(err);
+  return r;
+}
+
+}  // namespace cosim::test
