@@ -10,16 +10,7 @@ that differ. Exit 0 when all are identical, 1 when one differs or is missing.
 import os
 import sys
 
-import h5py
-import numpy as np
-
-
-def datasets(path):
-    out = {}
-    with h5py.File(path, "r") as f:
-        f.visititems(lambda name, obj: out.__setitem__(name, np.asarray(obj[()]))
-                     if isinstance(obj, h5py.Dataset) else None)
-    return out
+from compare_solid_runs import datasets  # every dataset of a file, by name
 
 
 def main(argv):

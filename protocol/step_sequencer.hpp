@@ -114,8 +114,17 @@ class EarlyBuffer {
     return out;
   }
 
+  /// The message held for `step`, still held; null if none.
+  Payload* find(std::int64_t step) {
+    const auto it = held_.find(step);
+    return it == held_.end() ? nullptr : &it->second;
+  }
+
   /// @post no message for a step below `step` is held.
   void drop_before(std::int64_t step) { held_.erase(held_.begin(), held_.lower_bound(step)); }
+
+  /// What is held, by step.
+  const std::map<std::int64_t, Payload>& held() const { return held_; }
 
   std::size_t size() const { return held_.size(); }
 

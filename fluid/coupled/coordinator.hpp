@@ -100,7 +100,6 @@ class Coordinator {
   std::int32_t num_cgps() const { return num_cgps_; }
   std::int64_t fluid_seq() const { return outbox_.seq(); }
   void set_fluid_seq(std::int64_t seq) { outbox_.set_seq(seq); }
-  int restart_ratio() const { return restart_ratio_; }
   int peer_code() const { return peer_code_; }
   std::int64_t first_step() const { return first_step_; }
   /// The committed LB step whose solid_state_t is (or was last) awaited.

@@ -40,8 +40,8 @@ class StateInbox {
   /// copies below it are dropped, the rest offered again.
   void await_from(std::int64_t key) {
     seq_ = StepSequencer(key);
-    held_.erase(held_.begin(), held_.lower_bound(key));
-    for (const auto& [k, m] : held_) seq_.offer(k, m.seq);
+    held_.drop_before(key);
+    for (const auto& [k, m] : held_.held()) seq_.offer(k, m.seq);
     refused_ = undecodable_ = 0;
   }
 
@@ -51,7 +51,7 @@ class StateInbox {
     watch_.heard(now);
     const std::int64_t key = key_of_(m);
     const StepSequencer::Verdict v = seq_.offer(key, m.seq);
-    if (v == StepSequencer::Verdict::Accept || v == StepSequencer::Verdict::Early) hold(key, std::move(m));
+    if (v == StepSequencer::Verdict::Accept || v == StepSequencer::Verdict::Early) held_.store(key, std::move(m));
     return v == StepSequencer::Verdict::Early && seq_.missing_expected();
   }
 
@@ -67,26 +67,26 @@ class StateInbox {
   }
 
   /// Whether the awaited message is here.
-  bool ready() const { return held_.count(seq_.expected_step()) != 0; }
+  bool ready() const { return held_.held().count(seq_.expected_step()) != 0; }
 
   /// The awaited message (ready() first); the inbox then awaits the next key, and a copy of
   /// it held early is offered again, now due.
   Message take() {
-    Message m = std::move(held_.at(seq_.expected_step()));
+    Message m = std::move(*held_.find(seq_.expected_step()));
     advance();
     return m;
   }
 
   /// The awaited message (ready() first), moved out while the sequencer still awaits its
   /// key (a checkpoint written while it is applied counts it as received); advance() next.
-  Message peek_out() { return std::move(held_.at(seq_.expected_step())); }
+  Message peek_out() { return std::move(*held_.find(seq_.expected_step())); }
 
   /// Moves on after the awaited message was applied (see take()).
   void advance() {
-    held_.erase(held_.begin(), held_.upper_bound(seq_.expected_step()));
+    held_.drop_before(seq_.expected_step() + 1);
     seq_.advance();
     refused_ = undecodable_ = 0;
-    if (const auto next = held_.find(seq_.expected_step()); next != held_.end()) seq_.offer(next->first, next->second.seq);
+    if (const Message* next = held_.find(seq_.expected_step())) seq_.offer(seq_.expected_step(), next->seq);
   }
 
   /// Silence: Resend after every resend_after without news, GiveUp after the timeout.
@@ -105,20 +105,10 @@ class StateInbox {
   }
 
  private:
-  void hold(std::int64_t key, Message m) {
-    if (held_.count(key) != 0) return;
-    if (held_.size() >= kHeld) {
-      const auto last = std::prev(held_.end());
-      if (last->first < key) return;
-      held_.erase(last);
-    }
-    held_.emplace(key, std::move(m));
-  }
-
   StepSequencer seq_;
   KeyOf key_of_;
   PeerWatch watch_;
-  std::map<std::int64_t, Message> held_;
+  EarlyBuffer<Message> held_{kHeld};  ///< copies held until due, the nearest keys first
   int refused_ = 0, undecodable_ = 0;  ///< refused copies of the awaited key, by kind
 };
 
