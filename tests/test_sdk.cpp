@@ -1,0 +1,75 @@
+// The solid library (sdk/include/cosim/solid.hpp): its examples, a spring-network sheet in C++
+// (examples/spring_sheet) and in Python (examples/python_sheet, module `cosim`), couple with
+// the fluid as two processes through launch/run-coupled.sh --solid-cmd (a private network
+// namespace as root); and the C++ example builds against an installed prefix, outside the
+// source tree, and couples too.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <string>
+
+#include "tests/support/run_command.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using cosim::test::quoted;
+using cosim::test::run_command;
+using cosim::test::slurp;
+
+const fs::path kSource = COSIM_SOURCE_DIR;
+const fs::path kBuild = COSIM_BINARY_DIR;
+
+/// run-coupled.sh on scenes/coupled_spring_sheet.toml with `solid_cmd`; both exit 0, the
+/// fluid reports 60 LB steps done and the solid its end on the library.
+void expect_couples(const std::string& solid_cmd, const fs::path& dir) {
+  fs::remove_all(dir);
+  const fs::path out = dir / "out";
+  fs::create_directories(out);
+  const auto r = run_command("bash " + quoted((kSource / "launch" / "run-coupled.sh").string()) + " " +
+                                 quoted((kSource / "scenes" / "coupled_spring_sheet.toml").string()) + " --output " +
+                                 quoted(out.string()) + " --no-build --quiet --solid-cmd " + quoted(solid_cmd),
+                             dir / "launcher");
+  const std::string fluid_log = slurp(out / "fluid.log"), solid_log = slurp(out / "solid.log");
+  EXPECT_EQ(r.status, 0) << r.out << r.err << fluid_log << solid_log;
+  EXPECT_EQ(slurp(out / "fluid.exit"), "0\n");
+  EXPECT_EQ(slurp(out / "solid.exit"), "0\n");
+  EXPECT_NE(fluid_log.find("coupled run done, 60 LB steps"), std::string::npos) << fluid_log;
+  EXPECT_NE(solid_log.find("solid: coupled run done at step 59 of 60, 7500 substeps"), std::string::npos) << solid_log;
+}
+
+TEST(SolidLibrary, SdkSolidCouplesWithFluid) {
+  expect_couples(SPRING_SHEET_EXE, fs::path(::testing::TempDir()) / "cosim_sdk_cpp");
+}
+
+TEST(SolidLibrary, PythonSolidCouplesWithFluid) {
+  expect_couples("env PYTHONPATH=" + (kBuild / "sdk" / "python").string() + " /usr/bin/python3 " +
+                     (kSource / "examples" / "python_sheet" / "spring_sheet.py").string(),
+                 fs::path(::testing::TempDir()) / "cosim_sdk_python");
+}
+
+TEST(SolidLibrary, InstalledPackageBuildsExample) {
+  const fs::path dir = fs::path(::testing::TempDir()) / "cosim_sdk_install";
+  fs::remove_all(dir);
+  const fs::path prefix = dir / "prefix", src = dir / "spring_sheet", build = dir / "build";
+  auto r = run_command("cmake --install " + quoted(kBuild.string()) + " --prefix " + quoted(prefix.string()), dir / "install");
+  ASSERT_EQ(r.status, 0) << r.out << r.err;
+  for (const char* f : {"bin/fluid", "bin/solid", "bin/cosim-log", "bin/cosim-replay", "bin/cosim-conformance",
+                        "include/cosim/solid.hpp", "include/cosimlcm/hello_t.hpp", "share/cosim/lcm/hello_t.lcm",
+                        "lib/cmake/cosim/cosimConfig.cmake", "lib/pkgconfig/cosim.pc"})
+    EXPECT_TRUE(fs::exists(prefix / f)) << f;
+  // The example's sources as an installation ships them, built outside the source tree.
+  fs::copy(prefix / "share" / "cosim" / "examples" / "spring_sheet", src, fs::copy_options::recursive);
+  r = run_command("cmake -S " + quoted(src.string()) + " -B " + quoted(build.string()) + " -DCMAKE_PREFIX_PATH=" +
+                      quoted(prefix.string()) + " && cmake --build " + quoted(build.string()),
+                  dir / "cmake");
+  ASSERT_EQ(r.status, 0) << r.out << r.err;
+  // pkg-config knows the library too.
+  r = run_command("PKG_CONFIG_PATH=" + quoted((prefix / "lib" / "pkgconfig").string()) + " pkg-config --libs cosim",
+                  dir / "pkgconfig");
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("-lcosim_sdk"), std::string::npos) << r.out;
+  expect_couples((build / "spring_sheet").string(), dir / "run");
+}
+
+}  // namespace
