@@ -9,12 +9,12 @@ root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 [ "${1:-}" = "--no-build" ] || bash "$root/launch/build.sh" >/dev/null
 cpp=$("$root/build/examples/spring_sheet/bench_step")
 py=$(PYTHONPATH="$root/build/sdk/python:$root/examples/python_sheet" /usr/bin/python3 "$root/examples/python_sheet/bench_step.py")
-echo "| markers | no-op C++ (ms) | no-op Python (ms) | spring sheet C++ (ms) | spring sheet Python (ms) | binding overhead (ms) | Python / C++ |"
+echo "| markers | no-op C++ (us) | no-op Python (us) | binding overhead (us) | spring sheet C++ (ms) | spring sheet Python (ms) | Python / C++ |"
 echo "|---|---|---|---|---|---|---|"
 paste <(echo "$cpp") <(echo "$py") | while IFS=$'\t' read -r c p; do
   n=$(awk '{print $2}' <<<"$c")
   cn=$(awk '{print $5}' <<<"$c"); cs=$(awk '{print $9}' <<<"$c")
   pn=$(awk '{print $5}' <<<"$p"); ps=$(awk '{print $9}' <<<"$p")
   awk -v n="$n" -v cn="$cn" -v pn="$pn" -v cs="$cs" -v ps="$ps" \
-    'BEGIN { printf "| %d | %.4f | %.4f | %.3f | %.3f | %.4f | %.1f |\n", n, cn, pn, cs, ps, pn - cn, ps / cs }'
+    'BEGIN { printf "| %d | %.2f | %.2f | %.2f | %.3f | %.3f | %.1f |\n", n, 1e3 * cn, 1e3 * pn, 1e3 * (pn - cn), cs, ps, ps / cs }'
 done

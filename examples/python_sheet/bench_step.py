@@ -31,6 +31,7 @@ def main(args):
     for k in range(0, len(args) - 2, 3):
         nx, ny, steps = args[k:k + 3]
         scene = cosim.synthetic_scene(nx, ny, 150)
+        cosim.time_steps(NoOp(), scene, steps)  # warm-up
         t_none = cosim.time_steps(NoOp(), scene, steps * 10)
         t_sheet = cosim.time_steps(SpringSheet(), scene, steps)
         print(f"python {nx * ny} markers: no-op {1e3 * t_none:.6f} ms, spring sheet {1e3 * t_sheet:.6f} ms per LB step")

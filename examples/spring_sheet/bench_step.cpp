@@ -37,6 +37,7 @@ int main(int argc, char** argv) {
     const cosim::sdk::Scene scene = cosim::sdk::synthetic_scene(args[k], args[k + 1], 150);
     NoOp none;
     spring_sheet::SpringSheet sheet;
+    cosim::sdk::time_steps(none, scene, args[k + 2]);  // warm-up
     const double t_none = cosim::sdk::time_steps(none, scene, args[k + 2] * 10);
     const double t_sheet = cosim::sdk::time_steps(sheet, scene, args[k + 2]);
     std::printf("cpp %d markers: no-op %.6f ms, spring sheet %.6f ms per LB step\n", args[k] * args[k + 1],
