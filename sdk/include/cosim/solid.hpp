@@ -25,6 +25,11 @@
 
 #include <Eigen/Core>
 
+/// What the shared library exports: this interface only (its own code, Eigen's templates and
+/// the static libraries inside it stay hidden, so that a program built with other flags never
+/// binds to the library's copies of them, nor the library to the program's).
+#define COSIM_SDK_API __attribute__((visibility("default")))
+
 namespace cosim::sdk {
 
 /// The arrays of the interface: 3 x N (one column per marker) and N values. Unaligned
@@ -45,7 +50,7 @@ struct Sheet {
 };
 
 /// What the library read from the scene and the command line.
-struct Scene {
+struct COSIM_SDK_API Scene {
   std::string path;        ///< the scene file
   std::string name;        ///< [scene] name
   std::string output_dir;  ///< [output] directory, or --output
@@ -100,7 +105,7 @@ inline Eigen::Vector3d momentum_exchange(double rho, const Eigen::Vector3d& mark
 }
 
 /// The interface a solid model implements.
-class Solid {
+class COSIM_SDK_API Solid {
  public:
   virtual ~Solid() = default;
   /// The name announced in hello_t ("model"), e.g. "spring-sheet".
@@ -124,14 +129,14 @@ class Solid {
 /// defaults to $COSIM_RUN_TOKEN). Progress and the closing counters go to stdout, the reason
 /// of a failure on one line to stderr. Exceptions thrown by the solid end the run with exit
 /// code 1 (std::invalid_argument from start(): 2), after stop_t to the fluid.
-int run(Solid& solid, int argc, const char* const* argv);
-int run(Solid& solid, const std::vector<std::string>& args);
+COSIM_SDK_API int run(Solid& solid, int argc, const char* const* argv);
+COSIM_SDK_API int run(Solid& solid, const std::vector<std::string>& args);
 
 /// Benchmarks, without a fluid: a scene of one flat nx x ny sheet facing the stream (spacing
 /// 1 dx, area 1 dx^2, one clamped row; the paper's units with A_T = `time_ratio`).
-Scene synthetic_scene(int nx, int ny, int time_ratio);
+COSIM_SDK_API Scene synthetic_scene(int nx, int ny, int time_ratio);
 /// Mean wall-clock seconds of solid.step() per LB step over `steps` steps in a uniform
 /// stream (rho 1, u = (0.05, 0, 0)), after solid.start(scene).
-double time_steps(Solid& solid, const Scene& scene, int steps);
+COSIM_SDK_API double time_steps(Solid& solid, const Scene& scene, int steps);
 
 }  // namespace cosim::sdk
