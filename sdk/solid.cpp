@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
+#include <filesystem>
 #include <iostream>
 #include <limits>
 #include <memory>
@@ -21,6 +22,7 @@
 #include <utility>
 #include <vector>
 
+#include "protocol/checkpoint_file.hpp"
 #include "protocol/cli_parse.hpp"
 #include "protocol/fault_injection.hpp"
 #include "protocol/hello_lcm.hpp"
@@ -176,8 +178,20 @@ class SdkRun {
               << " rigid)\n";
     std::cout.flush();
     peer_.await_from(scheme_->first_key(peer_.rigid_steps()));
-    // Step 0: the initial positions, zero impulses (section 5).
-    peer_.publish_state(0, 0, 0.0, x_, Eigen::Matrix3Xd::Zero(3, n_), 0);
+    if (!o_.restart.empty()) {
+      // Continue from a checkpoint of step N: the solid's state after it and the
+      // solid_state_t(N) it sent, published again (the in-flight impulses).
+      try {
+        restore(o_.restart);
+      } catch (const std::exception& e) {
+        return finish(Ending{exit_code::bad_input, "--restart " + o_.restart + ": " + one_line(e.what()), true});
+      }
+      std::cout << "solid: restarted from " << o_.restart << " at step " << peer_.last_step() << "\n";
+    } else {
+      // Step 0: the initial positions, zero impulses (section 5).
+      peer_.publish_state(0, 0, 0.0, x_, Eigen::Matrix3Xd::Zero(3, n_), 0);
+    }
+    first_step_ = peer_.last_step();
     start_ = Clock::now();
     peer_.heard();
     for (;;) {
@@ -229,10 +243,87 @@ class SdkRun {
     total_substeps_ += substeps;
     peer_.publish_state(m.step, substeps, static_cast<double>(total_substeps_) * units_.dt_cg_s(), a.position_lb,
                         a.impulse_lb, 0);
+    const std::int64_t every = s_.coupling->checkpoint_every;
+    if (every > 0 && m.step % every == 0) try {
+        checkpoint("every coupling.checkpoint_every steps");
+      } catch (const std::exception& e) {
+        return Ending{exit_code::system, "checkpoint of step " + std::to_string(m.step) + ": " + one_line(e.what()), true};
+      }
     return std::nullopt;
   }
 
-  int finish(const Ending& e) {
+  // ---- checkpoints (DESIGN 2.4; protocol/README.md section 10) ----
+
+  /// OUTPUT/checkpoints/solid_NNNNNNNN.h5 of the last step sent, if the solid keeps any: its
+  /// path, or "".
+  std::string checkpoint(const std::string& reason) {
+    const std::vector<double> state = solid_.save();
+    if (state.empty()) return "";
+    namespace fs = std::filesystem;
+    const fs::path dir = fs::path(s_.output_dir) / "checkpoints";
+    fs::create_directories(dir);
+    const fs::path file = dir / protocol::checkpoint_name("solid", peer_.last_step());
+    protocol::CheckpointWriter w(file);
+    w.attr("step", peer_.last_step());
+    w.attr("solid_seq", peer_.next_seq());
+    w.attr("total_substeps", total_substeps_);
+    w.attr("num_cgps", static_cast<std::int64_t>(n_));
+    w.attr("time_ratio", static_cast<std::int64_t>(s_.coupling->time_ratio));
+    w.text("scene_hash", protocol::scene_hash_of_file(s_.path));
+    w.text("reason", reason);
+    w.text("model", solid_.model());
+    w.put("positions_lb", x_.data(), std::size_t(x_.size()));
+    w.put("sdk_state", state);
+    const cosimlcm::solid_state_t& sent = peer_.last_sent();
+    std::vector<std::uint8_t> bytes(static_cast<std::size_t>(sent.getEncodedSize()));
+    sent.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+    w.put("in_flight_solid_state", bytes);
+    w.commit();
+    protocol::prune_checkpoints(dir, "solid_", 3);
+    return file.string();
+  }
+
+  /// The checkpoint at `path` back: throws (one line) for one of another scene, model, CGP
+  /// count or A_T.
+  void restore(const std::string& path) {
+    const protocol::CheckpointReader r(path);
+    if (r.text("scene_hash") != protocol::scene_hash_of_file(s_.path))
+      throw std::runtime_error("a checkpoint of another scene file (scene_hash differs from " + s_.path + ")");
+    if (r.text("model") != solid_.model())
+      throw std::runtime_error("a checkpoint of the model '" + r.text("model") + "', this is '" + solid_.model() + "'");
+    const std::int64_t step = r.int64_attr("step");
+    if (step < 1 || step >= peer_.total_steps())
+      throw std::runtime_error("step = " + std::to_string(step) + ", allowed: 1 to " + std::to_string(peer_.total_steps() - 1));
+    if (r.int64_attr("time_ratio") != s_.coupling->time_ratio)
+      throw std::runtime_error("a checkpoint of A_T = " + std::to_string(r.int64_attr("time_ratio")) +
+                               "; the solid library restarts with the same A_T only (" +
+                               std::to_string(s_.coupling->time_ratio) + " now)");
+    x_ = Eigen::Map<const Eigen::Matrix3Xd>(r.doubles("positions_lb", static_cast<std::size_t>(3 * n_)).data(), 3, n_);
+    try {
+      solid_.restore(r.doubles("sdk_state"));
+    } catch (const std::invalid_argument& e) {
+      throw std::runtime_error(solid_.model() + ": " + e.what());
+    }
+    cosimlcm::solid_state_t sent{};
+    const std::vector<std::uint8_t> bytes = r.bytes("in_flight_solid_state");
+    if (sent.decode(bytes.data(), 0, static_cast<int>(bytes.size())) < 0 || sent.step != step || sent.num_cgps != n_)
+      throw std::runtime_error("in_flight_solid_state is not the solid_state_t of step " + std::to_string(step));
+    sent.token = o_.token;
+    total_substeps_ = r.int64_attr("total_substeps");
+    peer_.resume(std::move(sent), r.int64_attr("solid_seq"));
+    peer_.await_from(step + 1);
+  }
+
+  int finish(Ending e) {
+    // A clean abort (the fluid lost, or stopped with an error) keeps the state after the last
+    // step for a restart, as the solid server does.
+    if (e.code == exit_code::peer_lost && peer_.sent_any() && peer_.last_step() > first_step_) {
+      try {
+        if (const std::string file = checkpoint(e.reason); !file.empty()) e.reason += "; checkpoint " + file;
+      } catch (const std::exception& x) {
+        e.reason += "; no checkpoint: " + one_line(x.what());
+      }
+    }
     peer_.stop(e);
     const double wall = std::chrono::duration<double>(Clock::now() - start_).count();
     std::cout << "solid: coupled run " << (e.code == exit_code::ok ? "done" : "stopped") << " at step "
@@ -260,7 +351,7 @@ class SdkRun {
   solid::SolidPeer peer_;
   Eigen::Matrix3Xd x_;
   Eigen::VectorXd area_;
-  std::int64_t total_substeps_ = 0, computed_ = 0;
+  std::int64_t total_substeps_ = 0, computed_ = 0, first_step_ = 0;
   double compute_s_ = 0.0;
   Clock::time_point start_ = Clock::now();
 };
@@ -282,7 +373,7 @@ int run_impl(Solid& solid, std::vector<std::string> args) {
   CLI::Option* o_ratio = app.add_option("--time-ratio", time_ratio, "A_T ([coupling] time_ratio)");
   CLI::Option* o_faults = app.add_option("--faults", faults, "tests: transport faults (protocol/fault_injection.hpp)");
   std::string restart;
-  CLI::Option* o_restart = app.add_option("--restart", restart, "not supported by the solid library");
+  app.add_option("--restart", restart, "continue from this checkpoint (OUTPUT/checkpoints/solid_N.h5)");
   app.add_flag("--quiet", quiet, "no progress lines");
   Scene info;
   std::vector<std::string> launcher{program};
@@ -304,8 +395,6 @@ int run_impl(Solid& solid, std::vector<std::string> args) {
     std::cerr << program << ": " << one_line(what) << "\n";
     return exit_code::bad_input;
   };
-  if (o_restart->count())
-    return bad("--restart " + restart + ": the solid library does not write or read checkpoints");
   solid::SolidScene scene;
   try {
     scene = solid::load_solid_scene(scene_path);
@@ -326,6 +415,7 @@ int run_impl(Solid& solid, std::vector<std::string> args) {
   if (options.token.empty())
     return bad("a coupled run needs the run's token: --token TOKEN or COSIM_RUN_TOKEN (the launcher draws one per run)");
   options.quiet = quiet;
+  options.restart = restart;
   try {
     options.faults = protocol::fault_settings_from(o_faults->count() ? &faults : nullptr);
   } catch (const std::invalid_argument& e) {

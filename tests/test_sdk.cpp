@@ -6,9 +6,10 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <fstream>
 #include <string>
 
-#include "tests/support/run_command.hpp"
+#include "tests/support/run_compare.hpp"
 
 namespace {
 
@@ -46,6 +47,33 @@ TEST(SolidLibrary, PythonSolidCouplesWithFluid) {
   expect_couples("env PYTHONPATH=" + (kBuild / "sdk" / "python").string() + " /usr/bin/python3 " +
                      (kSource / "examples" / "python_sheet" / "spring_sheet.py").string(),
                  fs::path(::testing::TempDir()) / "cosim_sdk_python");
+}
+
+// The library's checkpoints: a run with [coupling] checkpoint_every = 20 continued from its
+// step-40 pair (run-coupled.sh --restart) ends with the fluid's monitor.h5 of the full run,
+// bit for bit.
+TEST(SolidLibrary, SdkSolidRestartsFromCheckpoint) {
+  const fs::path dir = cosim::test::scratch("sdk_restart");
+  const fs::path scene = dir / "coupled_spring_sheet_checkpoints.toml";
+  {
+    std::string text = slurp(kSource / "scenes" / "coupled_spring_sheet.toml");
+    const std::string key = "rigid_steps = 10\n";
+    ASSERT_NE(text.find(key), std::string::npos);
+    text.replace(text.find(key), key.size(), key + "checkpoint_every = 20\n");
+    std::ofstream(scene) << text;
+  }
+  const fs::path full = dir / "full", restarted = dir / "restarted";
+  const std::string solid = " --solid-cmd " + quoted(SPRING_SHEET_EXE);
+  ASSERT_EQ(cosim::test::run_launcher(kSource, scene, full, solid), 0) << cosim::test::logs(full);
+  ASSERT_TRUE(fs::exists(full / "checkpoints" / "solid_00000040.h5")) << cosim::test::logs(full);
+  ASSERT_EQ(cosim::test::run_launcher(kSource, scene, restarted,
+                                      solid + " --restart " + quoted((full / "checkpoints").string())),
+            0)
+      << cosim::test::logs(restarted);
+  const std::string solid_log = slurp(restarted / "solid.log");
+  EXPECT_NE(solid_log.find("at step 40"), std::string::npos) << solid_log;
+  EXPECT_NE(solid_log.find("coupled run done at step 59 of 60"), std::string::npos) << solid_log;
+  EXPECT_EQ(cosim::test::compare_h5(full, restarted, "monitor.h5"), "");
 }
 
 TEST(SolidLibrary, InstalledPackageBuildsExample) {

@@ -80,6 +80,16 @@ class SpringSheet(cosim.Solid):
             mean += (1.0 if k + 1 < a_t else 0.5) * self.x
         return mean / a_t, impulse
 
+    def save(self):                                # checkpoints: positions and velocities
+        return np.concatenate([self.x.ravel(), self.v.ravel()])
+
+    def restore(self, state):
+        state = np.asarray(state, dtype=float)
+        if state.size != 2 * self.x.size:
+            raise ValueError("a state of another marker count")
+        self.x = state[:self.x.size].reshape(-1, 3).copy()
+        self.v = state[self.x.size:].reshape(-1, 3).copy()
+
     def stable_dt_cg_s(self):
         springs = np.bincount(np.concatenate([self.a, self.b]), minlength=len(self.mass))
         w2 = np.max(2.0 * self.k * springs / self.mass)

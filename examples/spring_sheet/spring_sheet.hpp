@@ -84,6 +84,18 @@ class SpringSheet : public cosim::sdk::Solid {
     return w2 > 0.0 ? 2.0 / std::sqrt(w2) * dt_lb_s_ : cosim::sdk::Solid::stable_dt_cg_s();
   }
 
+  /// Checkpoints: the positions and velocities.
+  std::vector<double> save() const override {
+    std::vector<double> s(x_.data(), x_.data() + x_.size());
+    s.insert(s.end(), v_.data(), v_.data() + v_.size());
+    return s;
+  }
+  void restore(const std::vector<double>& s) override {
+    if (s.size() != std::size_t(2 * x_.size())) throw std::invalid_argument("a state of another marker count");
+    x_ = Eigen::Map<const Matrix3Xd>(s.data(), 3, x_.cols());
+    v_ = Eigen::Map<const Matrix3Xd>(s.data() + x_.size(), 3, x_.cols());
+  }
+
   /// Kinetic + elastic energy, rho_air dx^3 c^2 (for tests).
   double energy() const {
     double e = 0.0;

@@ -5,6 +5,7 @@
 //   start(self, scene) -> (positions, areas)       numpy (N, 3) in dx and (N,) in dx^2
 //   step(self, step, rho, u) -> (positions, impulses)   rho (N,), u (N, 3) -> two (N, 3)
 //   stable_dt_cg_s(self) -> float                  optional (default: no limit)
+//   save(self) -> 1-d array; restore(self, state)   optional checkpoints (default: none)
 //
 // and runs with sys.exit(cosim.run(MySolid())) (argv defaults to sys.argv): the library
 // does the rest, as for a C++ solid. Arrays are row-major (N, 3), one row per marker; a
@@ -102,6 +103,15 @@ class PySolid : public Solid {
   }
 
   double stable_dt_cg_s() const override { PYBIND11_OVERRIDE(double, Solid, stable_dt_cg_s, ); }
+  std::vector<double> save() const override { PYBIND11_OVERRIDE(std::vector<double>, Solid, save, ); }
+  void restore(const std::vector<double>& state) override {
+    try {
+      PYBIND11_OVERRIDE(void, Solid, restore, state);
+    } catch (py::error_already_set& e) {
+      if (e.matches(PyExc_ValueError)) throw std::invalid_argument(e.what());
+      throw;
+    }
+  }
 
  private:
   Eigen::Index n_ = 0;
@@ -139,7 +149,9 @@ PYBIND11_MODULE(cosim, m) {
 
   py::class_<Solid, PySolid>(m, "Solid", "Derive from it: model(), start(scene), step(step, rho, u)")
       .def(py::init<>())
-      .def("stable_dt_cg_s", &Solid::stable_dt_cg_s);
+      .def("stable_dt_cg_s", &Solid::stable_dt_cg_s)
+      .def("save", &Solid::save)
+      .def("restore", &Solid::restore);
 
   m.def(
       "run",

@@ -12,7 +12,8 @@
 //
 // Spin-up: during the scene's [coupling] rigid_steps the library holds the markers itself and
 // answers J_l = -2 rho_l u_l dA_l (section 5, U_B = 0); step() is called from the first free
-// step on. Only the serial scheme is run (a scene with [coupling] scheme = "implicit" or
+// step on. Checkpoints and --restart when the solid implements save() and restore(). Only
+// the serial scheme is run (a scene with [coupling] scheme = "implicit" or
 // "parallel" is refused with exit code 2).
 #pragma once
 
@@ -20,6 +21,7 @@
 #include <limits>
 #include <map>
 #include <set>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -118,6 +120,18 @@ class COSIM_SDK_API Solid {
   /// The largest stable substep in seconds (hello_t; the fluid refuses a dt_CG above it);
   /// +infinity: no limit.
   virtual double stable_dt_cg_s() const { return std::numeric_limits<double>::infinity(); }
+
+  /// Optional checkpoints (DESIGN 2.4): the solid's whole state after its last step, as
+  /// numbers. The library writes it with the fluid's, every [coupling] checkpoint_every LB
+  /// steps and on a clean abort, into OUTPUT/checkpoints/solid_NNNNNNNN.h5 (with what the
+  /// library itself keeps: the markers, the solid_state_t in flight, the seqs); empty (the
+  /// default): none is written and --restart is refused.
+  virtual std::vector<double> save() const { return {}; }
+  /// Back to a state save() gave (launch/run-coupled.sh --restart DIR). Throw
+  /// std::invalid_argument for a state that does not fit (exit code 2).
+  virtual void restore(const std::vector<double>& /*state*/) {
+    throw std::invalid_argument("this solid keeps no checkpoints (Solid::restore)");
+  }
 };
 
 /// Runs `solid` as the solid peer of a coupled run and returns the exit code of
