@@ -2,7 +2,7 @@
 # The Python binding's overhead per LB step against the same solid in C++ (docs/solid-library.md):
 # examples/spring_sheet/bench_step (C++) and examples/python_sheet/bench_step.py (Python,
 # through the module `cosim`) time step() without a fluid, A_T = 150, for a 4 x 6 and a 20 x 20
-# sheet, and the table is printed in Markdown.
+# sheet, each the best of 5 repetitions, and the table is printed in Markdown.
 #   bash launch/bench-binding.sh [--no-build]
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)

@@ -4,6 +4,7 @@
 // Python side is examples/python_sheet/bench_step.py; launch/bench-binding.sh prints both
 // as the table of docs/solid-library.md.
 //   bench_step [NX NY STEPS]...   (default: 4 6 200 20 20 50)
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <vector>
@@ -36,10 +37,14 @@ int main(int argc, char** argv) {
   for (std::size_t k = 0; k + 2 < args.size(); k += 3) {
     const cosim::sdk::Scene scene = cosim::sdk::synthetic_scene(args[k], args[k + 1], 150);
     NoOp none;
-    spring_sheet::SpringSheet sheet;
     cosim::sdk::time_steps(none, scene, args[k + 2]);  // warm-up
-    const double t_none = cosim::sdk::time_steps(none, scene, args[k + 2] * 10);
-    const double t_sheet = cosim::sdk::time_steps(sheet, scene, args[k + 2]);
+    // The best of 5: the machine may be shared, and other processes only ever add time.
+    double t_none = 1e300, t_sheet = 1e300;
+    for (int r = 0; r < 5; ++r) {
+      t_none = std::min(t_none, cosim::sdk::time_steps(none, scene, args[k + 2] * 10));
+      spring_sheet::SpringSheet fresh;
+      t_sheet = std::min(t_sheet, cosim::sdk::time_steps(fresh, scene, args[k + 2]));
+    }
     std::printf("cpp %d markers: no-op %.6f ms, spring sheet %.6f ms per LB step\n", args[k] * args[k + 1],
                 1e3 * t_none, 1e3 * t_sheet);
   }
