@@ -98,6 +98,19 @@ TEST(SolidLibrary, InstalledPackageBuildsExample) {
   EXPECT_EQ(r.status, 0) << r.err;
   EXPECT_NE(r.out.find("-lcosim_sdk"), std::string::npos) << r.out;
   expect_couples((build / "spring_sheet").string(), dir / "run");
+  // The installed conformance kit (its scene from PREFIX/share/cosim/scenes) passes it, and
+  // the installed Python module imports.
+  r = run_command(quoted((prefix / "bin" / "cosim-conformance").string()) + " --solid-cmd " +
+                      quoted((build / "spring_sheet").string()) + " --work " + quoted((dir / "kit").string()),
+                  dir / "conformance");
+  EXPECT_EQ(r.status, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find((prefix / "share" / "cosim" / "scenes" / "conformance.toml").string()), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("13 of 13 checks pass"), std::string::npos) << r.out;
+  r = run_command("PYTHONPATH=" + quoted((prefix / "lib" / "python3" / "dist-packages").string()) +
+                      " /usr/bin/python3 -c 'import cosim; print(cosim.synthetic_scene(2, 3, 10).positions.shape)'",
+                  dir / "python");
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.out, "(6, 3)\n") << r.err;
 }
 
 }  // namespace
