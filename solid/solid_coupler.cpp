@@ -156,6 +156,21 @@ bool SolidCoupler::over_speed_limit(int k, const FluidSample& sample, IntervalRe
   return true;
 }
 
+Eigen::Matrix3Xd marker_positions_lb(const std::vector<SheetSpec>& sheets, const protocol::UnitConverter& units) {
+  Eigen::Index n = 0;
+  for (const SheetSpec& s : sheets) n += s.num_cgps();
+  Eigen::Matrix3Xd x(3, n);
+  Eigen::Index first = 0;
+  const Eigen::Vector3d origin = solid_origin_lb();
+  for (const SheetSpec& s : sheets) {
+    const Eigen::Matrix3Xd flat = flat_sheet_positions(s);
+    for (Eigen::Index l = 0; l < flat.cols(); ++l)
+      for (int c = 0; c < 3; ++c) x(c, first + l) = units.length_lb_from_bohr(flat(c, l)) + origin[c];
+    first += flat.cols();
+  }
+  return x;
+}
+
 std::vector<double> marker_areas_lb(const std::vector<SheetSpec>& sheets,
                                     const protocol::UnitConverter& units) {
   std::vector<double> area;

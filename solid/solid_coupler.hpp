@@ -118,6 +118,16 @@ class SolidCoupler {
   double max_speed_lb_ = 0.0;
 };
 
+/// The solid's frame on the lattice: its plate surface y = 0 is the fluid's half-way
+/// bounce-back wall at lattice y = -1/2; x and z: lattice = physical / dx
+/// (protocol/README.md section 4). origin_lb of the solid server's coupler.
+inline Eigen::Vector3d solid_origin_lb() { return {0.0, -0.5, 0.0}; }
+
+/// The flat sheets' CGP positions (flat_sheet_positions, sheet by sheet) on the lattice of
+/// `units`: X_lb = X_bohr / dx + solid_origin_lb(), the positions the solid server's
+/// first solid_state_t carries.
+Eigen::Matrix3Xd marker_positions_lb(const std::vector<SheetSpec>& sheets, const protocol::UnitConverter& units);
+
 /// dA_l of every CGP of the config's sheets (its cell, h_w h_h), in dx^2 of `units`.
 std::vector<double> marker_areas_lb(const std::vector<SheetSpec>& sheets,
                                     const protocol::UnitConverter& units);

@@ -15,6 +15,7 @@
 #include "protocol/session/announcement.hpp"
 #include "protocol/peak_memory.hpp"
 #include "protocol/text.hpp"
+#include "solid/fluid_state_check.hpp"
 #include "solid/model_registry.hpp"
 #include "solid/output_units.hpp"
 #include "solid/sheet_spec.hpp"
@@ -28,11 +29,6 @@ using protocol::indent;
 using protocol::one_line;
 using protocol::PhysicalConstants;
 using protocol::UnitConverter;
-
-/// The solid's frame on the lattice: its plate surface y = 0 is the fluid's half-way
-/// bounce-back wall at lattice y = -1/2; x and z: lattice = physical / dx
-/// (protocol/README.md section 4).
-const Eigen::Vector3d kOriginLb(0.0, -0.5, 0.0);
 
 }  // namespace
 
@@ -56,7 +52,7 @@ std::optional<Ending> SolidRun::build() {
                   s_.path + ": " + std::to_string(n_) +
                       " CGPs; a coupled run exchanges 1 to 2^31 - 1 markers (int32 num_cgps)"};
   coupler_ = std::make_unique<SolidCoupler>(*model_, units_, marker_areas_lb(s_.config.sheets, units_),
-                                            kOriginLb);
+                                            solid_origin_lb());
   // The watchdog (DESIGN 6; protocol/watchdog.hpp): a CGP's speed after every substep, the
   // energy after every interval. The energy floor: the sheets at 1e-6 c.
   coupler_->set_speed_limit(s_.watchdog.max_cgp_speed);
@@ -176,45 +172,7 @@ void SolidRun::set_length(std::int64_t total_steps, std::int64_t rigid_steps, st
 // ---- one LB interval ----
 
 std::optional<Ending> SolidRun::check(const cosimlcm::fluid_state_t& m) const {
-  const std::string where = "fluid_state_t of step " + std::to_string(m.step) + ": ";
-  const auto malformed = [&](const std::string& what) {
-    return Ending{exit_code::bad_input, where + what, true};
-  };
-  if (m.step > final_step_)
-    return malformed("the run has total_steps = " + std::to_string(total_steps_) +
-                     " (welcome_t); the last fluid_state_t is for step " +
-                     std::to_string(total_steps_ - 1));
-  if (m.num_cgps != n_)
-    return malformed("num_cgps = " + std::to_string(m.num_cgps) + ", expected " +
-                     std::to_string(n_) + " (the solid's hello_t)");
-  if (std::ssize(m.rho_lb) != n_ || std::ssize(m.velocity_lb) != n_)
-    return malformed("rho_lb has " + std::to_string(m.rho_lb.size()) + " and velocity_lb " +
-                     std::to_string(m.velocity_lb.size()) + " entries, expected " +
-                     std::to_string(n_));
-  for (std::size_t l = 0; l < m.velocity_lb.size(); ++l)
-    if (m.velocity_lb[l].size() != 3)
-      return malformed("velocity_lb[" + std::to_string(l) + "] has " +
-                       std::to_string(m.velocity_lb[l].size()) + " components, expected 3");
-  if (!std::isfinite(m.bulk_velocity_lb))
-    return Ending{exit_code::unhealthy,
-                  where + "bulk_velocity_lb = " + fmt("%g", m.bulk_velocity_lb) + " is not finite",
-                  true};
-  for (std::size_t l = 0; l < m.rho_lb.size(); ++l) {
-    const auto unhealthy = [&](const std::string& what) {
-      return Ending{exit_code::unhealthy,
-                    where + describe_cgp(s_.config, static_cast<Eigen::Index>(l)) + ": " + what,
-                    true};
-    };
-    if (!std::isfinite(m.rho_lb[l]))
-      return unhealthy("rho_lb = " + fmt("%g", m.rho_lb[l]) + " is not finite");
-    if (!(m.rho_lb[l] > 0.0))
-      return unhealthy("rho_lb = " + fmt("%g", m.rho_lb[l]) + "; the density must be > 0");
-    for (std::size_t c = 0; c < 3; ++c)
-      if (!std::isfinite(m.velocity_lb[l][c]))
-        return unhealthy("velocity_lb[" + std::to_string(c) + "] = " +
-                         fmt("%g", m.velocity_lb[l][c]) + " is not finite");
-  }
-  return std::nullopt;
+  return check_fluid_state(m, n_, final_step_, total_steps_, s_.config);
 }
 
 // Section 5, steps 1-4; Eqs. 18-20 and 24 (SolidCoupler::advance).

@@ -1,0 +1,522 @@
+// The solid library's run (sdk/include/cosim/solid.hpp): the solid server's scene reader,
+// session (solid/solid_peer.hpp over protocol/session/) and coupling scheme's message order
+// (solid/schemes/) around a user's Solid. Protocol state lives there; this file only wires it
+// to the user's interface: the command line, the hello_t, the lock-step loop, the ending.
+#include "cosim/solid.hpp"
+
+#include <CLI/CLI.hpp>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <exception>
+#include <filesystem>
+#include <iostream>
+#include <limits>
+#include <memory>
+#include <optional>
+#include <set>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "protocol/checkpoint_file.hpp"
+#include "protocol/cli_parse.hpp"
+#include "protocol/fault_injection.hpp"
+#include "protocol/hello_lcm.hpp"
+#include "protocol/session/announcement.hpp"
+#include "protocol/session/exit_codes.hpp"
+#include "protocol/text.hpp"
+#include "protocol/units.hpp"
+#include "solid/coupled_solid.hpp"
+#include "solid/fluid_state_check.hpp"
+#include "solid/schemes/scheme_context.hpp"
+#include "solid/schemes/solid_scheme.hpp"
+#include "solid/solid_coupler.hpp"
+#include "solid/solid_peer.hpp"
+#include "solid/solid_scene.hpp"
+
+namespace cosim::sdk {
+
+namespace {
+
+namespace exit_code = protocol::exit_code;
+using protocol::Ending;
+using protocol::fmt;
+using protocol::one_line;
+using Clock = std::chrono::steady_clock;
+
+/// The launcher's options that take a value, and its flags (section 6a; cli_parse.hpp's).
+const std::set<std::string> kValueOptions{"--output", "--token", "--channel-prefix", "--lcm-url",
+                                          "--time-ratio", "--faults", "--restart"};
+const std::set<std::string> kFlags{"--quiet", "--help", "-h", "--version"};
+
+/// Splits `args` (after the program's name) into the launcher's arguments, kept for the
+/// command-line parser, and the solid's own "--NAME VALUE" (or --NAME=VALUE) parameters.
+std::vector<std::string> split_params(const std::vector<std::string>& args, std::map<std::string, std::string>& params) {
+  std::vector<std::string> kept;
+  for (std::size_t k = 0; k < args.size(); ++k) {
+    const std::string& a = args[k];
+    const std::string key = a.substr(0, a.find('='));
+    if (a.rfind("--", 0) != 0 || a.size() < 3 || kFlags.count(key) || kValueOptions.count(key)) {
+      kept.push_back(a);
+      if (kValueOptions.count(a) && k + 1 < args.size()) kept.push_back(args[++k]);
+      continue;
+    }
+    std::string name = a.substr(2), value;
+    if (const auto eq = name.find('='); eq != std::string::npos) {
+      value = name.substr(eq + 1);
+      name = name.substr(0, eq);
+    } else if (k + 1 < args.size()) {
+      value = args[++k];
+    } else {
+      throw std::invalid_argument("command line: --" + name + " needs a value (the solid's own --NAME VALUE)");
+    }
+    params[name] = value;
+  }
+  return kept;
+}
+
+/// The user's markers: sizes, finite values, positive areas; a one-line reason, or "".
+std::string markers_problem(const Markers& m) {
+  const Eigen::Index n = m.position_lb.cols();
+  if (n < 1) return "start() gave no markers; a coupled run exchanges 1 to 2^31 - 1";
+  if (n > std::numeric_limits<std::int32_t>::max()) return "start() gave more than 2^31 - 1 markers";
+  if (m.area_lb.size() != n)
+    return "start() gave " + std::to_string(n) + " positions but " + std::to_string(m.area_lb.size()) + " areas";
+  if (!m.position_lb.allFinite()) return "start() gave a non-finite marker position";
+  for (Eigen::Index l = 0; l < n; ++l)
+    if (!(m.area_lb[l] > 0.0) || !std::isfinite(m.area_lb[l]))
+      return "start(): area_lb[" + std::to_string(l) + "] = " + fmt("%g", m.area_lb[l]) + "; allowed: > 0, finite";
+  return "";
+}
+
+/// The user's answer for `step`: sizes and finite values; nothing if it is fine.
+std::optional<Ending> answer_problem(const Answer& a, Eigen::Index n, std::int64_t step) {
+  const std::string where = "the solid's answer for LB step " + std::to_string(step) + ": ";
+  if (a.position_lb.cols() != n || a.impulse_lb.cols() != n)
+    return Ending{exit_code::unhealthy,
+                  where + std::to_string(a.position_lb.cols()) + " positions and " +
+                      std::to_string(a.impulse_lb.cols()) + " impulses for " + std::to_string(n) + " markers",
+                  true};
+  for (Eigen::Index l = 0; l < n; ++l) {
+    if (!a.position_lb.col(l).allFinite())
+      return Ending{exit_code::unhealthy, where + "marker " + std::to_string(l) + ": position not finite", true};
+    if (!a.impulse_lb.col(l).allFinite())
+      return Ending{exit_code::unhealthy, where + "marker " + std::to_string(l) + ": impulse not finite", true};
+  }
+  return std::nullopt;
+}
+
+Sheet sheet_of(const solid::SheetSpec& spec, const protocol::UnitConverter& units) {
+  Sheet s;
+  s.nx = spec.nx_cg;
+  s.ny = spec.ny_cg;
+  s.clamped_rows = spec.clamped_rows;
+  s.spacing_w_lb = units.length_lb_from_bohr(spec.width_spacing_bohr);
+  s.spacing_h_lb = units.length_lb_from_bohr(spec.height_spacing_bohr);
+  s.position_lb = solid::marker_positions_lb({spec}, units);
+  const std::vector<double> a = solid::marker_areas_lb({spec}, units);
+  s.area_lb = Eigen::Map<const Eigen::VectorXd>(a.data(), Eigen::Index(a.size()));
+  return s;
+}
+
+/// One run of a user's Solid: the pieces of the solid server's session around it.
+class SdkRun {
+ public:
+  SdkRun(Solid& solid, const solid::SolidScene& scene, const solid::CoupledSolidOptions& options, Scene info)
+      : solid_(solid), s_(scene), o_(options), info_(std::move(info)), units_(scene.unit_inputs()),
+        scheme_(solid::make_solid_scheme(scene.coupling->scheme)),
+        peer_(*scene.coupling, options, *scheme_,
+              [this](const cosimlcm::fluid_state_t& m) {
+                return solid::check_fluid_state(m, n_, scheme_->final_step(peer_.total_steps()),
+                                                peer_.total_steps(), s_.config);
+              },
+              std::cout) {}
+
+  int run() {
+    if (scheme_->name() != "serial")
+      return report(Ending{exit_code::bad_input,
+                           s_.path + ": [coupling] scheme = \"" + std::string(scheme_->name()) +
+                               "\"; allowed with the solid library: \"serial\""});
+    Markers start;
+    try {
+      start = solid_.start(info_);
+    } catch (const std::invalid_argument& e) {
+      return report(Ending{exit_code::bad_input, solid_.model() + ": " + one_line(e.what())});
+    }
+    if (const std::string why = markers_problem(start); !why.empty())
+      return report(Ending{exit_code::bad_input, solid_.model() + ": " + why});
+    for (const auto& [name, value] : info_.params)
+      if (!info_.asked.count(name))
+        return report(Ending{exit_code::bad_input, "command line: unknown option --" + name + " (" + solid_.model() +
+                                                       " reads none of that name)"});
+    n_ = start.position_lb.cols();
+    x_ = start.position_lb;
+    area_ = start.area_lb;
+    const double stable = solid_.stable_dt_cg_s();
+    if (!(stable > 0.0))
+      return report(Ending{exit_code::bad_input, solid_.model() + ": stable_dt_cg_s() = " + fmt("%g", stable) +
+                                                     "; allowed: > 0 (+infinity: no limit)"});
+    std::cout << "solid: " << solid_.model() << " on the solid library, scene " << s_.name << " (" << s_.path
+              << "), " << n_ << " markers, A_T = " << s_.coupling->time_ratio << ", channels "
+              << peer_.channel_prefix() << "*\n";
+    if (const auto e = peer_.open(n_)) return report(*e);
+    cosimlcm::hello_t hello{};
+    try {
+      hello = protocol::to_lcm(protocol::announcement("solid", o_.token, solid_.model(), s_.path,
+                                                      s_.coupling->scheme.scheme, units_, s_.coupling->time_ratio));
+    } catch (const std::runtime_error& e) {
+      return finish(Ending{exit_code::system, e.what()});
+    }
+    hello.stable_dt_cg_s = std::isfinite(stable) ? stable : std::numeric_limits<double>::max();
+    hello.num_cgps = static_cast<std::int32_t>(n_);
+    if (const auto e = peer_.handshake(hello)) return finish(*e);
+    std::cout << "solid: handshake accepted: " << peer_.total_steps() << " LB steps (" << peer_.rigid_steps()
+              << " rigid)\n";
+    std::cout.flush();
+    peer_.await_from(scheme_->first_key(peer_.rigid_steps()));
+    if (!o_.restart.empty()) {
+      // Continue from a checkpoint of step N: the solid's state after it and the
+      // solid_state_t(N) it sent, published again (the in-flight impulses).
+      try {
+        restore(o_.restart);
+      } catch (const std::exception& e) {
+        return finish(Ending{exit_code::bad_input, "--restart " + o_.restart + ": " + one_line(e.what()), true});
+      }
+      std::cout << "solid: restarted from " << o_.restart << " at step " << peer_.last_step() << "\n";
+    } else {
+      // Step 0: the initial positions, zero impulses (section 5).
+      peer_.publish_state(0, 0, 0.0, x_, Eigen::Matrix3Xd::Zero(3, n_), 0);
+    }
+    first_step_ = peer_.last_step();
+    start_ = Clock::now();
+    peer_.heard();
+    for (;;) {
+      if (const auto e = peer_.wait([] {})) return finish(*e);
+      const cosimlcm::fluid_state_t m = peer_.awaited();
+      if (const auto e = interval(m)) return finish(*e);
+      peer_.advance();
+      if (const auto e = peer_.failure()) return finish(*e);
+    }
+  }
+
+ private:
+  /// Section 5: fluid_state_t(m) drives the interval m - 1 -> m; solid_state_t(m) back.
+  std::optional<Ending> interval(const cosimlcm::fluid_state_t& m) {
+    if (const auto e = solid::check_fluid_state(m, n_, scheme_->final_step(peer_.total_steps()), peer_.total_steps(),
+                                                s_.config))
+      return e;
+    const solid::FluidSample sample = solid::sample_of(m);
+    const int a_t = s_.coupling->time_ratio;
+    Answer a;
+    int substeps = 0;
+    if (m.step < peer_.rigid_steps()) {
+      // The spin-up: the markers held, U_B = 0, J_l = g dA = -2 rho u dA.
+      a.position_lb = x_;
+      a.impulse_lb.resize(3, n_);
+      for (Eigen::Index l = 0; l < n_; ++l)
+        a.impulse_lb.col(l) = momentum_exchange(sample.rho_lb[l], Eigen::Vector3d::Zero(),
+                                                sample.velocity_lb.col(l), area_[l]);
+    } else {
+      Interval in;
+      in.step = m.step;
+      in.substeps = a_t;
+      in.rho_lb = sample.rho_lb;
+      in.velocity_lb = sample.velocity_lb;
+      const Clock::time_point t0 = Clock::now();
+      try {
+        a = solid_.step(in);
+      } catch (const std::exception& e) {
+        return Ending{exit_code::system, solid_.model() + ": step() of LB step " + std::to_string(m.step) + ": " +
+                                             one_line(e.what()),
+                      true};
+      }
+      compute_s_ += std::chrono::duration<double>(Clock::now() - t0).count();
+      ++computed_;
+      if (auto e = answer_problem(a, n_, m.step)) return e;
+      substeps = a_t;
+      x_ = a.position_lb;
+    }
+    total_substeps_ += substeps;
+    peer_.publish_state(m.step, substeps, static_cast<double>(total_substeps_) * units_.dt_cg_s(), a.position_lb,
+                        a.impulse_lb, 0);
+    const std::int64_t every = s_.coupling->checkpoint_every;
+    if (every > 0 && m.step % every == 0) try {
+        checkpoint("every coupling.checkpoint_every steps");
+      } catch (const std::exception& e) {
+        return Ending{exit_code::system, "checkpoint of step " + std::to_string(m.step) + ": " + one_line(e.what()), true};
+      }
+    return std::nullopt;
+  }
+
+  // ---- checkpoints (DESIGN 2.4; protocol/README.md section 10) ----
+
+  /// OUTPUT/checkpoints/solid_NNNNNNNN.h5 of the last step sent, if the solid keeps any: its
+  /// path, or "".
+  std::string checkpoint(const std::string& reason) {
+    const std::vector<double> state = solid_.save();
+    if (state.empty()) return "";
+    namespace fs = std::filesystem;
+    const fs::path dir = fs::path(s_.output_dir) / "checkpoints";
+    fs::create_directories(dir);
+    const fs::path file = dir / protocol::checkpoint_name("solid", peer_.last_step());
+    protocol::CheckpointWriter w(file);
+    w.attr("step", peer_.last_step());
+    w.attr("solid_seq", peer_.next_seq());
+    w.attr("total_substeps", total_substeps_);
+    w.attr("num_cgps", static_cast<std::int64_t>(n_));
+    w.attr("time_ratio", static_cast<std::int64_t>(s_.coupling->time_ratio));
+    w.text("scene_hash", protocol::scene_hash_of_file(s_.path));
+    w.text("reason", reason);
+    w.text("model", solid_.model());
+    w.put("positions_lb", x_.data(), std::size_t(x_.size()));
+    w.put("sdk_state", state);
+    const cosimlcm::solid_state_t& sent = peer_.last_sent();
+    std::vector<std::uint8_t> bytes(static_cast<std::size_t>(sent.getEncodedSize()));
+    sent.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+    w.put("in_flight_solid_state", bytes);
+    w.commit();
+    protocol::prune_checkpoints(dir, "solid_", 3);
+    return file.string();
+  }
+
+  /// The checkpoint at `path` back: throws (one line) for one of another scene, model, CGP
+  /// count or A_T.
+  void restore(const std::string& path) {
+    const protocol::CheckpointReader r(path);
+    if (r.text("scene_hash") != protocol::scene_hash_of_file(s_.path))
+      throw std::runtime_error("a checkpoint of another scene file (scene_hash differs from " + s_.path + ")");
+    if (r.text("model") != solid_.model())
+      throw std::runtime_error("a checkpoint of the model '" + r.text("model") + "', this is '" + solid_.model() + "'");
+    const std::int64_t step = r.int64_attr("step");
+    if (step < 1 || step >= peer_.total_steps())
+      throw std::runtime_error("step = " + std::to_string(step) + ", allowed: 1 to " + std::to_string(peer_.total_steps() - 1));
+    if (r.int64_attr("time_ratio") != s_.coupling->time_ratio)
+      throw std::runtime_error("a checkpoint of A_T = " + std::to_string(r.int64_attr("time_ratio")) +
+                               "; the solid library restarts with the same A_T only (" +
+                               std::to_string(s_.coupling->time_ratio) + " now)");
+    x_ = Eigen::Map<const Eigen::Matrix3Xd>(r.doubles("positions_lb", static_cast<std::size_t>(3 * n_)).data(), 3, n_);
+    try {
+      solid_.restore(r.doubles("sdk_state"));
+    } catch (const std::invalid_argument& e) {
+      throw std::runtime_error(solid_.model() + ": " + e.what());
+    }
+    cosimlcm::solid_state_t sent{};
+    const std::vector<std::uint8_t> bytes = r.bytes("in_flight_solid_state");
+    if (sent.decode(bytes.data(), 0, static_cast<int>(bytes.size())) < 0 || sent.step != step || sent.num_cgps != n_)
+      throw std::runtime_error("in_flight_solid_state is not the solid_state_t of step " + std::to_string(step));
+    sent.token = o_.token;
+    total_substeps_ = r.int64_attr("total_substeps");
+    peer_.resume(std::move(sent), r.int64_attr("solid_seq"));
+    peer_.await_from(step + 1);
+  }
+
+  int finish(Ending e) {
+    // A clean abort (the fluid lost, or stopped with an error) keeps the state after the last
+    // step for a restart, as the solid server does.
+    if (e.code == exit_code::peer_lost && peer_.sent_any() && peer_.last_step() > first_step_) {
+      try {
+        if (const std::string file = checkpoint(e.reason); !file.empty()) e.reason += "; checkpoint " + file;
+      } catch (const std::exception& x) {
+        e.reason += "; no checkpoint: " + one_line(x.what());
+      }
+    }
+    peer_.stop(e);
+    const double wall = std::chrono::duration<double>(Clock::now() - start_).count();
+    std::cout << "solid: coupled run " << (e.code == exit_code::ok ? "done" : "stopped") << " at step "
+              << peer_.last_step() << " of " << peer_.total_steps() << ", " << total_substeps_ << " substeps in "
+              << fmt("%.1f", wall) << " s; " << peer_.counters() << "\n";
+    if (computed_ > 0)
+      std::cout << "solid: per LB step: step() " << fmt("%.4g", 1e3 * compute_s_ / double(computed_)) << " ms over "
+                << computed_ << " steps\n";
+    return report(e);
+  }
+
+  int report(const Ending& e) {
+    std::cout.flush();
+    if (e.code != exit_code::ok) std::cerr << "solid: " << one_line(e.reason) << "\n" << std::flush;
+    return e.code;
+  }
+
+  Solid& solid_;
+  const solid::SolidScene& s_;
+  const solid::CoupledSolidOptions& o_;
+  Scene info_;
+  const protocol::UnitConverter units_;
+  std::unique_ptr<solid::SolidScheme> scheme_;
+  Eigen::Index n_ = 0;
+  solid::SolidPeer peer_;
+  Eigen::Matrix3Xd x_;
+  Eigen::VectorXd area_;
+  std::int64_t total_substeps_ = 0, computed_ = 0, first_step_ = 0;
+  double compute_s_ = 0.0;
+  Clock::time_point start_ = Clock::now();
+};
+
+int run_impl(Solid& solid, std::vector<std::string> args) {
+  const std::string program = args.empty() ? std::string("solid") : args.front();
+  CLI::App app{"A solid model on the cosim solid library, coupled to the fluid over LCM (protocol/README.md).\n"
+               "Exit status: 0 done, 1 system error, 2 invalid scene or command line or refused handshake, "
+               "3 non-finite answer, 4 the fluid was lost or stopped with an error.",
+               program};
+  std::string scene_path, output, token, prefix, url, faults;
+  std::int64_t time_ratio = 0;
+  bool quiet = false;
+  app.add_option("scene", scene_path, "coupled scene file (TOML)")->required();
+  CLI::Option* o_output = app.add_option("--output", output, "output directory ([output] directory)");
+  CLI::Option* o_token = app.add_option("--token", token, "the run's token (default: $COSIM_RUN_TOKEN)");
+  CLI::Option* o_prefix = app.add_option("--channel-prefix", prefix, "LCM channel prefix");
+  CLI::Option* o_url = app.add_option("--lcm-url", url, "LCM URL ([coupling] lcm_url)");
+  CLI::Option* o_ratio = app.add_option("--time-ratio", time_ratio, "A_T ([coupling] time_ratio)");
+  CLI::Option* o_faults = app.add_option("--faults", faults, "tests: transport faults (protocol/fault_injection.hpp)");
+  std::string restart;
+  app.add_option("--restart", restart, "continue from this checkpoint (OUTPUT/checkpoints/solid_N.h5)");
+  app.add_flag("--quiet", quiet, "no progress lines");
+  Scene info;
+  std::vector<std::string> launcher{program};
+  try {
+    const std::vector<std::string> rest = split_params(
+        args.empty() ? args : std::vector<std::string>(args.begin() + 1, args.end()), info.params);
+    launcher.insert(launcher.end(), rest.begin(), rest.end());
+  } catch (const std::invalid_argument& e) {
+    std::cerr << program << ": " << e.what() << "\n";
+    return exit_code::bad_input;
+  }
+  std::vector<const char*> argv;
+  for (const std::string& a : launcher) argv.push_back(a.c_str());
+  if (const auto code =
+          protocol::parse_command_line(app, static_cast<int>(argv.size()), const_cast<char**>(argv.data()), program))
+    return *code;
+  const auto bad = [&](const std::string& what) {
+    std::cout.flush();
+    std::cerr << program << ": " << one_line(what) << "\n";
+    return exit_code::bad_input;
+  };
+  solid::SolidScene scene;
+  try {
+    scene = solid::load_solid_scene(scene_path);
+    solid::SolidSceneOverrides ov;
+    if (o_output->count()) ov.output_dir = output;
+    if (o_prefix->count()) ov.channel_prefix = prefix;
+    if (o_url->count()) ov.lcm_url = url;
+    if (o_ratio->count()) ov.time_ratio = time_ratio;
+    solid::apply_overrides(scene, ov);
+  } catch (const std::exception& e) {
+    return bad(e.what());
+  }
+  if (!scene.coupled()) return bad(scene.path + ": not a coupled scene (no [coupling] section)");
+  solid::CoupledSolidOptions options;
+  options.token = o_token->count() ? token : std::string();
+  if (!o_token->count())
+    if (const char* env = std::getenv("COSIM_RUN_TOKEN")) options.token = env;
+  if (options.token.empty())
+    return bad("a coupled run needs the run's token: --token TOKEN or COSIM_RUN_TOKEN (the launcher draws one per run)");
+  options.quiet = quiet;
+  options.restart = restart;
+  try {
+    options.faults = protocol::fault_settings_from(o_faults->count() ? &faults : nullptr);
+  } catch (const std::invalid_argument& e) {
+    return bad(e.what());
+  }
+  const protocol::UnitConverter units(scene.unit_inputs());
+  info.path = scene.path;
+  info.name = scene.name;
+  info.output_dir = scene.output_dir;
+  info.time_ratio = scene.coupling->time_ratio;
+  info.dx_m = units.dx_m();
+  info.dt_lb_s = units.dt_lb_s();
+  info.dt_cg_s = units.dt_cg_s();
+  info.air_density_kg_m3 = units.air_density_kg_m3();
+  info.sound_speed_m_s = units.inputs().sound_speed_m_s;
+  for (const solid::SheetSpec& spec : scene.config.sheets) info.sheets.push_back(sheet_of(spec, units));
+  info.position_lb = solid::marker_positions_lb(scene.config.sheets, units);
+  const std::vector<double> areas = solid::marker_areas_lb(scene.config.sheets, units);
+  info.area_lb = Eigen::Map<const Eigen::VectorXd>(areas.data(), Eigen::Index(areas.size()));
+  try {
+    SdkRun r(solid, scene, options, std::move(info));
+    return r.run();
+  } catch (const std::exception& e) {
+    std::cout.flush();
+    std::cerr << program << ": " << one_line(e.what()) << "\n";
+    return exit_code::system;
+  }
+}
+
+}  // namespace
+
+double Scene::param(const std::string& option, double fallback) const {
+  asked.insert(option);
+  const auto it = params.find(option);
+  if (it == params.end()) return fallback;
+  char* end = nullptr;
+  const double v = std::strtod(it->second.c_str(), &end);
+  if (end == it->second.c_str() || *end != '\0' || !std::isfinite(v))
+    throw std::invalid_argument("command line: --" + option + " = '" + it->second + "'; allowed: a finite number");
+  return v;
+}
+
+Scene synthetic_scene(int nx, int ny, int time_ratio) {
+  if (nx < 1 || ny < 2 || time_ratio < 1)
+    throw std::invalid_argument("synthetic_scene: nx >= 1, ny >= 2 and time_ratio >= 1 allowed");
+  protocol::UnitInputs in;
+  in.time_ratio = time_ratio;
+  const protocol::UnitConverter units(in);
+  Scene s;
+  s.path = "(synthetic)";
+  s.name = "synthetic";
+  s.time_ratio = time_ratio;
+  s.dx_m = units.dx_m();
+  s.dt_lb_s = units.dt_lb_s();
+  s.dt_cg_s = units.dt_cg_s();
+  s.air_density_kg_m3 = units.air_density_kg_m3();
+  s.sound_speed_m_s = in.sound_speed_m_s;
+  Sheet sh;
+  sh.nx = nx;
+  sh.ny = ny;
+  sh.clamped_rows = 1;
+  sh.spacing_w_lb = sh.spacing_h_lb = 1.0;
+  sh.position_lb.resize(3, Eigen::Index(nx) * ny);
+  for (int j = 0; j < ny; ++j)
+    for (int i = 0; i < nx; ++i) sh.position_lb.col(i + Eigen::Index(nx) * j) = Eigen::Vector3d(10.0, j, 10.0 + i);
+  sh.area_lb = Eigen::VectorXd::Ones(sh.position_lb.cols());
+  s.position_lb = sh.position_lb;
+  s.area_lb = sh.area_lb;
+  s.sheets.push_back(sh);
+  return s;
+}
+
+double time_steps(Solid& solid, const Scene& scene, int steps) {
+  const Markers m = solid.start(scene);
+  Interval in;
+  in.substeps = scene.time_ratio;
+  in.rho_lb = Eigen::VectorXd::Ones(m.position_lb.cols());
+  in.velocity_lb = Eigen::Matrix3Xd::Zero(3, m.position_lb.cols());
+  in.velocity_lb.row(0).setConstant(0.05);
+  const Clock::time_point t0 = Clock::now();
+  for (int k = 1; k <= steps; ++k) {
+    in.step = k;
+    const Answer a = solid.step(in);
+    if (a.impulse_lb.cols() != m.position_lb.cols()) throw std::runtime_error("time_steps: a mis-sized answer");
+  }
+  return std::chrono::duration<double>(Clock::now() - t0).count() / std::max(1, steps);
+}
+
+int run(Solid& solid, int argc, const char* const* argv) {
+  std::vector<std::string> args(argv, argv + argc);
+  return run(solid, args);
+}
+
+int run(Solid& solid, const std::vector<std::string>& args) {
+  try {
+    return run_impl(solid, args);
+  } catch (const std::exception& e) {
+    std::cout.flush();
+    std::cerr << "solid: " << one_line(e.what()) << "\n";
+    return protocol::exit_code::system;
+  }
+}
+
+}  // namespace cosim::sdk
