@@ -54,8 +54,9 @@ def tau_for(nu, dx_m):
     return 0.5 + 3.0 * nu * dt / (dx_m * dx_m)
 
 
-def scene_text(name, case, dx_um, box, law="momentum_exchange", out_dir=None):
+def scene_text(name, case, dx_um, box, law="momentum_exchange", out_dir=None, t_end_us=None):
     mass, nu, t_us = CASES[case]
+    t_us = t_end_us or t_us
     dx = dx_um * 1e-6
     n = [max(8, int(round(L / dx_um))) for L in BOXES[box]]
     tau = tau_for(nu, dx)
@@ -147,8 +148,20 @@ def main():
     ap.add_argument("--law", default="momentum_exchange")
     ap.add_argument("--scene-only", action="store_true")
     ap.add_argument("--table-only", action="store_true")
+    ap.add_argument("--t-end-us", type=float,
+                    help="run this long after the release instead of the case's default")
+    ap.add_argument("--tolerance", default="",
+                    help="KEY=REL,... (KEY of t_cross1, t_cross2, undershoot, freq, zeta): exit 1 "
+                         "when a run differs from Sader by more than REL (relative) in KEY")
     a = ap.parse_args()
-    rows, curves = [], []
+    tolerances = {}
+    for item in filter(None, a.tolerance.split(",")):
+        k, _, v = item.partition("=")
+        if k not in ("t_cross1", "t_cross2", "undershoot", "freq", "zeta") or not v:
+            ap.error(f"--tolerance {item}: allowed KEY=REL with KEY one of t_cross1, t_cross2, "
+                     "undershoot, freq, zeta")
+        tolerances[k] = float(v)
+    rows, curves, run_failures = [], [], 0
     for case in a.cases.split(","):
         for dx in [float(v) for v in a.resolutions.split(",")]:
             for box in a.boxes.split(","):
@@ -158,7 +171,7 @@ def main():
                 os.makedirs(d, exist_ok=True)
                 scene = os.path.join(d, "scene.toml")
                 with open(scene, "w") as f:
-                    f.write(scene_text(name, case, dx, box, a.law, os.path.join(d, "run")))
+                    f.write(scene_text(name, case, dx, box, a.law, os.path.join(d, "run"), a.t_end_us))
                 if a.scene_only:
                     print(scene)
                     continue
@@ -166,6 +179,7 @@ def main():
                     rc = run_case(scene, os.path.join(d, "run"))
                     if rc != 0:
                         print(f"free_decay_study: {name}: run-coupled exit {rc} (see {d}/run/)", file=sys.stderr)
+                        run_failures += 1
                         continue
                 t, x = read_run(os.path.join(d, "run"))
                 beam = sader.scene_beam(scene)
@@ -176,10 +190,18 @@ def main():
                 curves.append((name, t, x, tr, xr))
                 print(f"{name}: sim {m}; sader {r}", flush=True)
     if a.scene_only or not rows:
-        return 0
+        return 1 if run_failures else 0
     write_table(a.out, rows, a.law)
     plot(a.out, curves)
-    return 0
+    failed = run_failures
+    for case, dx, box, m, r, beam in rows:
+        for k, tol in tolerances.items():
+            d = rel(m[k], r[k])
+            ok = math.isfinite(d) and abs(d) <= tol
+            failed += not ok
+            print(f"free_decay_study: check {case} dx {dx} {box}: {k} {fmt(d, 100, '{:+.2f}')} % "
+                  f"against Sader, tolerance {tol * 100:g} %: {'ok' if ok else 'FAILED'}")
+    return 1 if failed else 0
 
 
 def rel(a, b):
