@@ -20,7 +20,9 @@ um, large: 20.5 x 15.4 x 15.4 um around the 8.8 um sheet).
 
   python3 launch/free_decay_study.py [--out out/free_decay] [--cases heavy,paper]
       [--resolutions 0.5122,0.2561] [--boxes small,large] [--law momentum_exchange]
-      [--scene-only] [--table-only]
+      [--t-end-us T] [--tolerance KEY=REL,...] [--scene-only] [--table-only]
+
+--table-only makes the table and the plot from the runs already in OUT (none is run).
 
 Writes OUT/<case>/{scene.toml, run output}, OUT/free_decay.md (the table) and
 OUT/free_decay.png (the responses against the reference). Runs go through
@@ -175,7 +177,11 @@ def main():
                 if a.scene_only:
                     print(scene)
                     continue
-                if not a.table_only or not os.path.exists(os.path.join(d, "run", "solid.h5")):
+                if a.table_only:
+                    if not os.path.exists(os.path.join(d, "run", "solid.h5")):
+                        print(f"free_decay_study: {name}: not run yet (no {d}/run/solid.h5); left out")
+                        continue
+                else:
                     rc = run_case(scene, os.path.join(d, "run"))
                     if rc != 0:
                         print(f"free_decay_study: {name}: run-coupled exit {rc} (see {d}/run/)", file=sys.stderr)

@@ -32,13 +32,15 @@ step response of the transfer function G(omega) = k / (k - omega^2 M(omega)),
 integrated numerically (G is causal; its real part alone fixes the response).
 
 What the strip assumption means for the project's sheet: Sader's Gamma is the 2D load on an
-infinitely long strip. The paper's sheet is W = 1.2 um wide and H = 8.8 um tall (aspect
-L/b = 7.3, 35/5 rows and columns of CGPs), rooted on a wall and in a finite box: the flow
-round its free end and its root, the wall's no-slip, and the box's images are not in Gamma.
-Sader (1998, section V) and later work on short beams (Van Eysden and Sader) find the strip
-result within about 10 % for L/b of order 5-10 at Re of order 1; the wall at the root adds
-damping there. The study (launch/free_decay_study.py) measures how far the coupled runs are
-from this reference; that distance is not all the coupling's error.
+infinitely long strip (his theory asks L >> b, an unbounded fluid, and a thickness much
+below b). The paper's sheet is W = 1.2 um wide with a free length of 8.6 um above its
+clamped row (L/b = 7.2), rooted on a wall and in a finite, periodic box: the flow round its
+free end, the wall's no-slip at its root and the box's images are not in Gamma. The
+neglected end effects are of relative order b/L = 0.14 over the tip region where the first
+mode moves most; we found no published correction for this aspect ratio that we could check,
+so the study (launch/free_decay_study.py) measures the distance of the coupled runs from
+the strip theory at two resolutions and two boxes; the part that does not shrink with
+resolution is this modelling difference, not the coupling's error.
 
 Usage:
   python3 launch/sader.py SCENE.toml [--f-vac-hz F] [--tau TAU] [--t-end-us T] [--csv OUT]
