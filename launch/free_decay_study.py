@@ -234,22 +234,28 @@ def write_table(out, rows, law):
 
 
 def plot(out, curves):
+    """One panel per case: the runs (solid, one per resolution and box) and Sader (dashed)."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    fig, ax = plt.subplots(figsize=(8, 5))
-    for k, (name, t, x, tr, xr) in enumerate(curves):
-        c = f"C{k % 10}"
-        ax.plot(t * 1e6, x, color=c, label=name.replace("free_decay_", ""))
-        ax.plot(tr * 1e6, xr, color=c, ls="--", lw=0.8)
-    ax.axhline(0.0, color="k", lw=0.5)
-    ax.set_xlabel("time after release (us)")
-    ax.set_ylabel("marked CGP normal displacement / held deflection")
-    ax.set_title("free decay in still air: runs (solid) against Sader (dashed)")
-    ax.legend(fontsize=7)
+    cases = [c for c in CASES if any(name.split("_")[2] == c for name, *_ in curves)]
+    fig, axes = plt.subplots(len(cases), 1, figsize=(8, 3.2 * len(cases)), squeeze=False)
+    for ax, case in zip(axes[:, 0], cases):
+        longest = None
+        for k, (name, t, x, tr, xr) in enumerate(c for c in curves if c[0].split("_")[2] == case):
+            label = "_".join(name.split("_")[3:]).replace("dx0p", "dx 0.")
+            ax.plot(t * 1e6, x, color=f"C{k % 10}", label=label)
+            if longest is None or tr[-1] > longest[0][-1]:
+                longest = (tr, xr)
+        ax.plot(longest[0] * 1e6, longest[1], color="k", ls="--", lw=1.0, label="Sader")
+        ax.axhline(0.0, color="k", lw=0.5)
+        ax.set_title(f"{case}: marked CGP after the release in still air", fontsize=9)
+        ax.set_ylabel("w / w(0)")
+        ax.legend(fontsize=7)
+    axes[-1, 0].set_xlabel("time after release (us)")
     fig.tight_layout()
     path = os.path.join(out, "free_decay.png")
-    fig.savefig(path, dpi=120)
+    fig.savefig(path, dpi=110)
     print(f"free_decay_study: plot {path}")
 
 
