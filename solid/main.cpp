@@ -54,6 +54,7 @@
 #include "protocol/text.hpp"
 #include "protocol/units.hpp"
 #include "solid/coupled_solid.hpp"
+#include "solid/initial_deflection.hpp"
 #include "solid/model_registry.hpp"
 #include "solid/sheet_snapshots.hpp"
 #include "solid/sheet_spec.hpp"
@@ -239,25 +240,6 @@ void print_header(const SolidScene& s, const SolidModel& model) {
   std::fflush(stdout);
 }
 
-/// Sets the initial state of a free run: the uniformly-loaded cantilever's deflection
-/// shape along each sheet's normal, tip_displacement at the top row, zero velocity.
-void apply_perturbation(const SolidScene& s, SolidModel& model) {
-  SolidState state = model.state();
-  for (std::size_t k = 0; k < s.config.sheets.size(); ++k) {
-    const SheetSpec& sh = s.config.sheets[k];
-    const Eigen::Vector3d n = sheet_normal(sh);
-    const Eigen::Index first = first_cgp(s.config, k);
-    const double free_rows = double(sh.ny_cg - sh.clamped_rows);
-    for (int j = sh.clamped_rows; j < sh.ny_cg; ++j) {
-      const double height = double(j - (sh.clamped_rows - 1)) / free_rows;
-      const double w = s.tip_displacement_bohr * cantilever_load_shape(height);
-      for (int i = 0; i < sh.nx_cg; ++i) state.positions_bohr.col(first + sh.index(i, j)) += w * n;
-    }
-  }
-  state.velocities_au.setZero();
-  model.restore(state);
-}
-
 /// Frequency of x(t) - mean from its zero crossings (linear interpolation between records):
 /// m half periods between the first crossing and crossing m, f = m / (2 (t_m - t_0)). m is
 /// taken even where there are three crossings or more, so that both ends cross in the same
@@ -373,7 +355,7 @@ int run(const SolidScene& s, SolidModel& model, bool quiet) {
 
   if (s.mode == SolidRunMode::Free) {
     if (dynamic)
-      apply_perturbation(s, model);
+      apply_initial_deflection(s.config, s.tip_displacement_bohr, model);
     else
       std::printf("  note     model \"%s\" has no dynamics: the perturbation is not applied\n",
                   s.model.c_str());

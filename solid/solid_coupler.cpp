@@ -54,9 +54,17 @@ IntervalResult SolidCoupler::advance(const FluidSample& sample, bool rigid, bool
   r.impulse_lb = Eigen::Matrix3Xd::Zero(3, n);
   if (rigid) {
     // The spin-up: sheets held, U_B = 0, one LB interval of g dA.
-    for (Eigen::Index l = 0; l < n; ++l)
-      r.impulse_lb.col(l) = -2.0 * sample.rho_lb[l] * area_[static_cast<std::size_t>(l)] *
-                            sample.velocity_lb.col(l);
+    if (law_ == ReactionLaw::MomentumExchange) {
+      for (Eigen::Index l = 0; l < n; ++l)
+        r.impulse_lb.col(l) = -2.0 * sample.rho_lb[l] * area_[static_cast<std::size_t>(l)] *
+                              sample.velocity_lb.col(l);
+    } else {
+      const int a_t = units_.inputs().time_ratio;
+      for (Eigen::Index l = 0; l < n; ++l)
+        for (int c = 0; c < 3; ++c)
+          r.impulse_lb(c, l) = reaction_g_da(law_, 2.0 * sample.rho_lb[l] * area_[static_cast<std::size_t>(l)],
+                                             0.0, sample.velocity_lb(c, l), a_t);
+    }
     r.position_lb = positions_lb();
     return r;
   }
@@ -83,8 +91,16 @@ IntervalResult SolidCoupler::advance(const FluidSample& sample, bool rigid, bool
   for (int k = 0; k < a_t; ++k) {
     // Eqs. 19-20 for all CGPs at once: g dA = 2 rho dA (U_B - u) on the fluid, -g dA / B_F on
     // the CGP, at the velocity before the substep.
-    force_au_.array() =
-        -(((b_v * velocity.array() - sample.velocity_lb.array()).rowwise() * rho_da.array())) / b_f;
+    // (The default law as one Eigen expression, the same arithmetic as momentum_exchange_g_da;
+    // the others through reaction_g_da, solid/reaction_law.hpp.)
+    if (law_ == ReactionLaw::MomentumExchange) {
+      force_au_.array() =
+          -(((b_v * velocity.array() - sample.velocity_lb.array()).rowwise() * rho_da.array())) / b_f;
+    } else {
+      for (Eigen::Index l = 0; l < n; ++l)
+        for (int c = 0; c < 3; ++c)
+          force_au_(c, l) = -reaction_g_da(law_, rho_da[l], b_v * velocity(c, l), sample.velocity_lb(c, l), a_t) / b_f;
+    }
     // The implicit scheme: backward Euler for the drag of every CGP that is not held (see the
     // header): h = D B_V dt / (B_F m) in atomic units.
     for (Eigen::Index l = 0; implicit_reaction && l < n; ++l) {

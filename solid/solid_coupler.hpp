@@ -11,6 +11,7 @@
 #include <Eigen/Core>
 
 #include "protocol/units.hpp"
+#include "solid/reaction_law.hpp"
 #include "solid/sheet_spec.hpp"
 #include "solid/solid_model.hpp"
 
@@ -94,6 +95,13 @@ class SolidCoupler {
   const ReactionMemory& reaction_memory() const { return memory_; }
   void set_reaction_memory(ReactionMemory m) { memory_ = std::move(m); }
 
+  /// The law of the fluid's force on the CGPs ([reaction] law; solid/reaction_law.hpp);
+  /// momentum_exchange by default. Every law applies in the rigid steps too, with U_B = 0.
+  /// @pre not ReactionLaw other than MomentumExchange with implicit_reaction (the scene's
+  /// parser refuses that pair)
+  void set_reaction_law(ReactionLaw law) { law_ = law; }
+  ReactionLaw reaction_law() const { return law_; }
+
   /// The CGPs whose velocity the model holds (clamped; every CGP of a model without
   /// dynamics): their reaction is not integrated as a drag (implicit_reaction).
   void set_held(std::vector<bool> held) { held_ = std::move(held); }
@@ -114,6 +122,7 @@ class SolidCoupler {
   bool over_speed_limit(int k, const FluidSample& sample, IntervalResult& r);
   std::vector<bool> held_;
   ReactionMemory memory_;
+  ReactionLaw law_ = ReactionLaw::MomentumExchange;
   double speed_limit_lb_ = std::numeric_limits<double>::infinity();
   double max_speed_lb_ = 0.0;
 };

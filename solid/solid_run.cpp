@@ -16,6 +16,7 @@
 #include "protocol/peak_memory.hpp"
 #include "protocol/text.hpp"
 #include "solid/fluid_state_check.hpp"
+#include "solid/initial_deflection.hpp"
 #include "solid/model_registry.hpp"
 #include "solid/output_units.hpp"
 #include "solid/sheet_spec.hpp"
@@ -51,12 +52,17 @@ std::optional<Ending> SolidRun::build() {
     return Ending{exit_code::bad_input,
                   s_.path + ": " + std::to_string(n_) +
                       " CGPs; a coupled run exchanges 1 to 2^31 - 1 markers (int32 num_cgps)"};
+  // [perturbation]: the sheets start deflected and at rest (step 0's positions), held so
+  // through the rigid steps, then released. A model without dynamics stays as built.
+  if (s_.tip_displacement_bohr != 0.0 && std::isfinite(model_->stable_time_step()))
+    apply_initial_deflection(s_.config, s_.tip_displacement_bohr, *model_);
   coupler_ = std::make_unique<SolidCoupler>(*model_, units_, marker_areas_lb(s_.config.sheets, units_),
                                             solid_origin_lb());
   // The watchdog (DESIGN 6; protocol/watchdog.hpp): a CGP's speed after every substep, the
   // energy after every interval. The energy floor: the sheets at 1e-6 c.
   coupler_->set_speed_limit(s_.watchdog.max_cgp_speed);
   coupler_->set_held(held_cgps());
+  coupler_->set_reaction_law(s_.reaction_law);
   const double mass_kg = model_->masses().sum() * PhysicalConstants::electron_mass_kg;
   const double c = units_.dx_m() / units_.dt_lb_s();
   energy_watch_.emplace(s_.watchdog.energy_growth, 0.5 * mass_kg * c * c * 1e-12);
@@ -127,6 +133,14 @@ void SolidRun::print_header(std::ostream& out, const std::string& channel_prefix
                                       (units_.dt_cg_s() > stable ? ": the coordinator will refuse it)" : ")")
                                 : std::string("none (no dynamics)"))
       << "\n";
+  if (s_.reaction_law != protocol::config::ReactionLaw::MomentumExchange)
+    out << "  reaction law " << protocol::config::reaction_law_name(s_.reaction_law)
+        << " ([reaction]; solid/reaction_law.hpp), not the momentum-exchange default\n";
+  if (s_.tip_displacement_bohr != 0.0)
+    out << "  initial  tip deflection " << fmt("%.6g", um_from_bohr(s_.tip_displacement_bohr))
+        << " um along each sheet's normal, at rest ([perturbation]; a uniformly loaded cantilever's shape)"
+        << (std::isfinite(stable) ? std::string() : std::string(": not applied, the model has no dynamics"))
+        << "\n";
   out << "  coupling channels " << channel_prefix << "*, LCM " << c_.lcm_url
       << ", rigid_steps " << c_.rigid_steps << " (the welcome_t's count), timeouts: handshake "
       << fmt("%g", c_.handshake_timeout_s) << " s, peer " << fmt("%g", c_.peer_timeout_s)

@@ -12,6 +12,7 @@
 
 #include "protocol/channels.hpp"
 #include "protocol/config/scene_reader.hpp"
+#include "protocol/config/reaction_section.hpp"
 #include "protocol/config/shared_sections.hpp"
 #include "protocol/lcm_url.hpp"
 #include "protocol/units.hpp"
@@ -61,7 +62,7 @@ std::vector<SectionSchema> schema() {
        {"nx_cg", "ny_cg", "spacing_um", "base_um", "theta_deg", "clamped_rows", "atoms_per_cgp"},
        true},
       {"run", {"mode", "substeps", "dt_s", "record_every"}, false, Use::Standalone},
-      {"perturbation", {"tip_displacement_um"}, false, Use::Standalone},
+      {"perturbation", {"tip_displacement_um"}},
       {"load", {"pressure_Pa", "damping_ratio"}, false, Use::Standalone},
       {"output"},
       {"grid", {}, false, Use::Coupled},
@@ -69,6 +70,8 @@ std::vector<SectionSchema> schema() {
       // The stability watchdog (protocol/watchdog.hpp): the same table in both servers,
       // each validating every key.
       {"watchdog", protocol::config::watchdog_key_names(), false, Use::Coupled},
+      // The reaction law (protocol/config/reaction_section.hpp, solid/reaction_law.hpp).
+      {"reaction", protocol::config::reaction_keys(), false, Use::Coupled},
   };
   for (const SolidModelEntry& m : solid_models())
     for (const ModelOptions* o : m.options) {
@@ -224,6 +227,20 @@ void load_run(const SceneReader& r, SolidScene& s) {
   }
 }
 
+/// [perturbation] tip_displacement_um (required in the section), in bohr.
+double read_tip_displacement(const Table& pert) {
+  const auto a = pert.number("tip_displacement_um");
+  if (!a)
+    pert.missing("tip_displacement_um",
+                 "the initial normal displacement of the top row, micrometres, non-zero");
+  if (*a == 0.0)
+    pert.bad("tip_displacement_um",
+             "must be non-zero (micrometres along the sheet normal; 0 would not vibrate)");
+  if (!length_in_range(*a))
+    pert.bad("tip_displacement_um", "|value| " + length_range_text() + " (along the sheet normal)");
+  return *a * kMicrometre / PhysicalConstants::bohr_m;
+}
+
 void load_mode_sections(const SceneReader& r, SolidScene& s) {
   const Table pert = r.section("perturbation");
   const Table load = r.section("load");
@@ -238,16 +255,7 @@ void load_mode_sections(const SceneReader& r, SolidScene& s) {
     if (!pert.present())
       r.fail(0, "[perturbation]: missing; run.mode = \"free\" needs [perturbation] with "
                 "tip_displacement_um");
-    const auto a = pert.number("tip_displacement_um");
-    if (!a)
-      pert.missing("tip_displacement_um",
-                   "the initial normal displacement of the top row, micrometres, non-zero");
-    if (*a == 0.0)
-      pert.bad("tip_displacement_um",
-               "must be non-zero (micrometres along the sheet normal; 0 would not vibrate)");
-    if (!length_in_range(*a))
-      pert.bad("tip_displacement_um", "|value| " + length_range_text() + " (along the sheet normal)");
-    s.tip_displacement_bohr = *a * kMicrometre / PhysicalConstants::bohr_m;
+    s.tip_displacement_bohr = read_tip_displacement(pert);
   } else {
     if (!load.present())
       r.fail(0, "[load]: missing; run.mode = \"static\" needs [load] with pressure_Pa");
@@ -276,6 +284,10 @@ SolidScene read_solid_scene(const std::string& path) {
     load_grid(r, s);
     s.coupling = protocol::config::read_coupling(r);
     s.watchdog = protocol::config::read_watchdog(r);
+    s.reaction_law = protocol::config::read_reaction_law(r, *s.coupling);
+    // A coupled release from a held deflection (in still air or in flow): optional.
+    if (const Table pert = r.section("perturbation"); pert.present())
+      s.tip_displacement_bohr = read_tip_displacement(pert);
     s.dt_s = protocol::UnitConverter(s.unit_inputs()).dt_cg_s();  // dt_CG = dt_LB / A_T
     s.dt_is_default = true;
     s.substeps = 0;

@@ -14,6 +14,7 @@
 
 #include "protocol/units.hpp"
 #include "protocol/config/coupling_settings.hpp"
+#include "protocol/config/reaction_settings.hpp"
 #include "protocol/watchdog.hpp"
 #include "solid/solid_config.hpp"
 
@@ -64,7 +65,8 @@ struct SolidScene {
   bool dt_is_default = true;
   std::int64_t record_every = 100;
 
-  /// [perturbation] (mode Free): normal displacement of the top row, bohr.
+  /// [perturbation] (mode Free; optional in a coupled scene, 0 without it): normal
+  /// displacement of the top row at step 0, bohr (solid/initial_deflection.hpp).
   double tip_displacement_bohr = 0.0;
   /// [load] (mode Static): uniform normal pressure (Pa) and the damping ratio zeta of the
   /// dynamic relaxation (damping force -2 zeta omega_1 m v).
@@ -78,7 +80,7 @@ struct SolidScene {
   std::int64_t sheets_every = 0;
 
   /// [coupling]: set iff the file has that section (a coupled scene). Then mode, substeps,
-  /// record_every, tip_displacement_bohr, pressure_Pa and damping_ratio are unused (the
+  /// record_every, pressure_Pa and damping_ratio are unused (the
   /// scene's [run] is the fluid's) and dt_s is dt_CG = dt_LB / A_T.
   std::optional<CouplingSettings> coupling;
   /// [grid] dx_um (coupled scenes): dx_LB = dx_CG, metres.
@@ -86,6 +88,8 @@ struct SolidScene {
   /// [watchdog] (coupled scenes; protocol/watchdog.hpp): the solid uses max_cgp_speed (per
   /// substep) and energy_growth; every key is validated.
   protocol::WatchdogSettings watchdog;
+  /// [reaction] law (coupled scenes): the fluid's force on the CGPs (solid/reaction_law.hpp).
+  protocol::config::ReactionLaw reaction_law = protocol::config::ReactionLaw::MomentumExchange;
 
   bool coupled() const { return coupling.has_value(); }
   /// The unit inputs both servers announce in hello_t: dx from [grid] dx_um, A_T from
@@ -103,7 +107,8 @@ struct SolidScene {
 /// [watchdog] (which process owns which section: protocol/config/scene_sections.cpp);
 /// the fluid's sections ([grid] nx/ny/nz, [fluid], [inlet], [boundaries], [wall_velocity],
 /// [body_force], [run], [output] fields_every, planes_every, planes_y) are left to the
-/// fluid, unread; [perturbation] and [load] belong to standalone runs and are refused.
+/// fluid, unread; [perturbation] is optional (the sheets start deflected and at rest, held
+/// through the rigid steps, then released); [load] belongs to standalone runs and is refused.
 SolidScene load_solid_scene(const std::string& path);
 
 /// Command-line overrides of [run] substeps (standalone), [output] directory, and

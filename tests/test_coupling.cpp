@@ -13,6 +13,7 @@
 #include "solid/aitken_relaxation.hpp"
 #include "solid/elastic_sheet_model.hpp"
 #include "solid/solid_coupler.hpp"
+#include "support/in_process_coupling.hpp"
 
 namespace {
 
@@ -37,7 +38,6 @@ TEST(Coupling, ImpulseLedgerBalances) {
   p.tau = 0.8;
   fluid::FluidSolver fluid(p);
   fluid.initialize_uniform(1.0, {0.03, 0.01, -0.005});
-  const fluid::ImmersedBoundary ib(fluid);
 
   solid::SolidConfig config;
   solid::SheetSpec sheet;
@@ -50,40 +50,18 @@ TEST(Coupling, ImpulseLedgerBalances) {
   const Eigen::Vector3d origin(8.0, 6.0, 7.5);  // the sheet in the middle of the box
   solid::SolidCoupler coupler(model, units, solid::marker_areas_lb(config.sheets, units), origin);
 
-  const auto n = static_cast<std::size_t>(model.num_cgps());
-  std::vector<fluid::Vec3> x(n), j(n);
-  std::vector<fluid::MarkerSample> samples(n);
-  Eigen::Matrix3Xd position = coupler.positions_lb();
-  Eigen::Matrix3Xd impulse = Eigen::Matrix3Xd::Zero(3, model.num_cgps());  // in flight
+  test::InProcessCoupling loop(fluid, model, coupler);
   // Conserved: fluid + solid + the impulses sent by the solid and not yet applied.
   const auto total = [&] {
     return Eigen::Vector3d(fluid_momentum(fluid) + coupler.momentum_lb() +
-                           impulse.rowwise().sum());
+                           loop.impulse_in_flight().rowwise().sum());
   };
   const Eigen::Vector3d total0 = total();
   double worst_ledger = 0.0, worst_total = 0.0, largest_solid_speed = 0.0;
   for (int step = 0; step < 1000; ++step) {
-    Eigen::Vector3d applied = Eigen::Vector3d::Zero();  // what the fluid's nodes receive
-    for (std::size_t l = 0; l < n; ++l) {
-      const auto c = static_cast<Eigen::Index>(l);
-      x[l] = {position(0, c), position(1, c), position(2, c)};
-      j[l] = {impulse(0, c), impulse(1, c), impulse(2, c)};
-      ib.spread(x[l], j[l], [&](int, int, int, const fluid::Vec3& f) {
-        applied += Eigen::Vector3d(f[0], f[1], f[2]);
-      });
-    }
-    ib.spread(fluid, x, j);
-    fluid.step();
-    ib.sample(fluid, x, samples);
-    solid::FluidSample sample;
-    sample.rho_lb.resize(model.num_cgps());
-    sample.velocity_lb.resize(3, model.num_cgps());
-    for (std::size_t l = 0; l < n; ++l) {
-      const auto c = static_cast<Eigen::Index>(l);
-      sample.rho_lb[c] = samples[l].rho;
-      sample.velocity_lb.col(c) = Eigen::Vector3d(samples[l].u[0], samples[l].u[1], samples[l].u[2]);
-    }
-    const solid::IntervalResult r = coupler.advance(sample, /*rigid=*/false);
+    const Eigen::Matrix3Xd impulse = loop.impulse_in_flight();  // what this step spreads
+    Eigen::Vector3d applied;  // what the fluid's nodes receive
+    const solid::IntervalResult r = loop.step(/*rigid=*/false, &applied);
     ASSERT_EQ(r.substeps, units.inputs().time_ratio);
     // The fluid applied what was sent; the solid integrated minus what it now sends.
     // Relative to the size of the impulses, sum_l |J_l| (their sum can be near zero).
@@ -93,8 +71,6 @@ TEST(Coupling, ImpulseLedgerBalances) {
     const Eigen::Vector3d handed = r.impulse_lb.rowwise().sum();
     worst_ledger = std::max(worst_ledger, (r.received_impulse_lb + handed).norm() /
                                               r.impulse_lb.colwise().norm().sum());
-    position = r.position_lb;
-    impulse = r.impulse_lb;
     worst_total = std::max(worst_total, (total() - total0).norm() / total0.norm());
     largest_solid_speed = std::max(largest_solid_speed, coupler.momentum_lb().norm());
   }

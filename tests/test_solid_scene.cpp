@@ -128,12 +128,19 @@ const std::vector<BadCase>& bad_cases() {
        {":7: watchdog.energy_growth = -1: must be > 0: the largest unexplained energy"}},
       {"coupling_time_ratio_zero.toml",
        {":5: coupling.time_ratio = 0: must be an integer from 1 to 1000000"}},
-      {"coupling_perturbation.toml",
-       {":6: [perturbation]: not used in a coupled scene (one with [coupling])"}},
+      {"coupling_load.toml", {":6: [load]: not used in a coupled scene (one with [coupling])"}},
+      {"coupling_perturbation_zero.toml",
+       {":7: perturbation.tip_displacement_um = 0: must be non-zero"}},
+      {"reaction_law_unknown.toml",
+       {":7: reaction.law = \"eq18\": must be one of \"momentum_exchange\", \"omit_boundary_velocity\", "
+        "\"per_substep_over_time_ratio\", \"eq18_literal\""}},
+      {"reaction_law_implicit.toml",
+       {":8: reaction.law = \"omit_boundary_velocity\": only \"momentum_exchange\" with "
+        "coupling.scheme = \"implicit\""}},
       {"coupling_grid_dx_zero.toml", {":4: grid.dx_um = 0: must be > 0"}},
       {"coupling_unknown_section.toml",
        {":2: [fluids]: unknown section; allowed: [scene], [solid], [contact], [[sheet]], "
-        "[output], [grid], [coupling], [watchdog]; the fluid's [fluid],",
+        "[perturbation], [output], [grid], [coupling], [watchdog], [reaction]; the fluid's [fluid],",
         "did you mean \"fluid\""}},
       {"coupling_output_unknown_key.toml",
        {":8: output.fields_evry = 10: unknown key in [output]; allowed: directory, "

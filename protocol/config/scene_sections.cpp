@@ -33,6 +33,8 @@ const std::vector<SectionOwner>& scene_sections() {
       {"contact", Solid},
       {"perturbation", Solid},
       {"load", Solid},
+      // protocol/config/reaction_section.cpp (the law of solid/reaction_law.hpp).
+      {"reaction", Solid},
   };
   return table;
 }
