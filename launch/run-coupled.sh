@@ -38,6 +38,7 @@
 # that peer's own 1, 2 or 3); OUTPUT/fluid.exit and OUTPUT/solid.exit hold each
 # process's own status, OUTPUT/fluid.log and OUTPUT/solid.log their output.
 set -euo pipefail
+. "$(dirname "${BASH_SOURCE[0]}")/help.sh" && answer_help "${BASH_SOURCE[0]}" "$@"
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 
 usage() { echo "usage: bash launch/run-coupled.sh SCENE.toml [--output DIR] [--log] [--no-build] [--quiet] [--solid-cmd CMD] [--extra CMD] [--restart DIR] [--time-ratio N]" >&2; exit 2; }
