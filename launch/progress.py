@@ -70,19 +70,20 @@ def alive(pid):
 
 
 def compose(fluid, solid, label):
-    """The one line from the latest progress of each side (either may be missing)."""
+    """The one line from the latest progress of each side (either may be missing); each is
+    PROGRESS's groups: side, step, total, phase, t, rate, rate unit, compute, wait, ETA."""
     lead = fluid or solid
-    step, total = int(lead[2]), int(lead[3])
+    step, total = int(lead[1]), int(lead[2])
     parts = [label] if label else []
-    parts.append(lead[4])
+    parts.append(lead[3])
     parts.append(f"step {step}/{total} ({100.0 * step / total if total else 0.0:.0f} %)")
-    parts.append(f"t = {lead[5]} us")
+    parts.append(f"t = {lead[4]} us")
     if fluid:
-        parts.append(f"{fluid[6]} MLUPS")
-        parts.append(f"fluid compute {fluid[8]} % wait {fluid[9]} %")
+        parts.append(f"{fluid[5]} MLUPS")
+        parts.append(f"fluid compute {fluid[7]} % wait {fluid[8]} %")
     if solid:
-        parts.append(f"solid compute {solid[8]} % wait {solid[9]} %")
-    parts.append(f"ETA {lead[10]}")
+        parts.append(f"solid compute {solid[7]} % wait {solid[8]} %")
+    parts.append(f"ETA {lead[9]}")
     return "  ".join(parts)
 
 

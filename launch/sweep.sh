@@ -29,6 +29,8 @@
 #                         COSIM_SWEEP_SCENES="scenes/coupled_small.toml" bash launch/sweep.sh re --no-build
 #                       (the same file twice gets folders <scene> and <scene>_2)
 #   COSIM_SWEEP_OUT     output root instead of out/sweep (OUT above)
+#   COSIM_SWEEP_PLOTS   0: no plots, only the runs and the table (launch/paper-figures.sh
+#                       plots the families itself)
 #
 # Exit status: 0 when every run and the plotting succeeded; otherwise the first failed
 # run's status (or plot.py's); 2 for bad arguments.
@@ -126,7 +128,9 @@ for d in "${dirs[@]}"; do
 done
 rm -rf "$base/plots"
 plot_status=0
-if [ ${#plot_dirs[@]} -gt 0 ]; then
+if [ "${COSIM_SWEEP_PLOTS:-1}" = 0 ]; then
+  echo "sweep: no plots (COSIM_SWEEP_PLOTS=0)"
+elif [ ${#plot_dirs[@]} -gt 0 ]; then
   echo "sweep: plots of ${#plot_dirs[@]} run(s) into $base/plots"
   set +e
   "$py" "$root/launch/plot.py" "${plot_dirs[@]}" --out "$base/plots" ${label:+--label "$label"}
