@@ -9,9 +9,10 @@
 #
 # Default: the reduced presets (about 14 runs of a few minutes each on 2 cores); --full the
 # paper's size (hours). --reuse plots the runs already in OUT/runs/ without running them
-# again. --tiny (the test PaperFiguresScriptProducesEveryFigure): two scenes of the re and
-# angle families and the ds = 8.2 um pair, each cut to 40 LB steps (20 rigid) with every
-# snapshot kind: the whole chain in a minute, figures of a run far too short for physics.
+# again. --tiny (the test PaperFiguresScriptProducesEveryFigure): one scene of each family
+# (Re 40 at 90 deg, 30 deg, the ds = 8.2 um pair), each cut to 40 LB steps (20 rigid) with
+# every snapshot kind: the whole chain in about a minute, figures of runs far too short for
+# physics.
 # Output: OUT (default out/paper-figures) with runs/FAMILY/SCENE/ (each run's outputs),
 # figures/figNN_*.png and .pdf, and figures/index.html (every figure with its number, what
 # it shows as in the paper's caption, its PDF and the commands that made it). Exit status:
@@ -50,8 +51,7 @@ declare -A family_scenes=(
   [pair]="pair_ds01p02_re40 pair_ds02p05_re40 pair_ds04p10_re40 pair_ds08p20_re40 pair_ds11p50_re40"
 )
 if [ $tiny -eq 1 ]; then
-  family_scenes=([re]="single_theta90_re10 single_theta90_re40" [angle]="single_theta30_re40 single_theta90_re40"
-                 [pair]="pair_ds08p20_re40")
+  family_scenes=([re]="single_theta90_re40" [angle]="single_theta30_re40" [pair]="pair_ds08p20_re40")
 fi
 fig11_scene=pair_ds08p20_re40$tag
 
@@ -106,11 +106,12 @@ plot() {  # plot OUTDIR RUN... [-- plot.py options]
 mapfile -t re_runs < <(runs_of re)
 mapfile -t angle_runs < <(runs_of angle)
 mapfile -t pair_runs < <(runs_of pair)
-plot "$work/re" "${re_runs[@]}" -- --label re
-plot "$work/angle" "${angle_runs[@]}" -- --label angle --plane 0.5 --vorticity-times 13.4
-plot "$work/pair" "${pair_runs[@]}" -- --label ds
+plot "$work/re" "${re_runs[@]}" -- --label re --figures displacement,coefficients
+plot "$work/angle" "${angle_runs[@]}" -- --label angle --plane 0.5 --vorticity-times 13.4 \
+     --figures displacement,forces,vorticity
+plot "$work/pair" "${pair_runs[@]}" -- --label ds --figures sheets,forces,strain
 plot "$work/fig11" "$out/runs/pair/$fig11_scene" -- --times 13.8,15.6,22.7 --plane 0.3333 \
-     --vorticity-times 13.8,15.6,22.7
+     --vorticity-times 13.8,15.6,22.7 --figures strain_sheets,vorticity
 
 # figNN_name.{png,pdf} <- work file (without extension); the index rows.
 rows=()
@@ -128,7 +129,8 @@ copy 07 displacement_angle "$work/angle/displacement" "Displacement of the marke
 copy 08 forces_angle "$work/angle/forces" "Drag and lift forces against time for the angles of attack, Re = 40"
 for d in "${angle_runs[@]}"; do
   t=$(basename "$d")
-  copy 09 "vorticity_${t%$tag}" "$work/angle/vorticity_y_$t" "y vorticity on the plane y = L/2 at t - t0 = 13.4 us, ${t%$tag}"
+  src=$work/angle/vorticity_y_$t; [ ${#angle_runs[@]} -eq 1 ] && src=$work/angle/vorticity_y  # plot.py: one run, no tag
+  copy 09 "vorticity_${t%$tag}" "$src" "y vorticity on the plane y = L/2 at t - t0 = 13.4 us, ${t%$tag}"
 done
 copy 10 displacement_pair "$work/pair/displacement_sheets" "Displacement of the marked CGPs of both sheets against time, ds = 1.02 ... 11.5 um, Re = 40"
 for t in 13.8 15.6 22.7; do

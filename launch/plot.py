@@ -3,7 +3,7 @@
 
     /usr/bin/python3 launch/plot.py RUN_DIR [RUN_DIR ...] [--out DIR] [--label re|angle|ds|name]
                                    [--plane FRACTION] [--times T,T,...] [--vorticity-times T,...]
-                                   [--formats png,pdf]
+                                   [--formats png,pdf] [--figures NAME,...]
     /usr/bin/python3 launch/plot.py --stats RUN_DIR [RUN_DIR ...]
 
 RUN_DIR is a coupled run's output folder (launch/run-coupled.sh --output): solid.h5 is
@@ -31,7 +31,7 @@ a vector PDF beside it; svg allowed), and prints the path of each file written:
   strain.png              area strain at the top, middle and bottom of the leading edge (Fig. 14)
   energy.png              kinetic, elastic and total energy of the sheets
   monitor.png             fluid health: mass change and maximum Mach number (monitor.h5)
-  displacement_sheets.png several runs with two sheets: one row per run, G1 red, G2 blue (Fig. 10)
+  displacement_sheets.png runs with two sheets: one row per run, G1 red, G2 blue (Fig. 10)
   strain_sheets.png       the CGPs of the sheet snapshots (sheets_NNNNNN.h5) coloured by their
                           area strain, red compressed, blue stretched, seen from downstream
                           and from above, at the snapshots nearest the times --times after
@@ -337,6 +337,8 @@ LABEL_TEXT = {
     "ds": lambda v: f"Δs = {v:.2f} µm",
 }
 FORMATS = ["png", "pdf"]   # --formats
+FIGURES = ("displacement", "coefficients", "forces", "strain", "energy", "monitor", "sheets",
+           "strain_sheets", "vorticity")   # --figures
 SHEET_COLOURS = ["tab:red", "tab:blue", "tab:green", "tab:purple"]   # G1 red, G2 blue (paper)
 SHEET_STYLES = ["-", "--", ":", "-."]
 RUN_COLOURS = plt.get_cmap("tab10").colors
@@ -722,7 +724,7 @@ def vorticity_figure(run, out, written, fraction, name, asked_us):
         shown += f" (nearest snapshot to {time_text(asked_us)} µs)"
     ax.set_title(f"y vorticity on the plane y = {frac} = {y_plane:.2f} µm (grid plane j = {v['j']} of "
                  f"{v['ny']}, L = {ly:.2f} µm){where}\n"
-                 f"{what_was_run(run)}; {shown}, t = {v['time_us']:.3g} µs", fontsize=9.5)
+                 f"{what_was_run(run)}\n{shown}, t = {v['time_us']:.3g} µs", fontsize=9.5)
     ax.annotate("flow", xy=(0.13, 0.06), xytext=(0.02, 0.06), xycoords="axes fraction",
                 textcoords="axes fraction", va="center", fontsize=8,
                 arrowprops=dict(arrowstyle="->", color="k", lw=1.0))
@@ -826,8 +828,13 @@ def main():
                         "(default Fig. 9's 13.4; Fig. 12: 13.8,15.6,22.7)")
     p.add_argument("--formats", default="png,pdf",
                    help="file formats of every figure, from png, pdf, svg (default png,pdf)")
+    p.add_argument("--figures", default=",".join(FIGURES),
+                   help="which figures, from " + ", ".join(FIGURES) + " (default all)")
     p.add_argument("--stats", action="store_true", help="print the summary statistics, no plots")
     a = p.parse_args()
+    wanted = {f.strip() for f in a.figures.split(",") if f.strip()}
+    if not wanted or not wanted <= set(FIGURES):
+        fail(f"--figures {a.figures}: expected a comma-separated list from " + ", ".join(FIGURES))
     if not 0.0 <= a.plane <= 1.0:
         fail(f"--plane {a.plane}: expected a fraction of the channel height in [0, 1]")
     strain_times = times_list(a.times, "--times")
@@ -858,19 +865,25 @@ def main():
     written = []
     many = sum(r.sheets for r in runs) > 4          # long legends go beside the panels
     try:
-        displacement_figure(runs, out, written, many)
-        coefficient_figure(runs, out, written, many)
-        force_figure(runs, out, written, many)
-        strain_figure(runs, out, written, many)
-        energy_figure(runs, out, written)
-        monitor_figure(runs, out, written)
-        if len(runs) > 1 and any(r.sheets > 1 for r in runs):
+        if "displacement" in wanted:
+            displacement_figure(runs, out, written, many)
+        if "coefficients" in wanted:
+            coefficient_figure(runs, out, written, many)
+        if "forces" in wanted:
+            force_figure(runs, out, written, many)
+        if "strain" in wanted:
+            strain_figure(runs, out, written, many)
+        if "energy" in wanted:
+            energy_figure(runs, out, written)
+        if "monitor" in wanted:
+            monitor_figure(runs, out, written)
+        if "sheets" in wanted and any(r.sheets > 1 for r in runs):
             sheets_figure(runs, out, written)
         used = set()   # one file per run and figure: named by the run's folder, made unique
-        for r in runs:
+        for r in runs if "strain_sheets" in wanted else []:
             stem = "strain_sheets" if len(runs) == 1 else f"strain_sheets_{r.tag}"
             strain_sheets_figure(r, out, written, unique_name(stem, used), strain_times)
-        for r in [r for r in runs if r.last_fields]:
+        for r in [r for r in runs if r.last_fields and "vorticity" in wanted]:
             for t in vorticity_times:
                 stem = "vorticity_y" if len(runs) == 1 else f"vorticity_y_{r.tag}"
                 if len(vorticity_times) > 1:
