@@ -108,7 +108,8 @@ TEST(WatchRun, ToolsAnswerVersion) {
                                                                                  {"cosim-log", COSIM_LOG_EXE},
                                                                                  {"cosim-replay", REPLAY_EXE},
                                                                                  {"bench", FLUID_BENCH_EXE},
-                                                                                 {"solid_bench", SOLID_BENCH_EXE}}) {
+                                                                                 {"solid_bench", SOLID_BENCH_EXE},
+                                                                                 {"prescribed_plate", PRESCRIBED_PLATE_EXE}}) {
     const RunResult r = run_command(quoted(exe) + " --version", dir);
     EXPECT_EQ(r.status, 0) << name << ": " << r.err;
     // "NAME 0.1.0 (git DESCRIBE, commit HASH)", the commit this tree's build came from.
