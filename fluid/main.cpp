@@ -180,6 +180,7 @@ int run(const FluidScene& s, bool quiet) {
   const double mass0 = first->mass;
 
   std::filesystem::create_directories(s.output_dir);
+  protocol::write_provenance_files(s.output_dir);  // OUTPUT/scene.toml, provenance_fluid.toml
   MonitorLog log((std::filesystem::path(s.output_dir) / "monitor.h5").string(), dt_us);
   Snapshots snapshots(s, dt_us);
 
@@ -296,7 +297,6 @@ int main_impl(int argc, char** argv) {
     print_header(scene, protocol::UnitConverter(in));
     return exit_code::ok;
   }
-  protocol::write_provenance_files(scene.output_dir);  // OUTPUT/scene.toml, provenance_fluid.toml
   if (scene.coupling) {
     if (token.empty())
       if (const char* env = std::getenv("COSIM_RUN_TOKEN")) token = env;

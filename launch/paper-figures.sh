@@ -11,8 +11,8 @@
 # paper's size (hours). --reuse plots the runs already in OUT/runs/ without running them
 # again. --tiny (the test PaperFiguresScriptProducesEveryFigure): one scene of each family
 # (Re 40 at 90 deg, 30 deg, the ds = 8.2 um pair), each cut to 40 LB steps (20 rigid) with
-# every snapshot kind: the whole chain in about a minute, figures of runs far too short for
-# physics.
+# every snapshot kind, PNGs at 72 dpi: the whole chain in about a minute, figures of runs
+# far too short for physics.
 # Output: OUT (default out/paper-figures) with runs/FAMILY/SCENE/ (each run's outputs),
 # figures/figNN_*.png and .pdf, and figures/index.html (every figure with its number, what
 # it shows as in the paper's caption, its PDF and the commands that made it). Exit status:
@@ -100,12 +100,13 @@ plot() {  # plot OUTDIR RUN... [-- plot.py options]
   while [ $# -gt 0 ] && [ "$1" != "--" ]; do args+=("$1"); shift; done
   [ $# -gt 0 ] && shift
   if [ ${#args[@]} -eq 0 ]; then echo "paper-figures: no run to plot into $dest" >&2; [ $status -ne 0 ] || status=1; return; fi
-  echo "  $py launch/plot.py ${args[*]##*/runs/} --out $dest $*" >>"$out/figures/commands.txt"
-  "$py" "$root/launch/plot.py" "${args[@]}" --out "$dest" "$@" >"$dest.list" || { s=$?; [ $status -ne 0 ] || status=$s; }
+  echo "  $py launch/plot.py ${args[*]##*/runs/} --out $dest --dpi $dpi $*" >>"$out/figures/commands.txt"
+  "$py" "$root/launch/plot.py" "${args[@]}" --out "$dest" --dpi "$dpi" "$@" >"$dest.list" || { s=$?; [ $status -ne 0 ] || status=$s; }
 }
 mapfile -t re_runs < <(runs_of re)
 mapfile -t angle_runs < <(runs_of angle)
 mapfile -t pair_runs < <(runs_of pair)
+dpi=300; [ $tiny -eq 1 ] && dpi=72   # --tiny: the chain, not print quality
 plot "$work/re" "${re_runs[@]}" -- --label re --figures displacement,coefficients
 plot "$work/angle" "${angle_runs[@]}" -- --label angle --plane 0.5 --vorticity-times 13.4 \
      --figures displacement,forces,vorticity

@@ -3,7 +3,7 @@
 
     /usr/bin/python3 launch/plot.py RUN_DIR [RUN_DIR ...] [--out DIR] [--label re|angle|ds|name]
                                    [--plane FRACTION] [--times T,T,...] [--vorticity-times T,...]
-                                   [--formats png,pdf] [--figures NAME,...]
+                                   [--formats png,pdf] [--dpi N] [--figures NAME,...]
     /usr/bin/python3 launch/plot.py --stats RUN_DIR [RUN_DIR ...]
 
 RUN_DIR is a coupled run's output folder (launch/run-coupled.sh --output): solid.h5 is
@@ -826,6 +826,7 @@ def main():
     p.add_argument("--vorticity-times", default=",".join(f"{t:g}" for t in PAPER_VORTICITY_TIMES_US),
                    help="vorticity plane at the snapshots nearest these times after release, µs "
                         "(default Fig. 9's 13.4; Fig. 12: 13.8,15.6,22.7)")
+    p.add_argument("--dpi", type=float, default=300.0, help="resolution of the PNGs (default 300)")
     p.add_argument("--formats", default="png,pdf",
                    help="file formats of every figure, from png, pdf, svg (default png,pdf)")
     p.add_argument("--figures", default=",".join(FIGURES),
@@ -862,6 +863,9 @@ def main():
         fail(f"{out}: cannot create the output folder ({e.strerror or e})", 1)
 
     style()
+    if not 10.0 <= a.dpi <= 1200.0:
+        fail(f"--dpi {a.dpi:g}: expected 10 to 1200")
+    plt.rcParams["savefig.dpi"] = a.dpi
     written = []
     many = sum(r.sheets for r in runs) > 4          # long legends go beside the panels
     try:

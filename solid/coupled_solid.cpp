@@ -15,6 +15,7 @@
 #include <Eigen/Core>
 
 #include "protocol/progress.hpp"
+#include "protocol/provenance.hpp"
 #include "protocol/session/exit_codes.hpp"
 #include "protocol/text.hpp"
 #include "solid/schemes/solid_scheme.hpp"
@@ -50,6 +51,11 @@ class CoupledSolid {
     run_.print_header(out_, peer_.channel_prefix());
     if (o_.check_only) return exit_code::ok;
     if (const auto e = run_.open_output()) return report(*e);
+    try {
+      protocol::write_provenance_files(s_.output_dir);  // OUTPUT/scene.toml, provenance_solid.toml
+    } catch (const std::exception& x) {
+      return report(Ending{exit_code::system, one_line(x.what())});
+    }
     if (const auto e = peer_.open(run_.num_cgps())) return report(*e);
     if (const auto e = handshake()) return finish(*e);
     out_ << "solid: handshake accepted: " << run_.total_steps() << " LB steps (" << run_.rigid_steps()

@@ -352,6 +352,8 @@ void check_time_step(const SolidScene& s, const SolidModel& model) {
 }
 
 int run(const SolidScene& s, SolidModel& model, bool quiet) {
+  create_output_directory(s);
+  protocol::write_provenance_files(s.output_dir);  // OUTPUT/scene.toml, provenance_solid.toml
   create_output_directory(s);  // before the run, not after it
   const double dt_au = s.dt_s / PhysicalConstants::time_au_s;
   const Eigen::Index n = model.num_cgps();
@@ -542,8 +544,6 @@ int main_impl(int argc, char** argv) {
     return exit_code::bad_input;
   }
   protocol::record_scene(scene.path);
-  // OUTPUT/scene.toml, provenance_solid.toml
-  if (!check) protocol::write_provenance_files(scene.output_dir);
   if (scene.coupled()) {
     CoupledSolidOptions co;
     co.token = token;

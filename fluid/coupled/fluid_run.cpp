@@ -13,6 +13,7 @@
 #include "protocol/handshake.hpp"
 #include "protocol/peak_memory.hpp"
 #include "protocol/progress.hpp"
+#include "protocol/provenance.hpp"
 #include "protocol/text.hpp"
 
 namespace cosim::fluid {
@@ -78,6 +79,7 @@ FluidRun::FluidRun(const FluidScene& scene, const CoupledFluidOptions& options, 
       log_((std::filesystem::path(created(scene.output_dir)) / "monitor.h5").string(), dt_us_),
       snapshots_(scene, dt_us_), markers_(scene.watchdog, scene.mach_limit, scene.coupling->time_ratio) {
   initialize_flow(solver_, s_);
+  protocol::write_provenance_files(s_.output_dir);  // OUTPUT/scene.toml, provenance_fluid.toml
   coord_.on_end([this](std::ostream& out) {
     if (markers_.has_reference()) out << "fluid: watchdog margins: " << markers_.margins() << "\n";
   });
