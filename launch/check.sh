@@ -50,7 +50,7 @@ for scene in "${scenes[@]}"; do
     rc=$?
     set -e
     if [ $rc -eq 0 ]; then
-      summary=$(grep -m1 -E '^  (grid|sheets) ' <<<"$out" | sed 's/^ *//' || true)
+      summary=$(grep -m1 -E '^  (grid|sheets) ' <<<"$out" | sed -E 's/^ +//; s/ +/ /g' || true)
       echo "check: $scene: $side: ok${summary:+ ($summary)}"
       [ $verbose -eq 1 ] && sed 's/^/  /' <<<"$out"
     else
