@@ -20,6 +20,7 @@
 #include <utility>
 #include <vector>
 
+#include "protocol/cli_parse.hpp"
 #include "fluid/d3q19.hpp"
 #include "fluid/fluid_solver.hpp"
 #include "fluid/immersed_boundary.hpp"
@@ -355,7 +356,7 @@ int main(int argc, char** argv) {
       ->transform(CLI::CheckedTransformer(schedules, CLI::ignore_case));
   bool no_ib = false;
   app.add_flag("--no-ib", no_ib, "skip the immersed-boundary columns");
-  CLI11_PARSE(app, argc, argv);
+  if (const auto code = cosim::protocol::parse_command_line(app, argc, argv, "bench")) return *code;
   opt.ib = !no_ib;
 
   std::vector<Case> cases;

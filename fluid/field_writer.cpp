@@ -12,23 +12,13 @@
 
 #include "fluid/hdf5_handle.hpp"
 #include "fluid/hdf5_quiet.hpp"
+#include "protocol/provenance_h5.hpp"
 
 namespace cosim::fluid {
 
 namespace fs = std::filesystem;
 
 namespace {
-
-void write_string_attribute(hid_t obj, const char* name, const std::string& value) {
-  const H5Id type(H5Tcopy(H5T_C_S1), H5Tclose, "cannot make an HDF5 string type");
-  h5_check(H5Tset_size(type.get(), std::max<std::size_t>(value.size(), 1)),
-           "cannot size an HDF5 string type");
-  const H5Id space(H5Screate(H5S_SCALAR), H5Sclose, "cannot make an HDF5 dataspace");
-  const H5Id attr(H5Acreate2(obj, name, type.get(), space.get(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose,
-                  std::string("cannot create the HDF5 attribute ") + name);
-  h5_check(H5Awrite(attr.get(), type.get(), value.c_str()),
-           std::string("cannot write the HDF5 attribute ") + name);
-}
 
 template <class T>
 void write_scalar_attribute(hid_t obj, const char* name, hid_t file_type, hid_t mem_type, T value) {
@@ -48,7 +38,7 @@ void write_field(hid_t file, const std::string& file_name, const char* name, con
   const H5Id dset(H5Dcreate2(file, name, H5T_IEEE_F64LE, space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
                   H5Dclose, "cannot create " + where);
   h5_check(H5Dwrite(dset.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, data), "cannot write " + where);
-  write_string_attribute(dset.get(), "units", units);
+  protocol::put_string_attribute(dset.get(), "units", units);
 }
 
 void rename_or_throw(const fs::path& from, const fs::path& to) {
@@ -126,7 +116,8 @@ void FieldWriter::write_hdf5(const fs::path& file, std::int64_t step) {
   write_scalar_attribute(f.get(), "dt_us", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, dt_us_);
 
   if (y_plane_ >= 0) {
-    write_scalar_attribute(f.get(), "y_um", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, y_plane_ * dx_um_);
+    // Node j sits at (j + 1/2) dx in the sheets' frame (plate at y = 0), like the XDMF geometry.
+    write_scalar_attribute(f.get(), "y_um", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, (y_plane_ + 0.5) * dx_um_);
     write_scalar_attribute(f.get(), "y_cell", H5T_STD_I64LE, H5T_NATIVE_INT64, std::int64_t(y_plane_));
     write_scalar_attribute(f.get(), "grid_ny", H5T_STD_I64LE, H5T_NATIVE_INT64, std::int64_t(m_.shape.ny));
   }
@@ -158,6 +149,7 @@ void FieldWriter::write_hdf5(const fs::path& file, std::int64_t step) {
     vec_[3 * i + 2] = w_scale * wz_[cells[i]];
   }
   write_field(f.get(), name, "vorticity", s, 3, vec_.data(), "1/us");
+  protocol::stamp_file(f.get());
   f.close("cannot close the HDF5 file " + name);
 }
 
@@ -184,10 +176,13 @@ void FieldWriter::write_xdmf() const {
     x << "      <Grid Name=\"step_" << snap.step << "\" GridType=\"Uniform\">\n"
       << "        <Time Value=\"" << double(snap.step) * dt_us_ << "\"/>\n"
       << "        <Topology TopologyType=\"3DCoRectMesh\" Dimensions=\"" << dims.str() << "\"/>\n"
-      // ORIGIN_DXDYDZ lists z, y, x (slowest first), like the topology's Dimensions.
+      // ORIGIN_DXDYDZ lists z, y, x (slowest first), like the topology's Dimensions. Node
+      // (i, j, k) sits at (i, j + 1/2, k) dx, the frame of the sheets (sheets.xmf: the plate,
+      // the half-way bounce-back wall at lattice y = -1/2, is y = 0; protocol/README.md
+      // section 4; XdmfGeometryMatchesSheets).
       << "        <Geometry GeometryType=\"ORIGIN_DXDYDZ\">\n"
       << "          <DataItem Format=\"XML\" NumberType=\"Float\" Precision=\"8\" Dimensions=\"3\">0 "
-      << (y_plane_ >= 0 ? y_plane_ * dx_um_ : 0.0) << " 0</DataItem>\n"
+      << ((y_plane_ >= 0 ? y_plane_ : 0) + 0.5) * dx_um_ << " 0</DataItem>\n"
       << "          <DataItem Format=\"XML\" NumberType=\"Float\" Precision=\"8\" Dimensions=\"3\">" << dx_um_ << ' '
       << dx_um_ << ' ' << dx_um_ << "</DataItem>\n"
       << "        </Geometry>\n";

@@ -36,6 +36,8 @@
 #include "fluid/scene_config.hpp"
 #include "fluid/snapshots.hpp"
 #include "protocol/channels.hpp"
+#include "protocol/progress.hpp"
+#include "protocol/provenance.hpp"
 #include "protocol/session/exit_codes.hpp"
 #include "protocol/text.hpp"
 #include "protocol/units.hpp"
@@ -119,48 +121,34 @@ void print_header(const FluidScene& s, const protocol::UnitConverter& units) {
     std::printf(" of the height every %lld", static_cast<long long>(s.planes_every));
   }
   std::printf("; output %s; %d OpenMP threads\n", s.output_dir.c_str(), omp_get_max_threads());
+  for (const std::string& c : s.unit_conversions) std::printf("  physical %s\n", c.c_str());
   std::fflush(stdout);
 }
 
-/// The carriage-return progress line on stderr, at most twice a second on a terminal;
-/// when stderr is not a terminal (a log file), one plain line every 10 s instead.
+/// The fluid-only run's progress line on stderr (protocol/progress.hpp): step, simulated
+/// time, MLUPS and ETA.
 class Progress {
  public:
   Progress(bool enabled, std::int64_t total, double dt_us, std::int64_t cells)
-      : enabled_(enabled), tty_(isatty(STDERR_FILENO) != 0), total_(total), dt_us_(dt_us),
-        cells_(cells), start_(Clock::now()), last_(start_) {}
+      : line_(enabled, stderr), clock_(total), dt_us_(dt_us), cells_(cells) {}
 
   void update(std::int64_t step) {
-    if (!enabled_) return;
-    const Clock::time_point now = Clock::now();
-    const double since = std::chrono::duration<double>(now - last_).count();
-    if (since < (tty_ ? 0.5 : 10.0) && step != total_) return;
-    last_ = now;
-    const double elapsed = std::chrono::duration<double>(now - start_).count();
-    const double mlups = elapsed > 0 ? double(cells_) * double(step) / elapsed * 1e-6 : 0.0;
-    const double eta = step > 0 ? elapsed / double(step) * double(total_ - step) : 0.0;
-    std::fprintf(stderr, "%sstep %lld/%lld  t = %.4g us  %.1f MLUPS  ETA %.0f s%s",
-                 tty_ ? "\r" : "", static_cast<long long>(step),
-                 static_cast<long long>(total_), double(step) * dt_us_, mlups, eta,
-                 tty_ ? "    " : "\n");
-    std::fflush(stderr);
-    shown_ = tty_;
+    if (!line_.due(step == clock_.total())) return;
+    char text[192];
+    std::snprintf(text, sizeof text, "step %lld/%lld  t = %.4g us  %.1f MLUPS  ETA %s",
+                  static_cast<long long>(step), static_cast<long long>(clock_.total()), double(step) * dt_us_,
+                  double(cells_) * clock_.rate(step) * 1e-6, protocol::format_duration(clock_.eta_s(step)).c_str());
+    line_.show(text);
   }
   /// Clears a carriage-return line before something else is printed.
-  void clear() {
-    if (!shown_) return;
-    std::fprintf(stderr, "\r%72s\r", "");
-    std::fflush(stderr);
-    shown_ = false;
-  }
-  double elapsed_s() const { return std::chrono::duration<double>(Clock::now() - start_).count(); }
+  void clear() { line_.clear(); }
+  double elapsed_s() const { return clock_.elapsed_s(); }
 
  private:
-  bool enabled_, tty_, shown_ = false;
-  std::int64_t total_;
+  protocol::ProgressLine line_;
+  protocol::ProgressClock clock_;
   double dt_us_;
   std::int64_t cells_;
-  Clock::time_point start_, last_;
 };
 
 int run(const FluidScene& s, bool quiet) {
@@ -192,6 +180,7 @@ int run(const FluidScene& s, bool quiet) {
   const double mass0 = first->mass;
 
   std::filesystem::create_directories(s.output_dir);
+  protocol::write_provenance_files(s.output_dir);  // OUTPUT/scene.toml, provenance_fluid.toml
   MonitorLog log((std::filesystem::path(s.output_dir) / "monitor.h5").string(), dt_us);
   Snapshots snapshots(s, dt_us);
 
@@ -300,6 +289,7 @@ int main_impl(int argc, char** argv) {
     std::fprintf(stderr, "%s\n", e.what());
     return exit_code::bad_input;
   }
+  protocol::record_scene(scene.path);
   if (check) {
     protocol::UnitInputs in;
     in.dx_m = scene.dx_um * 1e-6;

@@ -11,6 +11,7 @@
 
 #include "fluid/hdf5_handle.hpp"
 #include "fluid/hdf5_quiet.hpp"
+#include "protocol/provenance_h5.hpp"
 
 namespace cosim::fluid {
 
@@ -91,6 +92,8 @@ MonitorLog::MonitorLog(const std::string& path, double dt_us) : impl_(std::make_
   c.push_back(make_column(f, "rho_max_cell", H5T_STD_I32LE, H5T_NATIVE_INT32, 3));
   c.push_back(make_column(f, "nan_cell", H5T_STD_I32LE, H5T_NATIVE_INT32, 3));
   c.push_back(make_column(f, "has_nan", H5T_STD_I8LE, H5T_NATIVE_INT8, 1));
+  protocol::stamp_file(f);
+  h5_check(H5Fflush(f, H5F_SCOPE_LOCAL), "cannot flush the monitor file " + path);
   h5_check(H5Fflush(f, H5F_SCOPE_LOCAL), "cannot flush the monitor file " + path);
 }
 

@@ -13,6 +13,8 @@
 #include "protocol/config/scene_reader.hpp"
 #include "protocol/config/shared_sections.hpp"
 #include "protocol/lcm_url.hpp"
+#include "protocol/text.hpp"
+#include "protocol/units.hpp"
 
 // Why the limits of SceneLimits are what they are:
 //  - tau > 1/2: nu = (tau - 1/2)/3 (Eq. 13) must be positive; at or below 1/2 BGK has zero
@@ -58,11 +60,11 @@ const std::vector<SectionSchema>& schema() {
       {"scene"},
       {"grid"},
       {"fluid", {"tau", "reynolds", "reference_length_um"}},
-      {"inlet", {"u_max", "profile", "boundary_layer_um", "density"}},
+      {"inlet", {"u_max", "u_max_m_s", "profile", "boundary_layer_um", "density"}},
       {"boundaries", {"x_min", "x_max", "y_min", "y_max", "z_min", "z_max"}},
       {"wall_velocity", {"x_min", "x_max", "y_min", "y_max", "z_min", "z_max"}},
       {"body_force", {"x", "y", "z"}},
-      {"run", {"steps", "monitor_every", "mach_limit", "threads", "initial", "precision"}},
+      {"run", {"steps", "duration_us", "monitor_every", "mach_limit", "threads", "initial", "precision"}},
       {"output"},
       {"coupling", protocol::config::coupling_keys()},
       // The stability watchdog (protocol/watchdog.hpp): the same table in both servers.
@@ -142,6 +144,13 @@ void check_memory(const SceneReader& r, const FluidScene& s) {
                "); reduce nx, ny, nz");
 }
 
+/// The scene's lattice units (dx from [grid], dt = dx / c): for the keys given in physical units.
+protocol::UnitConverter lattice_units(const FluidScene& s) {
+  protocol::UnitInputs in;
+  in.dx_m = s.dx_um * 1e-6;
+  return protocol::UnitConverter(in);
+}
+
 void load_run(const SceneReader& r, FluidScene& s) {
   const Table run = r.section("run");
   if (!run.present()) missing_section(r, "run", "the section with steps is required");
@@ -152,10 +161,27 @@ void load_run(const SceneReader& r, FluidScene& s) {
               "second-order equilibrium is no model of the flow");
     s.mach_limit = *m;
   }
-  const auto steps = run.integer("steps");
-  if (!steps) run.missing("steps", "the number of LB steps, an integer >= 1");
-  if (*steps < 1) run.bad("steps", "must be an integer >= 1");
-  s.steps = *steps;
+  if (run.has("duration_us")) {  // the run's length in physical time, converted to LB steps
+    if (run.has("steps"))
+      r.fail(run.line_of("duration_us"), "run.steps = " + run.show("steps") + " and run.duration_us = " +
+                                             run.show("duration_us") +
+                                             ": give one of them: steps (LB steps) or duration_us (microseconds)");
+    const double us = *run.positive("duration_us", "the simulated time in microseconds");
+    const double dt_us = lattice_units(s).dt_lb_s() * 1e6;
+    const double n = std::round(us / dt_us);
+    if (!(n >= 1.0 && n <= SceneLimits::steps_max))
+      run.bad("duration_us", "is " + protocol::fmt("%.4g", us / dt_us) + " LB steps of dt = dx / c = " +
+                                 protocol::fmt("%.5g", dt_us) + " us; allowed: 1 to 1e12 LB steps");
+    s.steps = static_cast<std::int64_t>(n);
+    s.unit_conversions.push_back("run.duration_us = " + protocol::fmt("%.6g", us) + " us -> run.steps = " +
+                                 std::to_string(s.steps) + " LB steps of dt = " + protocol::fmt("%.5g", dt_us) +
+                                 " us (" + protocol::fmt("%.6g", double(s.steps) * dt_us) + " us simulated)");
+  } else {
+    const auto steps = run.integer("steps");
+    if (!steps) run.missing("steps", "the number of LB steps, an integer >= 1 (or run.duration_us, in microseconds)");
+    if (*steps < 1) run.bad("steps", "must be an integer >= 1");
+    s.steps = *steps;
+  }
   if (const auto m = run.integer("monitor_every")) {
     if (*m < 1) run.bad("monitor_every", "must be >= 1");
     s.monitor_every = *m;
@@ -228,10 +254,26 @@ void load_inlet(const SceneReader& r, FluidScene& s) {
   }
   if (!in.present())
     missing_section(r, "inlet", "a face is \"inlet\", so [inlet] with u_max is required");
-  const auto u = in.number("u_max");
-  if (!u) in.missing("u_max", "the inlet speed in lattice units (U_max/c), >= 0");
-  if (*u < 0.0) in.bad("u_max", "must be >= 0 (the speed into the domain, lattice units U/c)");
-  if (mach(*u) > s.mach_limit) in.bad("u_max", mach_text(*u, s.mach_limit));
+  std::optional<double> u;
+  if (in.has("u_max_m_s")) {  // the inlet speed in m/s, converted to lattice units U/c
+    if (in.has("u_max"))
+      r.fail(in.line_of("u_max_m_s"), "inlet.u_max = " + in.show("u_max") + " and inlet.u_max_m_s = " +
+                                          in.show("u_max_m_s") +
+                                          ": give one of them: u_max (lattice units U/c) or u_max_m_s (m/s)");
+    const double m_s = *in.number("u_max_m_s");
+    if (m_s < 0.0) in.bad("u_max_m_s", "must be >= 0 (the speed into the domain, m/s)");
+    const double c = lattice_units(s).lattice_speed_m_s();
+    u = m_s / c;
+    if (mach(*u) > s.mach_limit) in.bad("u_max_m_s", mach_text(*u, s.mach_limit));
+    s.unit_conversions.push_back("inlet.u_max_m_s = " + protocol::fmt("%.6g", m_s) + " m/s -> inlet.u_max = " +
+                                 protocol::fmt("%.6g", *u) + " (U/c, c = dx / dt = " + protocol::fmt("%.6g", c) +
+                                 " m/s)");
+  } else {
+    u = in.number("u_max");
+    if (!u) in.missing("u_max", "the inlet speed in lattice units (U_max/c), >= 0 (or inlet.u_max_m_s, in m/s)");
+    if (*u < 0.0) in.bad("u_max", "must be >= 0 (the speed into the domain, lattice units U/c)");
+    if (mach(*u) > s.mach_limit) in.bad("u_max", mach_text(*u, s.mach_limit));
+  }
 
   const auto profile = in.choice("profile", {"uniform", "blasius"});
   const bool blasius = profile && *profile == 1;

@@ -37,6 +37,8 @@ struct SceneLimits {
   static constexpr int grid_min = 8;
   static constexpr int grid_max = 65536;
   static constexpr int threads_max = 1024;
+  /// run.duration_us converted: at most 1e12 LB steps (more is a typo of the unit).
+  static constexpr double steps_max = 1e12;
   static constexpr double paper_dx_um = 0.2561;  ///< Table 1
   // Lengths in micrometres (dx_um, reference_length_um) lie within
   // protocol::config::Table::length_min_um and length_max_um, as in every scene.
@@ -63,6 +65,9 @@ struct FluidScene {
 
   InitialFlow initial = InitialFlow::Rest;
   std::int64_t steps = 0;
+  /// The keys given in physical units and what they became in lattice units, one line each
+  /// ("run.duration_us = 30 us -> run.steps = ..."), for the header at start-up.
+  std::vector<std::string> unit_conversions;
   std::int64_t monitor_every = 100;
   std::int64_t fields_every = 0;  ///< 0: no field output
   /// Snapshots of rho, u and vorticity on y planes (the paper's Figs. 9, 12): every

@@ -10,4 +10,5 @@
 # Installs what is missing and builds first unless --no-build. Exit status: 0 done; 1 a run
 # could not be read; 2 bad arguments.
 set -euo pipefail
+. "$(dirname "${BASH_SOURCE[0]}")/help.sh" && answer_help "${BASH_SOURCE[0]}" "$@"
 exec bash "$(dirname "${BASH_SOURCE[0]}")/python-study.sh" added_mass_study.py "$@"

@@ -98,8 +98,9 @@ def block(out: Path, time_ratio: int, atoms: list[float], factor: int) -> tuple[
     """One A_T: the table and what it shows (markdown lines), and its wall time."""
     t_start = time.perf_counter()
     rows = []
-    for n in atoms:
+    for number, n in enumerate(atoms, 1):
         tag = f"at{time_ratio}_atoms{n:g}"
+        print(f"A_T {time_ratio}: mass {number} of {len(atoms)} ({n:g} atoms), {1 + len(SCHEMES)} runs ...", flush=True)
         ref = run(out, f"{tag}_reference", scene_text(n, time_ratio * factor, "serial"))
         res = {s: run(out, f"{tag}_{s}", scene_text(n, time_ratio, s)) for s in SCHEMES}
         rows.append((n, ref, res))

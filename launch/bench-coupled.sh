@@ -10,6 +10,7 @@
 # The fluid runs with OpenMP's default threads unless OMP_NUM_THREADS is set; set
 # OMP_WAIT_POLICY=passive so that its idle threads do not spin on the solid's core.
 set -euo pipefail
+. "$(dirname "${BASH_SOURCE[0]}")/help.sh" && answer_help "${BASH_SOURCE[0]}" "$@"
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 build=1
 scenes="coupled_small coupled_paper_grid"

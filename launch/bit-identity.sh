@@ -12,6 +12,7 @@
 # and the table (launch/compare_outputs.py). Exit 0 when every file is bit-identical, 1 when
 # one differs, 2 for bad input.
 set -euo pipefail
+. "$(dirname "${BASH_SOURCE[0]}")/help.sh" && answer_help "${BASH_SOURCE[0]}" "$@"
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 usage() { echo "usage: bash launch/bit-identity.sh REV [--output DIR] [--no-build] [--quick]" >&2; exit 2; }
 [ $# -ge 1 ] || usage

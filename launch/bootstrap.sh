@@ -1,7 +1,10 @@
 #!/usr/bin/env bash
 # Installs the Debian packages the project needs, and nothing else. Idempotent and quiet
 # when everything is present. Run as root (or with sudo available).
+#
+#   bash launch/bootstrap.sh
 set -euo pipefail
+. "$(dirname "${BASH_SOURCE[0]}")/help.sh" && answer_help "${BASH_SOURCE[0]}" "$@"
 
 packages=(
   build-essential cmake pkg-config

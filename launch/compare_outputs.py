@@ -14,6 +14,9 @@ from compare_solid_runs import datasets  # every dataset of a file, by name
 
 
 def main(argv):
+    if len(argv) == 2 and argv[1] in ("--help", "-h"):
+        print(__doc__.strip())
+        return 0
     if len(argv) != 3:
         print("usage: compare_outputs.py REFERENCE_DIR OTHER_DIR", file=sys.stderr)
         return 2

@@ -25,6 +25,9 @@ def datasets(path):
 
 
 def main(argv):
+    if len(argv) == 2 and argv[1] in ("--help", "-h"):
+        print(__doc__.strip())
+        return 0
     if len(argv) != 3:
         print("usage: compare_solid_runs.py REFERENCE_DIR OTHER_DIR", file=sys.stderr)
         return 2

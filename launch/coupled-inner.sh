@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Started by run-coupled.sh (inside the private network namespace when root): sets up the
 # loopback for multicast, starts fluid, solid and optionally lcm-logger, and supervises them.
-#   coupled-inner.sh ROOT SCENE OUTPUT PREFIX LOG QUIET
+#   bash launch/coupled-inner.sh ROOT SCENE OUTPUT PREFIX LOG QUIET
 set -uo pipefail
+. "$(dirname "${BASH_SOURCE[0]}")/help.sh" && answer_help "${BASH_SOURCE[0]}" "$@"
 root=$1 scene=$2 output=$3 prefix=$4 log=$5 quiet=$6
 grace=${COSIM_SURVIVOR_GRACE_S:-45}
 
@@ -43,9 +44,10 @@ ${COSIM_SOLID_CMD:-$root/build/solid/solid} "$scene" --output "$output" --channe
   >"$output/solid.log" 2>&1 &
 solid=$!
 echo $solid >"$output/solid.pid"
-if [ -z "$quiet" ]; then  # show the fluid's monitor lines (and the solid's end) as they come
-  tail -n +1 -f --pid=$fluid "$output/fluid.log" &
-fi
+# The launcher's one progress line, and the fluid's other lines as they come (with --quiet
+# only its closing summary): launch/progress.py, until the fluid ends.
+/usr/bin/python3 "$root/launch/progress.py" "$output" --pid $fluid $quiet &
+watcher=$!
 
 # Wait for the first to end (wait -n -p: bash 5.1; a finished child stays a zombie, so
 # kill -0 cannot tell).
@@ -70,6 +72,7 @@ else
   kill $sleeper 2>/dev/null; wait $sleeper 2>/dev/null
 fi
 echo $s_other >"$output/$other.exit"
+wait $watcher 2>/dev/null
 [ -n "$logger_pid" ] && kill -INT $logger_pid 2>/dev/null && wait $logger_pid 2>/dev/null
 [ -n "$extra_pid" ] && kill -TERM $extra_pid 2>/dev/null && wait $extra_pid 2>/dev/null
 

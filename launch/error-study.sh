@@ -17,4 +17,5 @@
 #
 # Exit status: 0 done; 1 a run failed (one line naming it and its log); 2 bad arguments.
 set -euo pipefail
+. "$(dirname "${BASH_SOURCE[0]}")/help.sh" && answer_help "${BASH_SOURCE[0]}" "$@"
 exec bash "$(dirname "${BASH_SOURCE[0]}")/python-study.sh" error_study.py "$@"

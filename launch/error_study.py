@@ -1128,8 +1128,9 @@ def main(argv: list[str]) -> int:
     t0 = time.perf_counter()
     knobs: list[Knob] = []
     try:
-        for key in only:
-            print(f"{key}:", flush=True)
+        for number, key in enumerate(only, 1):
+            print(f"{key} (knob {number} of {len(only)}):", flush=True)
+            os.environ["COSIM_RUN_LABEL"] = f"knob {number} of {len(only)} {key}"
             if key == "resolution_fluid":
                 knobs.append(knob_fluid_resolution(plan))
             elif key == "resolution_fluid_acoustic":

@@ -20,6 +20,7 @@
 # passes -Xincgc, which Java 9 and later refuse ("Unrecognized option: -Xincgc"), so this
 # script starts lcm.spy.Spy itself with the same class path and options otherwise.
 set -euo pipefail
+. "$(dirname "${BASH_SOURCE[0]}")/help.sh" && answer_help "${BASH_SOURCE[0]}" "$@"
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 default_url="udpm://239.255.76.67:7667?ttl=0"
 

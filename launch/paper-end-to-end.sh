@@ -11,6 +11,7 @@
 # Defaults: the serial scheme (the paper's) in both stores, about 7 minutes here. Outputs in
 # out/paper-end-to-end/SCHEME_PRECISION/. OMP_WAIT_POLICY=passive is set unless given.
 set -euo pipefail
+. "$(dirname "${BASH_SOURCE[0]}")/help.sh" && answer_help "${BASH_SOURCE[0]}" "$@"
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 build=1
 schemes="serial"

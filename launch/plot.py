@@ -2,23 +2,27 @@
 """Plots of coupled runs like the paper's figures (Inoue et al. 2010, section 3, Figs. 5-14).
 
     /usr/bin/python3 launch/plot.py RUN_DIR [RUN_DIR ...] [--out DIR] [--label re|angle|ds|name]
-                                   [--plane FRACTION]
+                                   [--plane FRACTION] [--times T,T,...] [--vorticity-times T,...]
+                                   [--formats png,pdf] [--dpi N] [--figures NAME,...]
     /usr/bin/python3 launch/plot.py --stats RUN_DIR [RUN_DIR ...]
 
 RUN_DIR is a coupled run's output folder (launch/run-coupled.sh --output): solid.h5 is
 required, monitor.h5 and field snapshots (fields_NNNNNN.h5) are plotted when present. With
 several runs every time series has one line per run (and per sheet, G1 solid, G2 dashed),
-labelled by the parameter parsed from the scene name (solid.h5 attribute `scene`, e.g.
-single_theta90_re40_reduced, pair_ds04p10_re40): --label re (Re), angle (theta), ds
-(span-wise gap), name (the scene name); by default the one that differs between the runs.
-One run with two sheets: G1 red, G2 blue, as in the paper.
+labelled by a parameter of the run read from its outputs (the scene copy in solid.h5's
+`scene_toml` attribute, protocol/provenance.hpp: [fluid] reynolds, the sheets' theta_deg and
+base_um): --label re (Re), angle (theta), ds (span-wise gap between the sheets' bases), name
+(the run's folder); by default the one that differs between the runs. Titles say what was
+run (Re, angle, sheets, model), never a file name. One run with two sheets: G1 red, G2 blue,
+as in the paper.
 
 Time is measured from the release, t - t0 with t0 = rigid_steps dt_LB (the paper's
 t0 = 6.7 us): series of the free sheet start there, forces and coefficients show the rigid
 spin-up at negative times with a dotted line at the release. Lengths in um, times in us.
 
 Writes into --out (default RUN_DIR/plots for one run, else plots/ in the runs' common
-parent folder), one PNG per figure, and prints the path of each file written:
+parent folder) each figure in every format of --formats (default png,pdf: a 300 dpi PNG and
+a vector PDF beside it; svg allowed), and prints the path of each file written:
   displacement.png        marked CGP (middle of the top edge): stream-wise x, normal to the
                           plate y, span-wise z (Figs. 5, 7, 10)
   coefficients.png        C_D = C_x, C_L = C_z (span-wise: the sheet is turned about y), and
@@ -27,15 +31,20 @@ parent folder), one PNG per figure, and prints the path of each file written:
   strain.png              area strain at the top, middle and bottom of the leading edge (Fig. 14)
   energy.png              kinetic, elastic and total energy of the sheets
   monitor.png             fluid health: mass change and maximum Mach number (monitor.h5)
-  displacement_sheets.png several runs with two sheets: one row per run, G1 red, G2 blue (Fig. 10)
+  displacement_sheets.png runs with two sheets: one row per run, G1 red, G2 blue (Fig. 10)
   strain_sheets.png       the CGPs of the sheet snapshots (sheets_NNNNNN.h5) coloured by their
                           area strain, red compressed, blue stretched, seen from downstream
-                          and from above, at three times after release (Fig. 11);
-                          strain_sheets_<scene>.png per run with several runs
+                          and from above, at the snapshots nearest the times --times after
+                          release (default the paper's 13.8, 15.6, 22.7 us of Fig. 11);
+                          strain_sheets_<run folder>.png per run with several runs
   vorticity_y.png         y vorticity on the plane y = FRACTION L (default 1/2, Fig. 9; 1/3 for
-                          Fig. 12), nearest grid plane, L the channel height ny dx, of the last
-                          snapshot; vorticity_y_<scene>.png per run with several runs. CGP
-                          positions per step are not recorded, so the plane is drawn alone.
+                          Fig. 12), nearest grid plane (its height in um, and whether it lies
+                          above the sheets, in the title), L the channel height ny dx, at the
+                          snapshot nearest each time T of --vorticity-times after release
+                          (default 13.4 us, Fig. 9's; vorticity_y_tT.png for several times);
+                          vorticity_y_<run folder>[_tT].png per run with several runs. The
+                          CGPs of the nearest sheet snapshot are drawn.
+A time the run does not reach takes its nearest snapshot, and the title gives the time shown.
 
 --stats prints, per run and sheet, tab-separated: scene, sheet, final and maximum (largest
 |x|, signed) stream-wise displacement of the marked CGP in um, mean C_D and C_L over the last
@@ -51,6 +60,7 @@ import argparse
 import os
 import re
 import sys
+import tomllib
 
 PROG = "plot.py"
 
@@ -82,21 +92,36 @@ class RunError(Exception):
 SERIES_1D = ("step", "time_s", "bulk_velocity_m_s", "kinetic_energy_J", "elastic_energy_J",
              "total_energy_J")
 SERIES_3D = ("marked_displacement_um", "fluid_force_N", "force_coefficients", "leading_edge_strain")
-SCENE_PARAMS = {
-    "re": (re.compile(r"(?:^|_)re(\d+)(?:_|$)"), lambda m: int(m.group(1))),
-    "angle": (re.compile(r"(?:^|_)theta(\d+)(?:_|$)"), lambda m: int(m.group(1))),
-    "ds": (re.compile(r"(?:^|_)ds(\d+)p(\d+)(?:_|$)"), lambda m: float(f"{m.group(1)}.{m.group(2)}")),
-}
+PAPER_STRAIN_TIMES_US = (13.8, 15.6, 22.7)   # Fig. 11 (and Fig. 12), after release
+PAPER_VORTICITY_TIMES_US = (13.4,)           # Fig. 9
 
 
-def scene_params(scene):
-    """{'re': 40, 'angle': 90, 'ds': 4.1} for the parameters the scene name carries."""
+def scene_metadata(scene_toml):
+    """{'re': 40, 'angle': 90, 'ds': 4.1} from the run's copy of its scene (solid.h5's
+    scene_toml attribute): [fluid] reynolds, the sheets' common theta_deg (90 when not given,
+    solid/sheet_spec.hpp), and for two sheets the span-wise distance of their bases."""
+    try:
+        d = tomllib.loads(scene_toml)
+    except tomllib.TOMLDecodeError:
+        return {}
     out = {}
-    for key, (pattern, value) in SCENE_PARAMS.items():
-        m = pattern.search(scene)
-        if m:
-            out[key] = value(m)
+    reynolds = d.get("fluid", {}).get("reynolds")
+    if isinstance(reynolds, (int, float)):
+        out["re"] = reynolds
+    sheets = d.get("sheet", [])
+    if isinstance(sheets, list) and sheets:
+        angles = {float(s.get("theta_deg", 90.0)) for s in sheets if isinstance(s, dict)}
+        if len(angles) == 1:
+            out["angle"] = angles.pop()
+        bases = [s.get("base_um") for s in sheets if isinstance(s, dict)]
+        if len(bases) == 2 and all(isinstance(b, list) and len(b) == 3 for b in bases):
+            out["ds"] = abs(float(bases[1][2]) - float(bases[0][2]))
     return out
+
+
+def time_text(t):
+    """A time in µs for a title: 3 significant digits, round-off around 0 shown as 0."""
+    return "0" if abs(t) < 5e-7 else f"{t:.3g}"
 
 
 def text_attr(attrs, name, path):
@@ -153,18 +178,19 @@ class Run:
         self.dir = directory
         if not os.path.isdir(directory):
             raise RunError(f"{directory}: no such run folder")
+        self.tag = os.path.basename(os.path.normpath(os.path.abspath(directory)))
         self._read_solid()
         self._read_monitor()
         self._find_fields()
-        # Read now, so that a malformed snapshot stops the script before it writes anything.
-        self.vorticity = self.vorticity_plane(plane) if self.last_fields else None
-        self.params = scene_params(self.scene)
-        self.label = self.scene
+        self.label = self.tag
 
     def _read_solid(self):
         path = os.path.join(self.dir, "solid.h5")
         with open_h5(path) as f:
             self.scene = text_attr(f.attrs, "scene", path)
+            # What was run, from the run's own copy of its scene (protocol/provenance.hpp);
+            # outputs written before it carry none, and are labelled by their folder.
+            self.params = scene_metadata(text_attr(f.attrs, "scene_toml", path)) if "scene_toml" in f.attrs else {}
             self.model = text_attr(f.attrs, "model", path) if "model" in f.attrs else "?"
             self.dt_lb = number_attr(f.attrs, "dt_lb_s", path)
             self.rigid_steps = number_attr(f.attrs, "rigid_steps", path)
@@ -227,16 +253,22 @@ class Run:
             m = re.fullmatch(r"sheets_(\d+)\.h5", name)
             if m:
                 sheets.append((int(m.group(1)), name))
-        self.last_fields = os.path.join(self.dir, max(snaps)[1]) if snaps else None
-        # y-plane snapshots ([output] planes_every): the latest step's planes, by cell row.
-        last = max((p[0] for p in planes), default=None)
-        self.last_planes = {j: os.path.join(self.dir, n) for step, j, n in planes if step == last}
+        self.field_snapshots = {step: os.path.join(self.dir, n) for step, n in snaps}
+        # y-plane snapshots ([output] planes_every): per step, by cell row.
+        self.plane_snapshots = {}
+        for step, j, n in planes:
+            self.plane_snapshots.setdefault(step, {})[j] = os.path.join(self.dir, n)
         self.sheet_snapshots = {step: os.path.join(self.dir, n) for step, n in sheets}
-        if self.last_fields is None and self.last_planes:
-            self.last_fields = next(iter(self.last_planes.values()))
+        self.last_fields = bool(self.field_snapshots or self.plane_snapshots)
+
+    def step_after_release_us(self, step):
+        return step * self.dt_lb * 1e6 - self.t0_us
+
+    def nearest_step(self, steps, t_after_release_us):
+        return min(steps, key=lambda s: abs(self.step_after_release_us(s) - t_after_release_us))
 
     def cgp_positions(self, step):
-        """x and z (um) of the CGPs in the sheet snapshot nearest to `step`, or None."""
+        """x, y and z (um) of the CGPs in the sheet snapshot nearest to `step`, or None."""
         if not self.sheet_snapshots:
             return None
         best = min(self.sheet_snapshots, key=lambda s: abs(s - step))
@@ -245,14 +277,16 @@ class Run:
             if "position_um" not in f:
                 return None
             p = np.asarray(f["position_um"][...], dtype=float)
-        return dict(x=p[:, 0], z=p[:, 2], step=best) if p.ndim == 2 and p.shape[1] == 3 else None
+        return dict(x=p[:, 0], y=p[:, 1], z=p[:, 2], step=best) if p.ndim == 2 and p.shape[1] == 3 else None
 
-    def vorticity_plane(self, fraction):
-        """omega_y on the x-z grid plane nearest y = fraction L, L = ny dx (the channel height)."""
-        if self.last_planes and not any(re.fullmatch(r"fields_\d+\.h5", os.path.basename(p))
-                                        for p in [self.last_fields or ""]):
-            return self._plane_file(fraction)
-        path = self.last_fields
+    def vorticity_plane(self, fraction, t_after_release_us):
+        """omega_y on the x-z grid plane nearest y = fraction L, L = ny dx (the channel height),
+        of the snapshot nearest the time after release (a whole-grid one where there is one)."""
+        steps = set(self.field_snapshots) | set(self.plane_snapshots)
+        step = self.nearest_step(steps, t_after_release_us)
+        if step not in self.field_snapshots:
+            return self._plane_file(fraction, self.plane_snapshots[step])
+        path = self.field_snapshots[step]
         with open_h5(path) as f:
             dx = number_attr(f.attrs, "dx_um", path)
             time_us = number_attr(f.attrs, "time_us", path)
@@ -264,7 +298,8 @@ class Run:
                 raise RunError(f"{path}: dataset vorticity has shape {w.shape}, expected "
                                "(nz, ny, nx, 3)")
             nz, ny, nx = w.shape[:3]
-            j = int(min(max(round(fraction * ny), 0), ny - 1))
+            # The nearest cell centre, (j + 1/2) dx (the snapshots' and the sheets' frame).
+            j = int(min(max(round(fraction * ny - 0.5), 0), ny - 1))
             try:
                 plane = np.asarray(w[:, j, :, 1], dtype=float)   # [z][x], omega_y
             except (TypeError, ValueError, OSError) as e:
@@ -272,10 +307,10 @@ class Run:
         return dict(plane=plane, dx=dx, j=j, ny=ny, nx=nx, nz=nz, time_us=time_us,
                     step=int(step), path=path)
 
-    def _plane_file(self, fraction):
+    def _plane_file(self, fraction, planes):
         """The y-plane snapshot (plane_yJ_NNNNNN.h5) whose row is nearest to fraction L."""
         rows = {}
-        for j, path in self.last_planes.items():
+        for j, path in planes.items():
             with open_h5(path) as f:
                 rows[j] = (path, int(number_attr(f.attrs, "grid_ny", path)))
         j = min(rows, key=lambda r: abs(r + 0.5 - fraction * rows[r][1]))
@@ -297,10 +332,13 @@ class Run:
 # Labels, colours, figure helpers
 
 LABEL_TEXT = {
-    "re": lambda v: f"Re = {v}",
-    "angle": lambda v: f"θ = {v}°",
+    "re": lambda v: f"Re = {v:g}",
+    "angle": lambda v: f"θ = {v:g}°",
     "ds": lambda v: f"Δs = {v:.2f} µm",
 }
+FORMATS = ["png", "pdf"]   # --formats
+FIGURES = ("displacement", "coefficients", "forces", "strain", "energy", "monitor", "sheets",
+           "strain_sheets", "vorticity")   # --figures
 SHEET_COLOURS = ["tab:red", "tab:blue", "tab:green", "tab:purple"]   # G1 red, G2 blue (paper)
 SHEET_STYLES = ["-", "--", ":", "-."]
 RUN_COLOURS = plt.get_cmap("tab10").colors
@@ -321,7 +359,7 @@ def choose_labels(runs, mode):
         if mode != "name" and mode in r.params:
             r.label = LABEL_TEXT[mode](r.params[mode])
         else:
-            r.label = r.scene
+            r.label = r.tag
     if mode != "name" and all(mode in r.params for r in runs):
         runs.sort(key=lambda r: r.params[mode])
     seen = {}
@@ -348,10 +386,16 @@ def lines(runs):
     return out
 
 
+def what_was_run(r):
+    """'Re = 40, θ = 90°, 1 sheet, corotational': from the run's outputs, no file name."""
+    parts = [LABEL_TEXT[k](r.params[k]) for k in ("re", "angle", "ds") if k in r.params]
+    parts.append(f"{r.sheets} sheet{'s' if r.sheets > 1 else ''}, {r.model}")
+    return ", ".join(parts)
+
+
 def describe(runs):
     if len(runs) == 1:
-        r = runs[0]
-        return f"{r.scene} ({r.model}, {r.sheets} sheet{'s' if r.sheets > 1 else ''})"
+        return what_was_run(runs[0])
     text = f"{len(runs)} runs: " + ", ".join(r.label for r in runs)
     return text if len(text) <= 90 else f"{len(runs)} runs"
 
@@ -370,7 +414,8 @@ def style():
         "xtick.top": True, "ytick.right": True, "xtick.minor.visible": True,
         "ytick.minor.visible": True, "axes.formatter.useoffset": True,
         "axes.formatter.use_mathtext": True, "axes.formatter.limits": (-3, 4),
-        "savefig.dpi": 150, "figure.dpi": 150, "legend.framealpha": 0.85,
+        "savefig.dpi": 300, "figure.dpi": 150, "legend.framealpha": 0.85,
+        "pdf.fonttype": 42, "svg.fonttype": "none",   # text stays text in the vector files
     })
 
 
@@ -447,14 +492,26 @@ def collect_legend(entries):
 
 
 def save(fig, out, name, written):
-    path = os.path.join(out, name)
+    """NAME.png (300 dpi) and its vector twins (--formats) side by side."""
+    base = os.path.join(out, os.path.splitext(name)[0])
     try:
-        fig.savefig(path, bbox_inches="tight")
+        for fmt in FORMATS:
+            fig.savefig(f"{base}.{fmt}", bbox_inches="tight")
+            written.append(f"{base}.{fmt}")
     except OSError as e:
-        fail(f"{path}: cannot write ({e.strerror or e})", 1)
+        fail(f"{base}.{fmt}: cannot write ({e.strerror or e})", 1)
     finally:
         plt.close(fig)
-    written.append(path)
+
+
+def unique_name(stem, used):
+    """stem.png, else stem_2.png, ...: two runs never overwrite each other's figure."""
+    stem = re.sub(r"[^A-Za-z0-9_.-]+", "_", stem)
+    name, k = f"{stem}.png", 2
+    while name in used:
+        name, k = f"{stem}_{k}.png", k + 1
+    used.add(name)
+    return name
 
 
 # ----------------------------------------------------------------------------------------
@@ -593,13 +650,13 @@ def sheets_figure(runs, out, written):
     save(fig, out, "displacement_sheets.png", written)
 
 
-def strain_sheets_figure(run, out, written, name):
-    """Fig. 11: the CGPs coloured by area strain at three snapshot times after the release,
-    seen from downstream (z, y) and from above (x, z). Red compressed, blue stretched."""
+def strain_sheets_figure(run, out, written, name, times):
+    """Fig. 11: the CGPs coloured by area strain at the snapshots nearest the times after the
+    release, seen from downstream (z, y) and from above (x, z). Red compressed, blue stretched."""
     free = sorted(s for s in run.sheet_snapshots if s >= run.rigid_steps)
     if not free:
         return
-    picks = sorted({free[0], free[len(free) // 2], free[-1]})
+    picks = sorted({run.nearest_step(free, t) for t in times})
     data = []
     for step in picks:
         with open_h5(run.sheet_snapshots[step]) as f:
@@ -612,13 +669,13 @@ def strain_sheets_figure(run, out, written, name):
     n = len(data)
     fig, axes = plt.subplots(2, n, figsize=(2.6 * n + 1.2, 6.0), constrained_layout=True,
                              squeeze=False)
-    fig.suptitle(f"Area strain of the sheets (red compressed, blue stretched): {run.scene}")
+    fig.suptitle(f"Area strain of the sheets (red compressed, blue stretched)\n{what_was_run(run)}")
     sc = None
     for c, (step, t, p, e) in enumerate(data):
         ax = axes[0, c]
         sc = ax.scatter(p[:, 2], p[:, 1], c=e, cmap="RdBu", vmin=-vmax, vmax=vmax, s=11,
                         edgecolors="0.45", linewidths=0.3)
-        ax.set_title(f"from downstream, $t - t_0$ = {t - run.t0_us:.3g} µs", fontsize=8.5)
+        ax.set_title(f"from downstream, $t - t_0$ = {time_text(t - run.t0_us)} µs", fontsize=8.5)
         ax.set_xlabel(r"span-wise $z$ (µm)")
         ax.set_ylabel(r"height $y$ (µm)")
         ax.set_aspect("equal", adjustable="datalim")
@@ -634,8 +691,8 @@ def strain_sheets_figure(run, out, written, name):
     save(fig, out, name, written)
 
 
-def vorticity_figure(run, out, written, fraction, name):
-    v = run.vorticity
+def vorticity_figure(run, out, written, fraction, name, asked_us):
+    v = run.vorticity_plane(fraction, asked_us)
     w, dx = v["plane"], v["dx"]
     fig, ax = plt.subplots(figsize=(7.0, 0.9 + 7.0 * v["nz"] / max(v["nx"], 1) * 0.85),
                            constrained_layout=True)
@@ -657,14 +714,20 @@ def vorticity_figure(run, out, written, fraction, name):
         if abs(fraction - value) < 2e-3:
             frac = text
     t_rel = v["time_us"] - run.t0_us
-    ax.set_title(f"y vorticity on the plane y = {frac} (grid plane j = {v['j']} of {v['ny']}, "
-                 f"y = {v['j'] * dx:.2f} µm, L = {ly:.2f} µm)\n"
-                 f"{run.scene}, step {v['step']}, t = {v['time_us']:.3f} µs, "
-                 f"$t - t_0$ = {t_rel:.3f} µs", fontsize=9.5)
+    y_plane = (v["j"] + 0.5) * dx   # the cell centre, as in fields.xmf and the sheets' frame
+    cgps = run.cgp_positions(v["step"])
+    where = ""
+    if cgps is not None and y_plane > float(np.max(cgps["y"])):
+        where = f"; the plane lies above the sheets (their top at y = {float(np.max(cgps['y'])):.2f} µm)"
+    shown = f"$t - t_0$ = {time_text(t_rel)} µs"
+    if abs(t_rel - asked_us) > 0.5 * max(run.dt_lb * 1e6, 1e-9) and abs(t_rel - asked_us) > 1e-3:
+        shown += f" (nearest snapshot to {time_text(asked_us)} µs)"
+    ax.set_title(f"y vorticity on the plane y = {frac} = {y_plane:.2f} µm (grid plane j = {v['j']} of "
+                 f"{v['ny']}, L = {ly:.2f} µm){where}\n"
+                 f"{what_was_run(run)}\n{shown}, t = {v['time_us']:.3g} µs", fontsize=9.5)
     ax.annotate("flow", xy=(0.13, 0.06), xytext=(0.02, 0.06), xycoords="axes fraction",
                 textcoords="axes fraction", va="center", fontsize=8,
                 arrowprops=dict(arrowstyle="->", color="k", lw=1.0))
-    cgps = run.cgp_positions(v["step"])
     if cgps is not None:  # the sheets seen from above (Figs. 9, 12)
         ax.plot(cgps["x"], cgps["z"], "o", ms=2.2, color="k", mec="none",
                 label=f"CGPs (step {cgps['step']})")
@@ -734,7 +797,18 @@ def stats(runs):
 class Parser(argparse.ArgumentParser):
     def error(self, message):   # one line, exit 2
         fail(f"{message} (usage: plot.py RUN_DIR [RUN_DIR ...] [--out DIR] "
-             "[--label re|angle|ds|name] [--plane FRACTION] | --stats RUN_DIR ...)")
+             "[--label re|angle|ds|name] [--plane FRACTION] [--times T,...] [--vorticity-times T,...] "
+             "[--formats png,pdf] | --stats RUN_DIR ...)")
+
+
+def times_list(text, option):
+    try:
+        values = [float(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        values = []
+    if not values or not all(np.isfinite(v) for v in values):
+        fail(f"{option} {text}: expected comma-separated times in µs after the release, e.g. 13.8,15.6,22.7")
+    return values
 
 
 def main():
@@ -746,12 +820,31 @@ def main():
                    help="what names each run in the legends (default: the parameter that differs)")
     p.add_argument("--plane", type=float, default=0.5,
                    help="vorticity plane y = FRACTION L (default 0.5; the paper's Fig. 12: 1/3)")
+    p.add_argument("--times", default=",".join(f"{t:g}" for t in PAPER_STRAIN_TIMES_US),
+                   help="strain of the sheets at the snapshots nearest these times after release, µs "
+                        "(default the paper's Fig. 11: 13.8,15.6,22.7)")
+    p.add_argument("--vorticity-times", default=",".join(f"{t:g}" for t in PAPER_VORTICITY_TIMES_US),
+                   help="vorticity plane at the snapshots nearest these times after release, µs "
+                        "(default Fig. 9's 13.4; Fig. 12: 13.8,15.6,22.7)")
+    p.add_argument("--dpi", type=float, default=300.0, help="resolution of the PNGs (default 300)")
+    p.add_argument("--formats", default="png,pdf",
+                   help="file formats of every figure, from png, pdf, svg (default png,pdf)")
+    p.add_argument("--figures", default=",".join(FIGURES),
+                   help="which figures, from " + ", ".join(FIGURES) + " (default all)")
     p.add_argument("--stats", action="store_true", help="print the summary statistics, no plots")
     a = p.parse_args()
+    wanted = {f.strip() for f in a.figures.split(",") if f.strip()}
+    if not wanted or not wanted <= set(FIGURES):
+        fail(f"--figures {a.figures}: expected a comma-separated list from " + ", ".join(FIGURES))
     if not 0.0 <= a.plane <= 1.0:
         fail(f"--plane {a.plane}: expected a fraction of the channel height in [0, 1]")
+    strain_times = times_list(a.times, "--times")
+    vorticity_times = times_list(a.vorticity_times, "--vorticity-times")
+    FORMATS[:] = [f.strip() for f in a.formats.split(",") if f.strip()]
+    if not FORMATS or any(f not in ("png", "pdf", "svg") for f in FORMATS):
+        fail(f"--formats {a.formats}: expected a comma-separated list from png, pdf, svg")
     try:
-        runs = [Run(d, a.plane) for d in a.runs]
+        runs = [Run(d) for d in a.runs]
     except RunError as e:
         fail(str(e))
     choose_labels(runs, a.label)
@@ -770,35 +863,36 @@ def main():
         fail(f"{out}: cannot create the output folder ({e.strerror or e})", 1)
 
     style()
+    if not 10.0 <= a.dpi <= 1200.0:
+        fail(f"--dpi {a.dpi:g}: expected 10 to 1200")
+    plt.rcParams["savefig.dpi"] = a.dpi
     written = []
     many = sum(r.sheets for r in runs) > 4          # long legends go beside the panels
     try:
-        displacement_figure(runs, out, written, many)
-        coefficient_figure(runs, out, written, many)
-        force_figure(runs, out, written, many)
-        strain_figure(runs, out, written, many)
-        energy_figure(runs, out, written)
-        monitor_figure(runs, out, written)
-        if len(runs) > 1 and any(r.sheets > 1 for r in runs):
+        if "displacement" in wanted:
+            displacement_figure(runs, out, written, many)
+        if "coefficients" in wanted:
+            coefficient_figure(runs, out, written, many)
+        if "forces" in wanted:
+            force_figure(runs, out, written, many)
+        if "strain" in wanted:
+            strain_figure(runs, out, written, many)
+        if "energy" in wanted:
+            energy_figure(runs, out, written)
+        if "monitor" in wanted:
+            monitor_figure(runs, out, written)
+        if "sheets" in wanted and any(r.sheets > 1 for r in runs):
             sheets_figure(runs, out, written)
-        for r in runs:
-            if len(runs) == 1:
-                strain_sheets_figure(r, out, written, "strain_sheets.png")
-            else:
-                base = re.sub(r"[^A-Za-z0-9_.-]+", "_", r.scene)
-                strain_sheets_figure(r, out, written, f"strain_sheets_{base}.png")
-        with_fields = [r for r in runs if r.last_fields]
-        used = set()
-        for r in with_fields:
-            if len(runs) == 1:
-                name = "vorticity_y.png"
-            else:
-                base = re.sub(r"[^A-Za-z0-9_.-]+", "_", r.scene)
-                name, k = f"vorticity_y_{base}.png", 2
-                while name in used:
-                    name, k = f"vorticity_y_{base}_{k}.png", k + 1
-            used.add(name)
-            vorticity_figure(r, out, written, a.plane, name)
+        used = set()   # one file per run and figure: named by the run's folder, made unique
+        for r in runs if "strain_sheets" in wanted else []:
+            stem = "strain_sheets" if len(runs) == 1 else f"strain_sheets_{r.tag}"
+            strain_sheets_figure(r, out, written, unique_name(stem, used), strain_times)
+        for r in [r for r in runs if r.last_fields and "vorticity" in wanted]:
+            for t in vorticity_times:
+                stem = "vorticity_y" if len(runs) == 1 else f"vorticity_y_{r.tag}"
+                if len(vorticity_times) > 1:
+                    stem += f"_t{t:g}"
+                vorticity_figure(r, out, written, a.plane, unique_name(stem, used), t)
     except RunError as e:
         fail(str(e))
     for path in written:

@@ -6,6 +6,7 @@
 #
 #   bash launch/python-study.sh SCRIPT.py [--no-build] [ARGS...]
 set -euo pipefail
+. "$(dirname "${BASH_SOURCE[0]}")/help.sh" && answer_help "${BASH_SOURCE[0]}" "$@"
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 script=$1
 shift

@@ -14,6 +14,13 @@
 #
 # --time-ratio N runs both servers with A_T = N instead of the scene's [coupling] time_ratio.
 #
+# The terminal shows one updating progress line (launch/progress.py: phase spin-up or free,
+# LB step, simulated time, MLUPS, each side's compute and wait shares, ETA; prefixed with
+# $COSIM_RUN_LABEL when set), the line "fluid: sheet released at step N", and the fluid's
+# header, warnings and closing summary; its monitor rows stay in OUTPUT/fluid.log. --quiet
+# shows only the closing summary. The output folder gets scene.toml (a copy of the scene)
+# and provenance_fluid.toml, provenance_solid.toml (protocol/provenance.hpp).
+#
 # The stability watchdog (DESIGN 6, docs/stability.md): when a sentinel stops the run and
 # the scene's [watchdog] retry = true, the fluid prints "fluid: watchdog retry: time_ratio
 # = M ..., from the newest checkpoint before step S, at most R retries" for a sentinel that a
@@ -38,6 +45,7 @@
 # that peer's own 1, 2 or 3); OUTPUT/fluid.exit and OUTPUT/solid.exit hold each
 # process's own status, OUTPUT/fluid.log and OUTPUT/solid.log their output.
 set -euo pipefail
+. "$(dirname "${BASH_SOURCE[0]}")/help.sh" && answer_help "${BASH_SOURCE[0]}" "$@"
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 
 usage() { echo "usage: bash launch/run-coupled.sh SCENE.toml [--output DIR] [--log] [--no-build] [--quiet] [--solid-cmd CMD] [--extra CMD] [--restart DIR] [--time-ratio N]" >&2; exit 2; }

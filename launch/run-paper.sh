@@ -8,6 +8,7 @@
 # on 2 cores); --full: the paper's 120 x 60 x 90 grid, 15000 rigid + 15000 free LB steps.
 # Ends by listing the PNGs (launch/plot.py) and the run's HDF5/XDMF outputs.
 set -euo pipefail
+. "$(dirname "${BASH_SOURCE[0]}")/help.sh" && answer_help "${BASH_SOURCE[0]}" "$@"
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 scene=single_theta90_re40_reduced
 output=""

@@ -4,6 +4,7 @@
 # Default scene: the paper's channel (plate, Blasius inlet, outflow, no sheet) at reduced
 # size. Output (monitor.h5, fields) goes to out/<scene name>/ unless --output is given.
 set -euo pipefail
+. "$(dirname "${BASH_SOURCE[0]}")/help.sh" && answer_help "${BASH_SOURCE[0]}" "$@"
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 scene=${1:-$root/scenes/channel_reduced.toml}
 [ $# -gt 0 ] && shift

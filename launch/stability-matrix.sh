@@ -13,4 +13,5 @@
 # a diagnosis; 1 a case violated that (a crash, a hang, a stop without a diagnosis, a NaN in a
 # file); 2 bad arguments or nothing built.
 set -euo pipefail
+. "$(dirname "${BASH_SOURCE[0]}")/help.sh" && answer_help "${BASH_SOURCE[0]}" "$@"
 exec bash "$(dirname "${BASH_SOURCE[0]}")/python-study.sh" stability_matrix.py "$@"

@@ -471,9 +471,10 @@ def main():
     cache = os.path.join(out, 'rcgp_cache')
     limit_s = 600 if a.short else 3600
     results, start = [], time.time()
-    for case in CASES:
-        if case['name'] not in wanted:
-            continue
+    chosen = [case for case in CASES if case['name'] in wanted]
+    for number, case in enumerate(chosen, 1):
+        print('stability-matrix: case %d of %d: %s ...' % (number, len(chosen), case['name']), flush=True)
+        os.environ['COSIM_RUN_LABEL'] = 'case %d of %d %s' % (number, len(chosen), case['name'])
         scene = prepare_scene(case, out, a.short, cache)
         d, rc, wall, cmd = run_case(case, scene, out, limit_s)
         r = classify(case, d, rc, wall, limit_s)

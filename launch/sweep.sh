@@ -13,7 +13,8 @@
 # launch/build.sh (done once for the whole sweep otherwise).
 #
 # Each scene goes through launch/run-coupled.sh into OUT/<family>/<scene>/ (the folder is
-# emptied first; the launcher's own lines go to launcher.log there), then launch/plot.py over
+# emptied first; the launcher's own lines go to launcher.log there; on a terminal its one
+# progress line shows "run i of n SCENE" and the run's progress, ETA included), then launch/plot.py over
 # all of them into OUT/<family>/plots/ (emptied first), and the summary table is printed and
 # written to OUT/<family>/summary.txt: per scene and sheet, the marked CGP's final and
 # largest (signed, at max |x|) stream-wise displacement in um, the mean C_D and C_L (= C_z)
@@ -28,10 +29,13 @@
 #                         COSIM_SWEEP_SCENES="scenes/coupled_small.toml" bash launch/sweep.sh re --no-build
 #                       (the same file twice gets folders <scene> and <scene>_2)
 #   COSIM_SWEEP_OUT     output root instead of out/sweep (OUT above)
+#   COSIM_SWEEP_PLOTS   0: no plots, only the runs and the table (launch/paper-figures.sh
+#                       plots the families itself)
 #
 # Exit status: 0 when every run and the plotting succeeded; otherwise the first failed
 # run's status (or plot.py's); 2 for bad arguments.
 set -euo pipefail
+. "$(dirname "${BASH_SOURCE[0]}")/help.sh" && answer_help "${BASH_SOURCE[0]}" "$@"
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 py=/usr/bin/python3
 
@@ -98,14 +102,17 @@ statuses=(); first_failure=0
 for i in "${!scenes[@]}"; do
   scene=${scenes[$i]}; out=$base/${dirs[$i]}
   rm -rf "$out"; mkdir -p "$out"
-  printf 'sweep: [%d/%d] %s ... ' $((i + 1)) ${#scenes[@]} "${dirs[$i]}"
+  echo "sweep: run $((i + 1)) of ${#scenes[@]}: ${dirs[$i]}"
   start=$SECONDS
   set +e
-  bash "$root/launch/run-coupled.sh" "$scene" --output "$out" --no-build --quiet >"$out/launcher.log" 2>&1
+  # The launcher's lines go to launcher.log; its one progress line, labelled with the run's
+  # number, to this terminal when there is one (launch/progress.py, COSIM_PROGRESS_TTY).
+  COSIM_RUN_LABEL="run $((i + 1)) of ${#scenes[@]} ${dirs[$i]}" COSIM_PROGRESS_TTY=1 \
+    bash "$root/launch/run-coupled.sh" "$scene" --output "$out" --no-build >"$out/launcher.log" 2>&1
   status=$?
   set -e
   statuses+=("$status")
-  echo "exit $status in $((SECONDS - start)) s"
+  echo "sweep: run $((i + 1)) of ${#scenes[@]}: ${dirs[$i]}: exit $status in $((SECONDS - start)) s"
   if [ $status -ne 0 ]; then
     [ $first_failure -ne 0 ] || first_failure=$status
     for log in launcher.log fluid.log solid.log; do
@@ -121,7 +128,9 @@ for d in "${dirs[@]}"; do
 done
 rm -rf "$base/plots"
 plot_status=0
-if [ ${#plot_dirs[@]} -gt 0 ]; then
+if [ "${COSIM_SWEEP_PLOTS:-1}" = 0 ]; then
+  echo "sweep: no plots (COSIM_SWEEP_PLOTS=0)"
+elif [ ${#plot_dirs[@]} -gt 0 ]; then
   echo "sweep: plots of ${#plot_dirs[@]} run(s) into $base/plots"
   set +e
   "$py" "$root/launch/plot.py" "${plot_dirs[@]}" --out "$base/plots" ${label:+--label "$label"}

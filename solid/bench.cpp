@@ -12,6 +12,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "protocol/cli_parse.hpp"
 #include "protocol/units.hpp"
 #include "solid/model_registry.hpp"
 
@@ -41,7 +42,7 @@ int main(int argc, char** argv) {
   app.add_option("--substeps", substeps, "substeps per repeat")->check(CLI::PositiveNumber);
   app.add_option("--repeat", repeat, "repeats (the median is reported)")->check(CLI::PositiveNumber);
   app.add_option("--models", models, "registered model names");
-  CLI11_PARSE(app, argc, argv);
+  if (const auto code = cosim::protocol::parse_command_line(app, argc, argv, "solid_bench")) return *code;
 
   const double dt = cosim::protocol::UnitConverter{}.dt_cg_s() /
                     cosim::protocol::PhysicalConstants::time_au_s;

@@ -52,6 +52,7 @@ void CoupledSeries::write(const std::string& path, const Attributes& a) const {
   write_attribute(f, "time_ratio", static_cast<double>(a.time_ratio));
   write_attribute(f, "total_steps", static_cast<double>(a.total_steps));
   write_attribute(f, "rigid_steps", static_cast<double>(a.rigid_steps));
+  protocol::stamp_file(f);
   file.close("cannot close " + path);
 }
 

@@ -14,6 +14,8 @@
 
 #include <Eigen/Core>
 
+#include "protocol/progress.hpp"
+#include "protocol/provenance.hpp"
 #include "protocol/session/exit_codes.hpp"
 #include "protocol/text.hpp"
 #include "solid/schemes/solid_scheme.hpp"
@@ -28,8 +30,6 @@ namespace {
 using Clock = std::chrono::steady_clock;
 using protocol::fmt;
 using protocol::one_line;
-
-constexpr auto kProgressEvery = std::chrono::seconds(1);
 
 /// The coupled run: the solid's physics (SolidRun), its session (SolidPeer), its checkpoints
 /// and the coupling scheme (solid/schemes/) wired together, and the lock-step loop over them:
@@ -51,13 +51,18 @@ class CoupledSolid {
     run_.print_header(out_, peer_.channel_prefix());
     if (o_.check_only) return exit_code::ok;
     if (const auto e = run_.open_output()) return report(*e);
+    try {
+      protocol::write_provenance_files(s_.output_dir);  // OUTPUT/scene.toml, provenance_solid.toml
+    } catch (const std::exception& x) {
+      return report(Ending{exit_code::system, one_line(x.what())});
+    }
     if (const auto e = peer_.open(run_.num_cgps())) return report(*e);
     if (const auto e = handshake()) return finish(*e);
     out_ << "solid: handshake accepted: " << run_.total_steps() << " LB steps (" << run_.rigid_steps()
          << " rigid), A_T = " << run_.coupling().time_ratio << scheme_->announcement() << "\n";
     peer_.await_from(scheme_->first_key(run_.rigid_steps()));
     out_.flush();
-    start_ = last_progress_ = Clock::now();
+    start_ = Clock::now();
 
     if (!o_.restart.empty()) {
       // Continue from a checkpoint at step N: the state after the interval of step N and
@@ -75,6 +80,7 @@ class CoupledSolid {
       if (const auto e = run_.snapshot(0)) return finish(*e);
     }
     first_step_ = peer_.last_step();
+    clock_ = protocol::ProgressClock(run_.total_steps() - 1, first_step_);
     peer_.heard();
     for (;;) {
       const Clock::time_point t0 = Clock::now();
@@ -105,20 +111,21 @@ class CoupledSolid {
     return std::nullopt;
   }
 
+  /// Every protocol::progress_every_s(1) seconds, unless quiet: "solid: progress step N/M
+  /// phase spin-up|free t = .. us .. LB steps/s compute .. % wait .. % ETA .." on stderr,
+  /// for launch/progress.py (the launcher's one line).
   void progress() {
-    if (o_.quiet) return;
-    const Clock::time_point now = Clock::now();
-    if (now - last_progress_ < kProgressEvery) return;
-    last_progress_ = now;
+    if (o_.quiet || !clock_.due(progress_every_s_)) return;
     const std::int64_t step = peer_.last_step(), total = run_.total_steps();
-    const double wall = std::chrono::duration<double>(now - start_).count();
-    const double rate = wall > 0.0 ? static_cast<double>(step) / wall : 0.0;
-    const double left = static_cast<double>(std::max<std::int64_t>(0, total - 1 - step));
+    const double wall = clock_.elapsed_s(), rate = clock_.rate(step);
+    const auto share = [wall](double part) { return wall > 0.0 ? 100.0 * part / wall : 0.0; };
     char line[256];
-    std::snprintf(line, sizeof line, "solid: step %lld/%lld  t = %.4g us  %.3g LB steps/s  ETA %.0f s%s\n",
+    std::snprintf(line, sizeof line,
+                  "solid: progress step %lld/%lld  phase %s  t = %.4g us  %.3g LB steps/s  compute %.0f %%  wait %.0f %%  "
+                  "ETA %s\n",
                   static_cast<long long>(step), static_cast<long long>(total),
-                  static_cast<double>(step) * run_.units().dt_lb_s() * 1e6, rate, rate > 0.0 ? left / rate : 0.0,
-                  step < run_.rigid_steps() ? "  (rigid)" : "");
+                  step < run_.rigid_steps() ? "spin-up" : "free", static_cast<double>(step) * run_.units().dt_lb_s() * 1e6,
+                  rate, share(compute_s_), share(wait_s_), protocol::format_duration(clock_.eta_s(step)).c_str());
     err_ << line;
     err_.flush();
   }
@@ -204,7 +211,9 @@ class CoupledSolid {
   SchemeContext ctx_;
 
   std::int64_t first_step_ = 0;  ///< 0, or the step of --restart
-  Clock::time_point start_ = Clock::now(), last_progress_ = start_;
+  Clock::time_point start_ = Clock::now();
+  protocol::ProgressClock clock_{0};  ///< rate and ETA from first_step_ to the last step (total - 1)
+  double progress_every_s_ = protocol::progress_every_s(1.0);
   double compute_s_ = 0.0, wait_s_ = 0.0;  ///< per-step timing (DESIGN 7)
   std::int64_t timed_steps_ = 0;
 };

@@ -49,6 +49,7 @@
 
 #include "protocol/cli_parse.hpp"
 #include "protocol/hdf5_handle.hpp"
+#include "protocol/progress.hpp"
 #include "protocol/session/exit_codes.hpp"
 #include "protocol/hdf5_quiet.hpp"
 #include "protocol/text.hpp"
@@ -148,45 +149,31 @@ void write_series(const SolidScene& scene, const Series& s) {
   write_attribute(f, "model", scene.model);
   write_attribute(f, "mode", scene.mode == SolidRunMode::Free ? "free" : "static");
   write_attribute(f, "dt_s", scene.dt_s);
+  protocol::stamp_file(f);
   file.close("cannot close " + path);
 }
 
-/// The carriage-return progress line on stderr, at most twice a second on a terminal;
-/// when stderr is not a terminal (a log file), one plain line every 10 s instead.
+/// The standalone run's progress line on stderr (protocol/progress.hpp): substep, simulated
+/// time, rate and ETA.
 class Progress {
  public:
-  Progress(bool enabled, std::int64_t total, double dt_s)
-      : enabled_(enabled), tty_(isatty(STDERR_FILENO) != 0), total_(total), dt_s_(dt_s),
-        start_(Clock::now()), last_(start_) {}
+  Progress(bool enabled, std::int64_t total, double dt_s) : line_(enabled, stderr), clock_(total), dt_s_(dt_s) {}
 
   void update(std::int64_t k) {
-    if (!enabled_) return;
-    const Clock::time_point now = Clock::now();
-    const double since = std::chrono::duration<double>(now - last_).count();
-    if (since < (tty_ ? 0.5 : 10.0) && k != total_) return;
-    last_ = now;
-    const double elapsed = std::chrono::duration<double>(now - start_).count();
-    const double rate = elapsed > 0 ? double(k) / elapsed : 0.0;
-    const double eta = k > 0 ? elapsed / double(k) * double(total_ - k) : 0.0;
-    std::fprintf(stderr, "%ssubstep %lld/%lld  t = %.4g us  %.3g substeps/s  ETA %.0f s%s",
-                 tty_ ? "\r" : "", static_cast<long long>(k), static_cast<long long>(total_),
-                 double(k) * dt_s_ * 1e6, rate, eta, tty_ ? "    " : "\n");
-    std::fflush(stderr);
-    shown_ = tty_;
+    if (!line_.due(k == clock_.total())) return;
+    char text[192];
+    std::snprintf(text, sizeof text, "substep %lld/%lld  t = %.4g us  %.3g substeps/s  ETA %s",
+                  static_cast<long long>(k), static_cast<long long>(clock_.total()), double(k) * dt_s_ * 1e6,
+                  clock_.rate(k), protocol::format_duration(clock_.eta_s(k)).c_str());
+    line_.show(text);
   }
-  void clear() {
-    if (!shown_) return;
-    std::fprintf(stderr, "\r%78s\r", "");
-    std::fflush(stderr);
-    shown_ = false;
-  }
-  double elapsed_s() const { return std::chrono::duration<double>(Clock::now() - start_).count(); }
+  void clear() { line_.clear(); }
+  double elapsed_s() const { return clock_.elapsed_s(); }
 
  private:
-  bool enabled_, tty_, shown_ = false;
-  std::int64_t total_;
+  protocol::ProgressLine line_;
+  protocol::ProgressClock clock_;
   double dt_s_;
-  Clock::time_point start_, last_;
 };
 
 void print_header(const SolidScene& s, const SolidModel& model) {
@@ -347,6 +334,8 @@ void check_time_step(const SolidScene& s, const SolidModel& model) {
 }
 
 int run(const SolidScene& s, SolidModel& model, bool quiet) {
+  create_output_directory(s);
+  protocol::write_provenance_files(s.output_dir);  // OUTPUT/scene.toml, provenance_solid.toml
   create_output_directory(s);  // before the run, not after it
   const double dt_au = s.dt_s / PhysicalConstants::time_au_s;
   const Eigen::Index n = model.num_cgps();
@@ -536,6 +525,7 @@ int main_impl(int argc, char** argv) {
     std::fprintf(stderr, "%s\n", one_line(e.what()).c_str());
     return exit_code::bad_input;
   }
+  protocol::record_scene(scene.path);
   if (scene.coupled()) {
     CoupledSolidOptions co;
     co.token = token;

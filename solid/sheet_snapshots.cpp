@@ -162,6 +162,7 @@ void SheetSnapshotWriter::write_hdf5(const fs::path& file, std::int64_t step, do
     write_attribute(h, "time_us", time_s / kMicrometre);
     write_attribute(h, "frame", kFrame);
     write_attribute(h, "area_strain", kStrainDefinition);
+    protocol::stamp_file(h);
   } catch (const std::runtime_error& e) {
     throw std::runtime_error(name + ": " + e.what());
   }

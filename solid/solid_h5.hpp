@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "protocol/hdf5_handle.hpp"
+#include "protocol/provenance_h5.hpp"
 
 namespace cosim::solid {
 
@@ -27,15 +28,7 @@ inline void write_dataset(hid_t file, const char* name, hid_t file_type, hid_t m
 }
 
 inline void write_attribute(hid_t file, const char* name, const std::string& value) {
-  using protocol::H5Id;
-  const std::string what = std::string("cannot write the attribute ") + name;
-  const H5Id type(H5Tcopy(H5T_C_S1), H5Tclose, what);
-  protocol::h5_check(H5Tset_size(type.get(), std::max<std::size_t>(1, value.size())), what);
-  const H5Id space(H5Screate(H5S_SCALAR), H5Sclose, what);
-  const H5Id attr(H5Acreate2(file, name, type.get(), space.get(), H5P_DEFAULT, H5P_DEFAULT),
-                  H5Aclose, what);
-  const std::string padded = value.empty() ? std::string(1, '\0') : value;
-  protocol::h5_check(H5Awrite(attr.get(), type.get(), padded.data()), what);
+  protocol::put_string_attribute(file, name, value);
 }
 
 inline void write_attribute(hid_t file, const char* name, double value) {

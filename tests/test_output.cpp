@@ -409,7 +409,8 @@ TEST(Output, PlaneSnapshotIsTheGridsPlane) {
   const std::string xmf = text.str();
   EXPECT_EQ(unbalanced_tags(xmf), "") << xmf;
   EXPECT_NE(xmf.find("Dimensions=\"4 1 7\""), std::string::npos);
-  EXPECT_NE(xmf.find(">0 0.7683 0</DataItem>"), std::string::npos) << xmf;  // y = 3 dx
+  // y = (3 + 1/2) dx: node j at (j + 1/2) dx, the sheets' frame (XdmfGeometryMatchesSheets).
+  EXPECT_NE(xmf.find(">0 0.89635 0</DataItem>"), std::string::npos) << xmf;
   // A plane outside the grid is refused.
   FieldWriter bad((tmp.path / "bad").string(), dx_um, dt_us, "plane_y9", 9);
   EXPECT_THROW(bad.write(s), std::invalid_argument);

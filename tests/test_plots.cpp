@@ -90,8 +90,13 @@ TEST(Plots, PlotsAreProduced) {
     EXPECT_TRUE(is_png(p)) << name << " does not start with the PNG signature";
     EXPECT_GT(fs::file_size(p), 20000u) << name << " is suspiciously small";
     EXPECT_NE(listed.find(p.string()), std::string::npos) << name << " not listed:\n" << listed;
+    // The vector twin beside it (--formats png,pdf by default).
+    const fs::path pdf = fs::path(p).replace_extension(".pdf");
+    ASSERT_TRUE(fs::exists(pdf)) << pdf;
+    EXPECT_EQ(slurp(pdf).rfind("%PDF-", 0), 0u) << pdf;
+    EXPECT_NE(listed.find(pdf.string()), std::string::npos) << pdf << " not listed:\n" << listed;
   }
-  EXPECT_EQ(lines_of(listed).size(), expected.size()) << listed;
+  EXPECT_EQ(lines_of(listed).size(), 2 * expected.size()) << listed;
 
   // --stats: one tab-separated row for the one sheet.
   const int stats = run(std::string(kPython) + " " + plot.string() + " --stats " + run_dir.string() +

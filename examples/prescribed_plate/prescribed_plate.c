@@ -28,6 +28,8 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+
+#include "cosim_version.h" /* the project's version and commit, generated at build time */
 #include <sys/stat.h>
 #include <time.h>
 
@@ -594,6 +596,16 @@ static int run(int argc, char **argv) {
   for (int k = 1; k < argc; ++k) {
     const char *a = argv[k];
     const int has_value = k + 1 < argc;
+    if (strcmp(a, "--version") == 0) {
+      printf("prescribed_plate %s (git %s, commit %s)%s\n", COSIM_VERSION, COSIM_GIT_DESCRIBE, COSIM_GIT_COMMIT,
+             COSIM_GIT_DIRTY);
+      return 0;
+    }
+    if (strcmp(a, "--help") == 0) {
+      printf("usage: prescribed_plate SCENE.toml [--output DIR] [--channel-prefix P] [--token T] [--lcm-url U] "
+             "[--amplitude A_LB] [--period STEPS] [--quiet] [--version]\n");
+      return 0;
+    }
     if (strcmp(a, "--quiet") == 0) quiet = 1;
     else if (strcmp(a, "--output") == 0 && has_value) output = argv[++k];
     else if (strcmp(a, "--channel-prefix") == 0 && has_value) prefix = argv[++k];

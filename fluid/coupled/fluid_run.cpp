@@ -12,6 +12,8 @@
 #include "protocol/checkpoint_file.hpp"
 #include "protocol/handshake.hpp"
 #include "protocol/peak_memory.hpp"
+#include "protocol/progress.hpp"
+#include "protocol/provenance.hpp"
 #include "protocol/text.hpp"
 
 namespace cosim::fluid {
@@ -77,6 +79,7 @@ FluidRun::FluidRun(const FluidScene& scene, const CoupledFluidOptions& options, 
       log_((std::filesystem::path(created(scene.output_dir)) / "monitor.h5").string(), dt_us_),
       snapshots_(scene, dt_us_), markers_(scene.watchdog, scene.mach_limit, scene.coupling->time_ratio) {
   initialize_flow(solver_, s_);
+  protocol::write_provenance_files(s_.output_dir);  // OUTPUT/scene.toml, provenance_fluid.toml
   coord_.on_end([this](std::ostream& out) {
     if (markers_.has_reference()) out << "fluid: watchdog margins: " << markers_.margins() << "\n";
   });
@@ -105,7 +108,9 @@ std::int64_t FluidRun::start(std::optional<int>& failed) {
     if (snapshots_.due(0, false)) snapshots_.write(solver_, false);
   }
   coord_.set_first_step(first_step);
-  start_ = last_progress_ = Clock::now();
+  start_ = Clock::now();
+  clock_.restart(first_step);
+  released_ = first_step >= rigid_steps();
   return first_step;
 }
 
@@ -307,13 +312,22 @@ std::int64_t FluidRun::restore(std::optional<cosimlcm::fluid_state_t>& in_flight
 }
 
 void FluidRun::progress(std::int64_t now, int iteration) {
-  if (quiet_ || Clock::now() - last_progress_ <= std::chrono::seconds(2)) return;
-  last_progress_ = Clock::now();
-  if (iteration < 0)
-    std::fprintf(stderr, "fluid: step %lld/%lld\n", static_cast<long long>(now), static_cast<long long>(s_.steps));
-  else
-    std::fprintf(stderr, "fluid: step %lld/%lld (iteration %d)\n", static_cast<long long>(now),
-                 static_cast<long long>(s_.steps), iteration);
+  // The release: the rigid spin-up is over after step rigid_steps (DESIGN 2.4).
+  if (!released_ && now >= rigid_steps() && iteration < 0) {
+    released_ = true;
+    std::fprintf(stderr, "fluid: sheet released at step %lld (t = %.4g us): the rigid spin-up is over, the sheets move freely\n",
+                 static_cast<long long>(now), double(now) * dt_us_);
+  }
+  if (quiet_ || !(clock_.due(progress_every_s_) || now == s_.steps)) return;
+  // One machine-readable line per interval for launch/progress.py (the launcher's one line).
+  const double wall = clock_.elapsed_s();
+  const auto share = [wall](double part) { return wall > 0.0 ? 100.0 * part / wall : 0.0; };
+  std::string it = iteration < 0 ? "" : "  iteration " + std::to_string(iteration);
+  std::fprintf(stderr,
+               "fluid: progress step %lld/%lld  phase %s  t = %.4g us  %.1f MLUPS  compute %.0f %%  wait %.0f %%  ETA %s%s\n",
+               static_cast<long long>(now), static_cast<long long>(s_.steps), now <= rigid_steps() ? "spin-up" : "free",
+               double(now) * dt_us_, double(s_.params.shape.cells()) * clock_.rate(now) * 1e-6, share(timing_.compute),
+               share(timing_.wait), protocol::format_duration(clock_.eta_s(now)).c_str(), it.c_str());
 }
 
 int FluidRun::finish() {

@@ -19,6 +19,7 @@
 #include "fluid/scene_config.hpp"
 #include "fluid/snapshots.hpp"
 #include "protocol/marker_watch.hpp"
+#include "protocol/progress.hpp"
 #include "protocol/session/exit_codes.hpp"
 #include "protocol/watchdog.hpp"
 
@@ -91,7 +92,9 @@ class FluidRun {
   /// may cure the solid's trip; the exit code.
   int peer_ending(protocol::Ending e, std::int64_t step, const std::string& note);
 
-  /// Every 2 s: "fluid: step N/M" on stderr (unless quiet).
+  /// Every protocol::progress_every_s(1) seconds, unless quiet: "fluid: progress step N/M
+  /// phase spin-up|free t = .. us .. MLUPS compute .. % wait .. % ETA .." on stderr (for
+  /// launch/progress.py); once, after the last rigid step: "fluid: sheet released at step N".
   void progress(std::int64_t now, int iteration = -1);
   /// The end of a run that completed: stop_t(0) and the summary lines; exit code 0.
   int finish();
@@ -119,7 +122,10 @@ class FluidRun {
   double bulk_u_ = 0.0;            ///< U_b of the latest health check (Eq. 34), lattice units
   double mass0_ = 0.0;             ///< the fluid's mass at step 0 (for the drift)
   std::vector<FlowSummary> rows_;  ///< monitor.h5's rows so far (for checkpoints)
-  Clock::time_point start_ = Clock::now(), last_progress_ = start_;
+  Clock::time_point start_ = Clock::now();
+  protocol::ProgressClock clock_{s_.steps};          ///< rate and ETA (protocol/progress.hpp)
+  double progress_every_s_ = protocol::progress_every_s(1.0);
+  bool released_ = false;                            ///< the release line was printed
 };
 
 }  // namespace cosim::fluid

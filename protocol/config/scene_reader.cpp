@@ -8,6 +8,8 @@
 #include <sstream>
 #include <system_error>
 
+#include "protocol/did_you_mean.hpp"
+
 namespace cosim::protocol::config {
 
 namespace {
@@ -46,22 +48,6 @@ const char* type_name(const toml::node& n) {
     case toml::node_type::table: return "a table";
     default: return "a date or time";
   }
-}
-
-/// Levenshtein distance, for "did you mean" on a misspelt name.
-std::size_t edit_distance(std::string_view a, std::string_view b) {
-  std::vector<std::size_t> row(b.size() + 1);
-  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
-  for (std::size_t i = 1; i <= a.size(); ++i) {
-    std::size_t diag = row[0];
-    row[0] = i;
-    for (std::size_t j = 1; j <= b.size(); ++j) {
-      const std::size_t up = row[j];
-      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (a[i - 1] == b[j - 1] ? 0u : 1u)});
-      diag = up;
-    }
-  }
-  return row[b.size()];
 }
 
 toml::table parse_file(const std::string& path) {
@@ -126,21 +112,7 @@ std::string format_double(double v) {
 }
 
 std::string suggestion(std::string_view got, const std::vector<std::string_view>& allowed) {
-  std::size_t best = got.size() >= 8 ? 4 : 3;  // up to 2 edits, 3 for long names
-  std::string_view pick;
-  for (const std::string_view a : allowed) {
-    const std::size_t d = edit_distance(got, a);
-    if (d < best) best = d, pick = a;
-  }
-  if (pick.empty() && got.size() >= 2)  // a unit suffix left off: theta -> theta_deg
-    for (const std::string_view a : allowed)
-      if (a.size() > got.size() + 1 && a.starts_with(got) && a[got.size()] == '_') {
-        pick = a;
-        break;
-      }
-  if (pick.empty()) return "";
-  std::string out(" (did you mean \"");  // built up: GCC 12 warns falsely (-Wrestrict)
-  return out.append(pick).append("\"?)");
+  return protocol::did_you_mean(got, allowed);
 }
 
 std::string join(const std::vector<std::string_view>& items, std::string_view prefix,

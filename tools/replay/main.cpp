@@ -58,6 +58,7 @@ int main_impl(int argc, char** argv) {
   }
   o.log_path = log;
   o.scene_path = scene;
+  cosim::protocol::record_scene(scene);  // the provenance of the replay's outputs
   o.output_dir = output;
   o.channel_prefix = prefix;
   o.token = token;
