@@ -5,6 +5,7 @@
 # sheet, each the best of 5 repetitions, and the table is printed in Markdown.
 #   bash launch/bench-binding.sh [--no-build]
 set -euo pipefail
+. "$(dirname "${BASH_SOURCE[0]}")/help.sh" && answer_help "${BASH_SOURCE[0]}" "$@"
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 [ "${1:-}" = "--no-build" ] || bash "$root/launch/build.sh" >/dev/null
 cpp=$("$root/build/examples/spring_sheet/bench_step")

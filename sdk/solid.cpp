@@ -357,7 +357,8 @@ class SdkRun {
 };
 
 int run_impl(Solid& solid, std::vector<std::string> args) {
-  const std::string program = args.empty() ? std::string("solid") : args.front();
+  const std::string program =
+      args.empty() ? std::string("solid") : std::filesystem::path(args.front()).filename().string();
   CLI::App app{"A solid model on the cosim solid library, coupled to the fluid over LCM (protocol/README.md).\n"
                "Exit status: 0 done, 1 system error, 2 invalid scene or command line or refused handshake, "
                "3 non-finite answer, 4 the fluid was lost or stopped with an error.",

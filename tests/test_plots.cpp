@@ -1,6 +1,7 @@
 // launch/plot.py over a coupled run: the small coupled scene through launch/run-coupled.sh,
 // then the plots (valid PNGs of non-trivial size), and a one-line error with exit 2 for a
-// folder that is not a run's output.
+// folder that is not a run's output; launch/paper-figures.sh --tiny, every figure of the
+// paper's section 3 (Figs. 5-14) and the index page.
 #include <gtest/gtest.h>
 
 #include <array>
@@ -11,6 +12,8 @@
 #include <string>
 #include <vector>
 
+#include "support/run_command.hpp"
+
 namespace {
 
 namespace fs = std::filesystem;
@@ -18,19 +21,13 @@ namespace fs = std::filesystem;
 const fs::path kSource = COSIM_SOURCE_DIR;
 const char* const kPython = "/usr/bin/python3";  // Debian's, with h5py and matplotlib
 
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using cosim::test::contains;
+using cosim::test::quoted;
+using cosim::test::run_command;
+using cosim::test::RunResult;
+using cosim::test::slurp;
 
-fs::path scratch(const std::string& name) {
-  const fs::path dir = fs::path(::testing::TempDir()) / ("cosim_" + name);
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
+fs::path scratch(const std::string& name) { return cosim::test::fresh_scratch("cosim_" + name); }
 
 int run(const std::string& cmd) {
   const int s = std::system(cmd.c_str());
@@ -122,6 +119,36 @@ TEST(Plots, PlotsAreProduced) {
   EXPECT_EQ(slurp(dir / "empty.out"), "");
   EXPECT_FALSE(fs::exists(dir / "empty_plots"));
 
+  fs::remove_all(dir);
+}
+
+// ---- the paper's figures ----
+
+TEST(Plots, PaperFiguresScriptProducesEveryFigure) {
+  const fs::path dir = scratch("paper_figures");
+  const fs::path out = dir / "figs";
+  // --tiny: one run of each family, the reduced presets cut to 40 LB steps, then every figure.
+  const RunResult r = run_command("bash " + quoted((kSource / "launch" / "paper-figures.sh").string()) +
+                                      " --tiny --no-build --out " + quoted(out.string()),
+                                  dir / "script");
+  ASSERT_EQ(r.status, 0) << r.out << r.err;
+  const fs::path figures = out / "figures";
+  for (const char* fig : {"fig05_displacement_re", "fig06_coefficients_re", "fig07_displacement_angle",
+                          "fig08_forces_angle", "fig09_vorticity_single_theta30_re40",
+                          "fig10_displacement_pair", "fig11_strain_sheets",
+                          "fig12_vorticity_t13.8", "fig12_vorticity_t15.6", "fig12_vorticity_t22.7",
+                          "fig13_forces_pair", "fig14_strain_pair"}) {
+    for (const char* ext : {".png", ".pdf"}) {
+      const fs::path p = figures / (std::string(fig) + ext);
+      ASSERT_TRUE(fs::exists(p)) << p << "\n" << r.out << r.err;
+      EXPECT_GT(fs::file_size(p), 5000u) << p;
+    }
+  }
+  // The index page shows every figure, Figs. 5 to 14.
+  const std::string index = slurp(figures / "index.html");
+  for (int n = 5; n <= 14; ++n) EXPECT_TRUE(contains(index, "<h2>Fig. " + std::to_string(n) + ": ")) << n;
+  EXPECT_TRUE(contains(index, "fig11_strain_sheets.png")) << index;
+  EXPECT_TRUE(contains(index, "launch/plot.py")) << index;
   fs::remove_all(dir);
 }
 

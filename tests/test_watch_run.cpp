@@ -3,8 +3,8 @@
 // sides of a coupled scene with did-you-mean; scene keys in physical units; and, on a
 // shortened scenes/coupled_small.toml through launch/run-coupled.sh (two processes), the
 // launcher's one progress line and --quiet's summary, provenance and units in every output,
-// the XDMF geometry of the fluid and the sheets in one frame (tests/xdmf_geometry.py); the
-// paper's figures through launch/paper-figures.sh --tiny.
+// the XDMF geometry of the fluid and the sheets in one frame (tests/xdmf_geometry.py). The
+// paper's figures (launch/paper-figures.sh --tiny) are in test_plots.cpp, a long test.
 #include <gtest/gtest.h>
 #include <hdf5.h>
 
@@ -31,12 +31,7 @@ using cosim::test::slurp;
 
 const fs::path kSource = COSIM_SOURCE_DIR;
 
-fs::path scratch(const std::string& name) {
-  const fs::path dir = fs::path(::testing::TempDir()) / ("cosim_watch_" + name);
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
+fs::path scratch(const std::string& name) { return cosim::test::fresh_scratch("cosim_watch_" + name); }
 
 /// `base` with some keys replaced or removed ("key" -> value; an empty value removes the
 /// line), and lines added after a section header ("[section]" -> lines).
@@ -60,7 +55,7 @@ fs::path edited_scene(const fs::path& base, const fs::path& out,
   return out;
 }
 
-bool contains(const std::string& s, const std::string& what) { return s.find(what) != std::string::npos; }
+using cosim::test::contains;
 
 // ---- --help and --version ----
 
@@ -109,7 +104,9 @@ TEST(WatchRun, ToolsAnswerVersion) {
                                                                                  {"cosim-replay", REPLAY_EXE},
                                                                                  {"bench", FLUID_BENCH_EXE},
                                                                                  {"solid_bench", SOLID_BENCH_EXE},
-                                                                                 {"prescribed_plate", PRESCRIBED_PLATE_EXE}}) {
+                                                                                 {"prescribed_plate", PRESCRIBED_PLATE_EXE},
+                                                                                 {"cosim-conformance", CONFORMANCE_EXE},
+                                                                                 {"spring_sheet", SPRING_SHEET_EXE}}) {
     const RunResult r = run_command(quoted(exe) + " --version", dir);
     EXPECT_EQ(r.status, 0) << name << ": " << r.err;
     // "NAME 0.1.0 (git DESCRIBE, commit HASH)", the commit this tree's build came from.
@@ -408,36 +405,6 @@ TEST(WatchRun, XdmfGeometryMatchesSheets) {
   const double sheet_x = number_after(j, "sheets.xmf", "bounds", 0);
   EXPECT_NEAR(sheet_x, 3.0734, 1e-9) << j;
   EXPECT_NEAR(sheet_x - 12 * dx, 0.0002, 1e-9) << j;
-  fs::remove_all(dir);
-}
-
-// ---- the paper's figures ----
-
-TEST(WatchRun, PaperFiguresScriptProducesEveryFigure) {
-  const fs::path dir = scratch("paper_figures");
-  const fs::path out = dir / "figs";
-  // --tiny: one run of each family, the reduced presets cut to 40 LB steps, then every figure.
-  const RunResult r = run_command("bash " + quoted((kSource / "launch" / "paper-figures.sh").string()) +
-                                      " --tiny --no-build --out " + quoted(out.string()),
-                                  dir / "script");
-  ASSERT_EQ(r.status, 0) << r.out << r.err;
-  const fs::path figures = out / "figures";
-  for (const char* fig : {"fig05_displacement_re", "fig06_coefficients_re", "fig07_displacement_angle",
-                          "fig08_forces_angle", "fig09_vorticity_single_theta30_re40",
-                          "fig10_displacement_pair", "fig11_strain_sheets",
-                          "fig12_vorticity_t13.8", "fig12_vorticity_t15.6", "fig12_vorticity_t22.7",
-                          "fig13_forces_pair", "fig14_strain_pair"}) {
-    for (const char* ext : {".png", ".pdf"}) {
-      const fs::path p = figures / (std::string(fig) + ext);
-      ASSERT_TRUE(fs::exists(p)) << p << "\n" << r.out << r.err;
-      EXPECT_GT(fs::file_size(p), 5000u) << p;
-    }
-  }
-  // The index page shows every figure, Figs. 5 to 14.
-  const std::string index = slurp(figures / "index.html");
-  for (int n = 5; n <= 14; ++n) EXPECT_TRUE(contains(index, "<h2>Fig. " + std::to_string(n) + ": ")) << n;
-  EXPECT_TRUE(contains(index, "fig11_strain_sheets.png")) << index;
-  EXPECT_TRUE(contains(index, "launch/plot.py")) << index;
   fs::remove_all(dir);
 }
 
