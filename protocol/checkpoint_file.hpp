@@ -83,12 +83,13 @@ inline void prune_checkpoints(const std::filesystem::path& dir, const std::strin
 /// Writes a checkpoint file: put() the arrays, attr() the scalars, then commit().
 class CheckpointWriter {
  public:
-  /// Creates `path`.part (the folder must exist). Throws std::runtime_error naming it.
+  /// Creates `path`.part (the folder must exist). Every error is a std::runtime_error naming
+  /// `path` (the .part file is removed when the writer goes without commit()).
   explicit CheckpointWriter(std::filesystem::path path)
       : path_(std::move(path)), part_(path_.string() + ".part") {
     const H5Quiet quiet;
     file_ = H5Id(H5Fcreate(part_.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose,
-                 "cannot create the checkpoint " + part_);
+                 "cannot create the checkpoint " + path_.string());
   }
 
   void put(const std::string& name, const std::vector<double>& v) {
@@ -125,7 +126,7 @@ class CheckpointWriter {
     for (const auto& [name, bytes] : attributes_) sum.add(name).add(bytes);
     const std::uint64_t value = sum.value();
     scalar_unsummed("attributes_checksum", H5T_STD_U64LE, H5T_NATIVE_UINT64, &value);
-    file_.close("cannot close the checkpoint " + part_);
+    file_.close("cannot write the checkpoint " + path_.string());
     std::error_code ec;
     std::filesystem::rename(part_, path_, ec);
     if (ec) throw std::runtime_error("cannot rename " + part_ + " to " + path_.string() + ": " + ec.message());
@@ -145,7 +146,7 @@ class CheckpointWriter {
   void put_raw(const std::string& name, hid_t file_type, hid_t mem_type, std::size_t n,
                const void* data) {
     const H5Quiet quiet;
-    const std::string what = "checkpoint " + part_ + ": cannot write " + name;
+    const std::string what = "checkpoint " + path_.string() + ": cannot write " + name;
     const hsize_t dims[1] = {static_cast<hsize_t>(n)};
     const H5Id space(H5Screate_simple(1, dims, nullptr), H5Sclose, what);
     const H5Id set(H5Dcreate2(file_.get(), name.c_str(), file_type, space.get(), H5P_DEFAULT,
@@ -167,7 +168,7 @@ class CheckpointWriter {
   }
   void scalar_unsummed(const std::string& name, hid_t file_type, hid_t mem_type, const void* value) {
     const H5Quiet quiet;
-    const std::string what = "checkpoint " + part_ + ": cannot write the attribute " + name;
+    const std::string what = "checkpoint " + path_.string() + ": cannot write the attribute " + name;
     const H5Id space(H5Screate(H5S_SCALAR), H5Sclose, what);
     const H5Id a(H5Acreate2(file_.get(), name.c_str(), file_type, space.get(), H5P_DEFAULT, H5P_DEFAULT),
                  H5Aclose, what);

@@ -14,6 +14,7 @@
 
 #include <Eigen/Core>
 
+#include "protocol/hdf5_handle.hpp"
 #include "protocol/session/exit_codes.hpp"
 #include "protocol/session/interrupt.hpp"
 #include "protocol/text.hpp"
@@ -238,6 +239,7 @@ class CoupledSolid {
 
 int run_coupled_solid(const SolidScene& scene, const CoupledSolidOptions& options,
                       std::ostream& out, std::ostream& err) {
+  protocol::hdf5_no_exit_cleanup();
   if (!scene.coupled()) {
     err << "solid: " << scene.path << ": not a coupled scene (no [coupling] section)\n";
     return exit_code::bad_input;

@@ -3,7 +3,9 @@
  * all have been written, for files under COSIM_FULL_DISK_DIR (the *.log files excepted: the
  * launcher's redirections stand for a terminal), in the program COSIM_FULL_DISK_PROGRAM
  * ("fluid" or "solid"; any if unset). The disk then stays full. Portable where mounting a
- * small tmpfs is not allowed (containers, CI). */
+ * small tmpfs is not allowed (containers, CI). With COSIM_FULL_DISK_COUNT=FILE nothing
+ * fails: the bytes written in all go to FILE at exit (a clean run's volume, to size the
+ * budget of the next). */
 #define _GNU_SOURCE
 #include <dlfcn.h>
 #include <errno.h>
@@ -19,6 +21,8 @@ static long long limit_bytes = -1; /* -1: not initialised, -2: off */
 static long long used_bytes = 0;
 static char dir[PATH_MAX];
 static size_t dir_length = 0;
+
+static const char* count_file = NULL;
 
 static void init(void) {
   if (limit_bytes != -1) return;
@@ -45,6 +49,16 @@ static void init(void) {
   strcpy(dir, d);
   dir_length = strlen(dir);
   limit_bytes = atoll(b);
+  count_file = getenv("COSIM_FULL_DISK_COUNT");
+  if (count_file != NULL && count_file[0] == '\0') count_file = NULL;
+}
+
+__attribute__((destructor)) static void report(void) {
+  if (count_file == NULL) return;
+  FILE* f = fopen(count_file, "w");
+  if (f == NULL) return;
+  fprintf(f, "%lld\n", __atomic_load_n(&used_bytes, __ATOMIC_SEQ_CST));
+  fclose(f);
 }
 
 /* Whether a write of n bytes to fd goes through (else errno = ENOSPC). */
@@ -59,7 +73,8 @@ static int allowed(int fd, size_t n) {
   if (strncmp(path, dir, dir_length) != 0) return 1;
   const size_t length = strlen(path);
   if (length >= 4 && strcmp(path + length - 4, ".log") == 0) return 1;
-  if (__atomic_add_fetch(&used_bytes, (long long)n, __ATOMIC_SEQ_CST) <= limit_bytes) return 1;
+  if (__atomic_add_fetch(&used_bytes, (long long)n, __ATOMIC_SEQ_CST) <= limit_bytes || count_file != NULL)
+    return 1;
   __atomic_store_n(&used_bytes, limit_bytes + 1, __ATOMIC_SEQ_CST);
   errno = ENOSPC;
   return 0;

@@ -96,6 +96,12 @@ std::string line_with(const std::string& text, const std::string& what) {
   return text.substr(begin, text.find('\n', at) - begin);
 }
 
+/// The last line of `text` that is not empty.
+std::string last_line(std::string text) {
+  while (!text.empty() && text.back() == '\n') text.pop_back();
+  return text.substr(text.rfind('\n') == std::string::npos ? 0 : text.rfind('\n') + 1);
+}
+
 /// A dataset of an HDF5 file as doubles (empty if it cannot be read).
 std::vector<double> column(const fs::path& file, const std::string& name) {
   const auto sets = read_datasets(file);
@@ -323,33 +329,30 @@ TEST(RunData, KilledSolidLeavesItsRows) {
 TEST(RunData, DiskFullLosesAtMostOneInterval) {
   const fs::path dir = scratch("disk_full");
   const fs::path scene = small_scene(dir, 120);
-  const fs::path clean = dir / "clean";
-  expect_done(clean, run_launcher(kSource, scene, clean));
-  // What each side writes in all, from the clean run's files.
-  std::map<std::string, std::uintmax_t> written{{"fluid", 0}, {"solid", 0}};
-  for (const auto& e : fs::recursive_directory_iterator(clean)) {
-    const std::string name = e.path().filename().string();
-    if (!e.is_regular_file() || (e.path().extension() != ".h5" && e.path().extension() != ".xmf")) continue;
-    const bool solid = name.rfind("solid", 0) == 0 || name.rfind("sheets", 0) == 0;
-    written[solid ? "solid" : "fluid"] += e.file_size();
-  }
   for (const char* side : {"fluid", "solid"}) {
     SCOPED_TRACE(std::string("a full disk for the ") + side);
-    const fs::path out = dir / (std::string("full_") + side);
-    const std::uintmax_t budget = written[side] / 2;
-    const std::string env = "LD_PRELOAD=" + quoted(kShim.string()) + " COSIM_FULL_DISK_DIR=" +
-                            quoted(out.string()) + " COSIM_FULL_DISK_BYTES=" + std::to_string(budget) +
-                            " COSIM_FULL_DISK_PROGRAM=" + side;
-    const int status = run_launcher(kSource, scene, out, "", env);
+    // What the side writes in a whole run (the shim counting only: a clean run), then a
+    // disk that is full after half of it.
+    const fs::path clean = dir / (std::string("clean_") + side), out = dir / (std::string("full_") + side);
+    const std::string shim = "LD_PRELOAD=" + quoted(kShim.string()) + " COSIM_FULL_DISK_PROGRAM=" + side;
+    expect_done(clean, run_launcher(kSource, scene, clean, "",
+                                    shim + " COSIM_FULL_DISK_DIR=" + quoted(clean.string()) +
+                                        " COSIM_FULL_DISK_BYTES=0 COSIM_FULL_DISK_COUNT=" +
+                                        quoted((dir / "count").string())));
+    const long long budget = std::stoll(slurp(dir / "count")) / 2;
+    ASSERT_GT(budget, 0);
+    const int status = run_launcher(kSource, scene, out, "",
+                                    shim + " COSIM_FULL_DISK_DIR=" + quoted(out.string()) +
+                                        " COSIM_FULL_DISK_BYTES=" + std::to_string(budget));
     EXPECT_GE(status, 1) << logs(out);
     EXPECT_LE(status, 4) << logs(out);
     // One line naming the file that could not be written, and no HDF5 noise.
     const std::string log = slurp(out / (std::string(side) + ".log"));
-    const std::string line = line_with(log, std::string(side) + ": " + (std::string(side) == "fluid" ? "coupled run stopped: " : ""));
+    const std::string line = last_line(log);
     EXPECT_NE(line.find(out.string()), std::string::npos) << logs(out);
     EXPECT_EQ(log.find("HDF5"), std::string::npos) << logs(out);
     EXPECT_EQ(part_files(out), std::vector<std::string>{}) << logs(out);
-    std::printf("%s after %ju bytes: exit %d: %s\n", side, budget, status, line.c_str());
+    std::printf("%s after %lld bytes: exit %d: %s\n", side, budget, status, line.c_str());
     // What was written is the clean run's; a restart from the newest pair of checkpoints
     // completes it (the disk has room again) as if nothing happened.
     for (const char* f : {"monitor.h5", "solid.h5"}) {
