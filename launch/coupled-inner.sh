@@ -79,13 +79,19 @@ if [ -z "$quiet" ]; then  # show the fluid's monitor lines (and the solid's end)
   tail -c +$shown_from -f --pid=$fluid "$output/fluid.log" &
 fi
 
-# Wait for the first to end (wait -n -p: bash 5.1; a finished child stays a zombie, so
-# kill -0 cannot tell). A trapped signal interrupts the wait: wait again.
-first_pid=""
-while [ -z "${first_pid:-}" ]; do
-  wait -n -p first_pid $fluid $solid
-  s_first=$?
-done
+# Waits until process $1 or $2 ends (wait -n -p: bash 5.1; a finished child stays a zombie,
+# so kill -0 cannot tell); a trapped signal interrupts the wait: wait again. Sets ended (the
+# pid that ended) and ended_status.
+wait_either() {
+  ended=""
+  while [ -z "${ended:-}" ]; do
+    wait -n -p ended "$1" "$2"
+    ended_status=$?
+  done
+}
+
+wait_either $fluid $solid
+first_pid=$ended s_first=$ended_status
 if [ "$first_pid" = "$fluid" ]; then first=fluid; other=solid; b=$solid; else first=solid; other=fluid; b=$fluid; fi
 echo $s_first >"$output/$first.exit"
 
@@ -95,21 +101,15 @@ echo $s_first >"$output/$first.exit"
 if [ "$s_first" -eq 2 ]; then grace=2; fi
 sleep "$grace" &
 sleeper=$!
-second_pid=""
-while [ -z "${second_pid:-}" ]; do
-  wait -n -p second_pid $b $sleeper
-  s_other=$?
-done
+wait_either $b $sleeper
+second_pid=$ended s_other=$ended_status
 if [ "$second_pid" = "$sleeper" ]; then
   echo "run-coupled: $other still running ${grace} s after $first ended (the scene's timeouts + 30 s); stopping it (SIGTERM)" >&2
   kill -TERM $b 2>/dev/null
   sleep "$term_wait" &
   sleeper=$!
-  second_pid=""
-  while [ -z "${second_pid:-}" ]; do
-    wait -n -p second_pid $b $sleeper
-    s_other=$?
-  done
+  wait_either $b $sleeper
+  second_pid=$ended s_other=$ended_status
   if [ "$second_pid" = "$sleeper" ]; then
     echo "run-coupled: $other did not stop within ${term_wait} s of SIGTERM; killing it" >&2
     kill -KILL $b 2>/dev/null

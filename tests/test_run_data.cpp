@@ -117,6 +117,21 @@ bool wait_for(const fs::path& file, double seconds) {
   return fs::exists(file);
 }
 
+/// Runs `scene` into `out` through the launcher and, once `marker` exists (at most 120 s),
+/// sends `signal` to the process whose id `pid_file` (under `out`) holds; the launcher's
+/// exit status, and in `reached` whether the marker came. `sent` is when the signal went.
+int run_and_signal(const fs::path& scene, const fs::path& out, const fs::path& marker, const std::string& pid_file,
+                   int signal, bool& reached, std::chrono::steady_clock::time_point* sent = nullptr) {
+  int status = -1;
+  std::thread launcher([&] { status = run_launcher(kSource, scene, out); });
+  reached = wait_for(out / marker, 120);
+  const std::string pid = slurp(out / pid_file);
+  if (sent != nullptr) *sent = std::chrono::steady_clock::now();
+  if (reached && !pid.empty()) kill(std::stoi(pid), signal);
+  launcher.join();
+  return status;
+}
+
 void expect_done(const fs::path& out, int status) {
   ASSERT_EQ(status, 0) << logs(out);
   ASSERT_EQ(slurp(out / "fluid.exit"), "0\n") << logs(out);
@@ -245,12 +260,9 @@ TEST(RunData, InterruptStopsBothWithCheckpoint) {
   const fs::path scene = small_scene(dir, 400);
   const fs::path clean = dir / "clean", out = dir / "interrupted";
   expect_done(clean, run_launcher(kSource, scene, clean));
-  int status = -1;
-  std::thread launcher([&] { status = run_launcher(kSource, scene, out); });
-  const bool reached = wait_for(out / "checkpoints" / "solid_00000100.h5", 120);
-  const std::string pid = slurp(out / "launcher.pid");
-  if (reached && !pid.empty()) kill(std::stoi(pid), SIGINT);  // Ctrl-C
-  launcher.join();
+  bool reached = false;  // Ctrl-C to the launcher once the run is under way
+  const int status = run_and_signal(scene, out, fs::path("checkpoints") / "solid_00000100.h5", "launcher.pid", SIGINT,
+                                    reached);
   ASSERT_TRUE(reached) << logs(out);
   EXPECT_EQ(status, 1) << logs(out);
   EXPECT_EQ(slurp(out / "fluid.exit"), "1\n") << logs(out);
@@ -281,13 +293,10 @@ TEST(RunData, SurvivorGraceFollowsTimeouts) {
   const fs::path dir = scratch("grace");
   const fs::path scene = small_scene(dir, 400, {{"peer_timeout_s = 3", "peer_timeout_s = 47"}});
   const fs::path out = dir / "out";
-  int status = -1;
-  std::thread launcher([&] { status = run_launcher(kSource, scene, out); });
-  const bool reached = wait_for(out / "checkpoints" / "solid_00000060.h5", 120);
-  const std::string pid = slurp(out / "solid.pid");
-  const auto killed = std::chrono::steady_clock::now();
-  if (reached && !pid.empty()) kill(std::stoi(pid), SIGKILL);
-  launcher.join();
+  bool reached = false;
+  std::chrono::steady_clock::time_point killed;
+  const int status = run_and_signal(scene, out, fs::path("checkpoints") / "solid_00000060.h5", "solid.pid", SIGKILL,
+                                    reached, &killed);
   const double waited = std::chrono::duration<double>(std::chrono::steady_clock::now() - killed).count();
   ASSERT_TRUE(reached) << logs(out);
   EXPECT_EQ(status, 1) << logs(out);  // the killed solid's 137 counts as 1
@@ -305,12 +314,9 @@ TEST(RunData, KilledSolidLeavesItsRows) {
   const fs::path scene = small_scene(dir, 400);
   const fs::path clean = dir / "clean", out = dir / "killed";
   expect_done(clean, run_launcher(kSource, scene, clean));
-  int status = -1;
-  std::thread launcher([&] { status = run_launcher(kSource, scene, out); });
-  const bool reached = wait_for(out / "checkpoints" / "solid_00000100.h5", 120);
-  const std::string pid = slurp(out / "solid.pid");
-  if (reached && !pid.empty()) kill(std::stoi(pid), SIGKILL);
-  launcher.join();
+  bool reached = false;
+  const int status = run_and_signal(scene, out, fs::path("checkpoints") / "solid_00000100.h5", "solid.pid", SIGKILL,
+                                    reached);
   ASSERT_TRUE(reached) << logs(out);
   EXPECT_EQ(status, 1) << logs(out);
   const std::vector<double> steps = column(out / "solid.h5", "step"), all = column(clean / "solid.h5", "step");
