@@ -11,6 +11,7 @@
 #include "fluid/coupled/fluid_run.hpp"
 #include "fluid/schemes/fluid_scheme.hpp"
 #include "protocol/checkpoint_file.hpp"
+#include "protocol/hdf5_handle.hpp"
 #include "protocol/session/exit_codes.hpp"
 
 namespace cosim::fluid {
@@ -56,6 +57,7 @@ int run_coupled(const FluidScene& scene, const CoupledFluidOptions& options, Coo
 
 int run_coupled_fluid(const FluidScene& scene, const CoupledFluidOptions& options, std::ostream& out,
                       std::ostream& err) {
+  protocol::hdf5_no_exit_cleanup();
   if (!scene.coupling) {
     err << "fluid: " << scene.path << ": not a coupled scene (no [coupling] section)\n";
     return exit_code::bad_input;

@@ -76,10 +76,34 @@ GridShape FieldWriter::written_shape() const {
 }
 
 bool FieldWriter::adopt(std::int64_t step) {
-  if (!std::filesystem::is_regular_file(snapshot_path(step))) return false;
+  // The shape the file itself holds (its rho [nz][ny][nx]): this writer has written nothing
+  // yet after a restart. A file that does not open or lacks rho is not listed.
+  GridShape shape{};
+  {
+    const H5Quiet quiet;
+    const std::string name = snapshot_path(step).string();
+    if (!std::filesystem::is_regular_file(name)) return false;
+    const hid_t f = H5Fopen(name.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+    if (f < 0) return false;
+    hsize_t dims[3] = {0, 0, 0};
+    bool ok = false;
+    if (H5Lexists(f, "rho", H5P_DEFAULT) > 0) {
+      const hid_t set = H5Dopen2(f, "rho", H5P_DEFAULT);
+      const hid_t space = set >= 0 ? H5Dget_space(set) : -1;
+      ok = space >= 0 && H5Sget_simple_extent_ndims(space) == 3 && H5Sget_simple_extent_dims(space, dims, nullptr) == 3;
+      if (space >= 0) H5Sclose(space);
+      if (set >= 0) H5Dclose(set);
+    }
+    H5Fclose(f);
+    H5Eclear2(H5E_DEFAULT);
+    if (!ok || dims[0] == 0 || dims[1] == 0 || dims[2] == 0) return false;
+    shape.nz = int(dims[0]);
+    shape.ny = int(dims[1]);
+    shape.nx = int(dims[2]);
+  }
   const auto same = [step](const Snapshot& s) { return s.step == step; };
   if (std::find_if(snapshots_.begin(), snapshots_.end(), same) == snapshots_.end())
-    snapshots_.push_back({step, written_shape()});
+    snapshots_.push_back({step, shape});
   return true;
 }
 
@@ -93,8 +117,14 @@ void FieldWriter::write(const FluidSolver& solver) {
 
   const fs::path final_path = snapshot_path(step);
   const fs::path part = fs::path(final_path).concat(".part");
-  write_hdf5(part, step);
-  rename_or_throw(part, final_path);
+  try {
+    write_hdf5(part, step);
+    rename_or_throw(part, final_path);
+  } catch (...) {
+    std::error_code ec;
+    fs::remove(part, ec);  // a full disk leaves no .part behind
+    throw;
+  }
 
   const auto same = [step](const Snapshot& s) { return s.step == step; };
   const auto it = std::find_if(snapshots_.begin(), snapshots_.end(), same);
@@ -201,7 +231,12 @@ void FieldWriter::write_xdmf() const {
     std::ofstream out(part, std::ios::trunc);
     out << x.str();
     out.flush();
-    if (!out) throw std::runtime_error("cannot write " + part.string() + " (disk full or directory not writable?)");
+    if (!out) {
+      out.close();
+      std::error_code ec;
+      fs::remove(part, ec);
+      throw std::runtime_error("cannot write " + final_path.string() + " (disk full or directory not writable?)");
+    }
   }
   rename_or_throw(part, final_path);
 }

@@ -39,6 +39,7 @@
 #include "protocol/progress.hpp"
 #include "protocol/provenance.hpp"
 #include "protocol/session/exit_codes.hpp"
+#include "protocol/session/interrupt.hpp"
 #include "protocol/text.hpp"
 #include "protocol/units.hpp"
 
@@ -298,6 +299,7 @@ int main_impl(int argc, char** argv) {
     return exit_code::ok;
   }
   if (scene.coupling) {
+    protocol::catch_interrupts();  // before any thread starts (OpenMP, LCM)
     if (token.empty())
       if (const char* env = std::getenv("COSIM_RUN_TOKEN")) token = env;
     if (!channel_prefix.empty()) {
@@ -318,6 +320,7 @@ int main_impl(int argc, char** argv) {
     co.lcm_url = lcm_url;
     co.quiet = quiet;
     co.restart = restart;
+    co.read_environment();
     try {
       co.faults = protocol::fault_settings_from(o_faults->count() ? &faults : nullptr);
     } catch (const std::invalid_argument& e) {

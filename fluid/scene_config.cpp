@@ -13,6 +13,7 @@
 #include "protocol/config/scene_reader.hpp"
 #include "protocol/config/shared_sections.hpp"
 #include "protocol/lcm_url.hpp"
+#include "protocol/memory_budget.hpp"
 #include "protocol/text.hpp"
 #include "protocol/units.hpp"
 
@@ -33,7 +34,8 @@
 //  - 8 <= n <= 65536 cells per axis: below 8 the boundary treatments of opposite faces
 //    (bounce-back, the Blasius layer, the outflow copy) meet in the same cells; above
 //    65536 the padded index arithmetic leaves int. The population memory is checked
-//    against this machine's memory as well, so a typo fails here and not in malloc.
+//    against 75 % of this machine's memory as well (the rest is the solid server's and the
+//    system's), so a typo fails here and not in malloc.
 //  - threads <= 1024: more than any machine this runs on; a larger number is a typo.
 //  - dx_um and reference_length_um in [1e-9, 1e6] micrometres (a femtometre to a metre):
 //    far beyond any scene either way, and the conversions (cells, dt = dx / c, Re) stay
@@ -79,25 +81,12 @@ std::string format_fixed(double v, int digits) {
   return buf;
 }
 
-std::string human_bytes(double b) {
-  const char* unit[] = {"B", "KiB", "MiB", "GiB", "TiB", "PiB", "EiB"};
-  int u = 0;
-  while (b >= 1024.0 && u < 6) b /= 1024.0, ++u;
-  return format_fixed(b, u == 0 ? 0 : 1) + " " + unit[u];
-}
-
 double mach(double u) { return std::abs(u) * std::sqrt(3.0); }
 
 std::string mach_text(double u, double limit) {
   return "Mach " + format_fixed(mach(u), 3) + " (= |u| sqrt(3)) exceeds run.mach_limit = " +
          format_double(limit) + "; the largest allowed speed is " +
          format_fixed(limit / std::sqrt(3.0), 4) + " (lattice units, U/c)";
-}
-
-std::size_t machine_memory_bytes() {
-  const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGE_SIZE);
-  if (pages <= 0 || page <= 0) return 0;
-  return std::size_t(pages) * std::size_t(page);
 }
 
 /// "[name]: missing; what", with no line.
@@ -131,17 +120,21 @@ void load_grid(const SceneReader& r, FluidScene& s) {
   }
 }
 
-/// The population grids of the grid and run.precision must fit in this machine's memory.
+/// The population grids of the grid and run.precision, with the copy of one that a restart
+/// reads, must fit in the fluid's share of this machine's memory (protocol/memory_budget.hpp),
+/// checked before anything is allocated.
 void check_memory(const SceneReader& r, const FluidScene& s) {
-  const std::size_t need = population_bytes(s.params.shape, s.params.precision);
-  const std::size_t have = machine_memory_bytes();
-  if (have > 0 && need > have)
+  const std::size_t grids = population_bytes(s.params.shape, s.params.precision);
+  const double need = 1.5 * double(grids);
+  const std::string beyond =
+      protocol::beyond_share(need, protocol::kFluidMemoryShare, "the rest is left to the solid server and the system");
+  if (!beyond.empty())
     r.fail(r.section_line("grid"),
            "grid = " + std::to_string(s.params.shape.nx) + " x " +
                std::to_string(s.params.shape.ny) + " x " + std::to_string(s.params.shape.nz) +
-               ": the two population grids need " + human_bytes(double(need)) +
-               ", more than this machine's memory (" + human_bytes(double(have)) +
-               "); reduce nx, ny, nz");
+               ": the two population grids need " + protocol::human_bytes(double(grids)) + " (" +
+               protocol::human_bytes(need) + " with the copy of one that a restart reads), " + beyond +
+               "; reduce nx, ny, nz");
 }
 
 /// The scene's lattice units (dx from [grid], dt = dx / c): for the keys given in physical units.

@@ -19,6 +19,7 @@ from __future__ import annotations
 import argparse
 import math
 import re
+import shutil
 import subprocess
 import sys
 import time
@@ -57,6 +58,7 @@ def run(out: Path, name: str, text: str) -> dict:
     scene = out / f"{name}.toml"
     scene.write_text(text)
     run_dir = out / name
+    shutil.rmtree(run_dir, ignore_errors=True)  # the study's own run folder, replaced
     t0 = time.perf_counter()
     p = subprocess.run(["bash", str(COUPLED), str(scene), "--output", str(run_dir), "--no-build", "--quiet"],
                        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=ROOT)

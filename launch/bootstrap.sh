@@ -12,6 +12,7 @@ packages=(
   libeigen3-dev libhdf5-dev libtomlplusplus-dev libcli11-dev
   libgtest-dev libbenchmark-dev
   python3 python3-dev python3-h5py python3-matplotlib python3-numpy python3-scipy pybind11-dev
+  python3-paraview
   iproute2 util-linux
   time
 )

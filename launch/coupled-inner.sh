@@ -5,7 +5,29 @@
 set -uo pipefail
 . "$(dirname "${BASH_SOURCE[0]}")/help.sh" && answer_help "${BASH_SOURCE[0]}" "$@"
 root=$1 scene=$2 output=$3 prefix=$4 log=$5 quiet=$6
-grace=${COSIM_SURVIVOR_GRACE_S:-45}
+
+# The survivor's grace: the scene's longer timeout ([coupling] handshake_timeout_s, default
+# 120 s; peer_timeout_s, default 30 s), within which it notices its peer is gone, plus 30 s
+# to write its checkpoint and outputs. COSIM_SURVIVOR_GRACE_S overrides it.
+scene_seconds() { sed -n "s/^[[:space:]]*$1[[:space:]]*=[[:space:]]*\([0-9][0-9.eE+-]*\).*/\1/p" "$scene" | head -1; }
+handshake_s=$(scene_seconds handshake_timeout_s); peer_s=$(scene_seconds peer_timeout_s)
+grace=${COSIM_SURVIVOR_GRACE_S:-$(awk -v h="${handshake_s:-120}" -v p="${peer_s:-30}" \
+  'BEGIN { m = (h + 0 > p + 0) ? h + 0 : p + 0; printf "%d", m + 30.999 }')}
+# A process stopped with SIGTERM gets this long to write its checkpoint before SIGKILL.
+term_wait=30
+
+# SIGINT or SIGTERM (from run-coupled.sh): the fluid stops the run at its next step (its
+# checkpoint, stop_t to the solid, which writes its own); the servers run in sessions of
+# their own (setsid), so a Ctrl-C on the terminal reaches them only through here.
+# run-coupled.sh passes SIGINT on as SIGUSR1 (a background shell cannot trap SIGINT); the
+# fluid gets the launcher's own signal, and names it in its reason.
+interrupted=""; fluid=""
+on_interrupt() {
+  interrupted=$1
+  [ -n "$fluid" ] && kill -"$1" "$fluid" 2>/dev/null
+}
+trap 'on_interrupt INT' USR1
+trap 'on_interrupt TERM' INT TERM
 
 if [ "$(id -u)" -eq 0 ]; then
   # A fresh namespace has lo down and no multicast route (DESIGN 2.3).
@@ -34,40 +56,71 @@ if [ -n "${COSIM_EXTRA_CMD:-}" ]; then
   extra_pid=$!
 fi
 
-"$root/build/fluid/fluid" "$scene" --output "$output" --channel-prefix "$prefix" $quiet \
+# A restart appends to the logs of the run it continues.
+if [ -n "${COSIM_FLUID_RESTART:-}" ]; then
+  for n in fluid solid; do
+    [ -s "$output/$n.log" ] && echo "==== run-coupled: $(date -u +%Y-%m-%dT%H:%M:%SZ): restart from $COSIM_FLUID_RESTART" >>"$output/$n.log"
+  done
+else
+  : >"$output/fluid.log"; : >"$output/solid.log"
+fi
+fluid_from=$(stat -c %s "$output/fluid.log"); solid_from=$(stat -c %s "$output/solid.log")
+setsid "$root/build/fluid/fluid" "$scene" --output "$output" --channel-prefix "$prefix" $quiet \
   ${COSIM_FLUID_RESTART:+--restart "$COSIM_FLUID_RESTART"} ${COSIM_TIME_RATIO:+--time-ratio "$COSIM_TIME_RATIO"} \
-  >"$output/fluid.log" 2>&1 &
+  >>"$output/fluid.log" 2>&1 &
 fluid=$!
+[ -n "$interrupted" ] && kill -"$interrupted" $fluid 2>/dev/null
 echo $fluid >"$output/fluid.pid"
-${COSIM_SOLID_CMD:-$root/build/solid/solid} "$scene" --output "$output" --channel-prefix "$prefix" $quiet \
+setsid ${COSIM_SOLID_CMD:-$root/build/solid/solid} "$scene" --output "$output" --channel-prefix "$prefix" $quiet \
   ${COSIM_SOLID_RESTART:+--restart "$COSIM_SOLID_RESTART"} ${COSIM_TIME_RATIO:+--time-ratio "$COSIM_TIME_RATIO"} \
-  >"$output/solid.log" 2>&1 &
+  >>"$output/solid.log" 2>&1 &
 solid=$!
 echo $solid >"$output/solid.pid"
 # The launcher's one progress line, and the fluid's other lines as they come (with --quiet
-# only its closing summary): launch/progress.py, until the fluid ends.
-/usr/bin/python3 "$root/launch/progress.py" "$output" --pid $fluid $quiet &
+# only its closing summary): launch/progress.py, until the fluid ends; from where this run's
+# lines start in the logs (a restart appends to them).
+/usr/bin/python3 "$root/launch/progress.py" "$output" --pid $fluid $quiet \
+  --from-bytes "$fluid_from" "$solid_from" &
 watcher=$!
 
-# Wait for the first to end (wait -n -p: bash 5.1; a finished child stays a zombie, so
-# kill -0 cannot tell).
-wait -n -p first_pid $fluid $solid
-s_first=$?
+# Waits until process $1 or $2 ends (wait -n -p: bash 5.1; a finished child stays a zombie,
+# so kill -0 cannot tell); a trapped signal interrupts the wait: wait again. Sets ended (the
+# pid that ended) and ended_status.
+wait_either() {
+  ended=""
+  while [ -z "${ended:-}" ]; do
+    wait -n -p ended "$1" "$2"
+    ended_status=$?
+  done
+}
+
+wait_either $fluid $solid
+first_pid=$ended s_first=$ended_status
 if [ "$first_pid" = "$fluid" ]; then first=fluid; other=solid; b=$solid; else first=solid; other=fluid; b=$fluid; fi
 echo $s_first >"$output/$first.exit"
 
-# The survivor should stop by itself (end of run, or its peer timeout); then it is killed.
+# The survivor should stop by itself (end of run, or its peer timeout); then it is stopped.
 # A process that refused its input (exit 2) may never have spoken to its peer, which
 # would then wait for its whole handshake timeout: stop it at once.
 if [ "$s_first" -eq 2 ]; then grace=2; fi
 sleep "$grace" &
 sleeper=$!
-wait -n -p second_pid $b $sleeper
-s_other=$?
+wait_either $b $sleeper
+second_pid=$ended s_other=$ended_status
 if [ "$second_pid" = "$sleeper" ]; then
-  echo "run-coupled: $other still running ${grace} s after $first ended; stopping it" >&2
-  kill -TERM $b 2>/dev/null; sleep 1; kill -KILL $b 2>/dev/null
-  wait $b; s_other=$?
+  echo "run-coupled: $other still running ${grace} s after $first ended (the scene's timeouts + 30 s); stopping it (SIGTERM)" >&2
+  kill -TERM $b 2>/dev/null
+  sleep "$term_wait" &
+  sleeper=$!
+  wait_either $b $sleeper
+  second_pid=$ended s_other=$ended_status
+  if [ "$second_pid" = "$sleeper" ]; then
+    echo "run-coupled: $other did not stop within ${term_wait} s of SIGTERM; killing it" >&2
+    kill -KILL $b 2>/dev/null
+    wait $b; s_other=$?
+  else
+    kill $sleeper 2>/dev/null; wait $sleeper 2>/dev/null
+  fi
 else
   kill $sleeper 2>/dev/null; wait $sleeper 2>/dev/null
 fi
@@ -76,10 +129,18 @@ wait $watcher 2>/dev/null
 [ -n "$logger_pid" ] && kill -INT $logger_pid 2>/dev/null && wait $logger_pid 2>/dev/null
 [ -n "$extra_pid" ] && kill -TERM $extra_pid 2>/dev/null && wait $extra_pid 2>/dev/null
 
+# The documented codes 0-4 only: a server killed by a signal (128 + N), or any other
+# status, counts as 1 (a system error).
+documented() { if [ "$1" -ge 0 ] && [ "$1" -le 4 ]; then echo "$1"; else echo 1; fi; }
 for n in fluid solid; do
   s=$(cat "$output/$n.exit")
-  if [ "$s" != 0 ]; then echo "run-coupled: $n exited $s: $(grep -v '^\s*$' "$output/$n.log" | tail -1)" >&2; fi
+  if [ "$s" -gt 128 ] && [ "$s" -lt 160 ]; then
+    echo "run-coupled: $n was killed by signal $((s - 128)) (status $s, counted as exit 1): $(grep -v '^\s*$' "$output/$n.log" | tail -1)" >&2
+  elif [ "$s" != 0 ]; then
+    echo "run-coupled: $n exited $s: $(grep -v '^\s*$' "$output/$n.log" | tail -1)" >&2
+  fi
 done
+s_first=$(documented "$s_first"); s_other=$(documented "$s_other")
 # The first failure's status, but a 4 (its peer stopped with an error) gives way to the
 # peer's own 1, 2 or 3: the peer that published stop_t may end after the one it told.
 if [ $s_first -eq 4 ] && [ $s_other -ge 1 ] && [ $s_other -le 3 ]; then exit $s_other; fi

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import re
+import shutil
 import subprocess
 import sys
 import tomllib
@@ -73,6 +74,7 @@ def main() -> int:
         scene = a.out / f"{name}.toml"
         scene.write_text(text)
         out = a.out / name
+        shutil.rmtree(out, ignore_errors=True)  # the script's own run folder, replaced
         p = subprocess.run(["bash", str(COUPLED), str(scene), "--output", str(out), "--no-build", "--quiet"],
                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=ROOT)
         peaks = {}

@@ -2,6 +2,7 @@
 """The launcher's one progress line for a coupled run (started by launch/coupled-inner.sh).
 
     /usr/bin/python3 launch/progress.py OUTPUT_DIR --pid FLUID_PID [--label TEXT] [--quiet]
+                                        [--from-bytes FLUID SOLID]
 
 Follows OUTPUT_DIR/fluid.log and OUTPUT_DIR/solid.log while the fluid (FLUID_PID) runs. Both
 servers write a "progress" line every second (protocol/progress.hpp); they are shown merged
@@ -22,6 +23,7 @@ controlling terminal, /dev/tty, when there is one.
 import argparse
 import os
 import re
+import signal
 import sys
 import time
 
@@ -35,8 +37,8 @@ SUMMARY_START = "fluid: coupled run done"
 class Follower:
     """New complete lines of a file that another process appends to."""
 
-    def __init__(self, path):
-        self.path, self.pos, self.partial = path, 0, ""
+    def __init__(self, path, start=0):
+        self.path, self.pos, self.partial = path, start, ""
 
     def lines(self):
         try:
@@ -95,15 +97,20 @@ def main(argv):
     ap.add_argument("--label", default=os.environ.get("COSIM_RUN_LABEL", ""),
                     help="shown first, e.g. 'run 2 of 5' (default: $COSIM_RUN_LABEL)")
     ap.add_argument("--quiet", action="store_true", help="only the fluid's closing summary")
+    ap.add_argument("--from-bytes", type=int, nargs=2, default=[0, 0], metavar=("FLUID", "SOLID"),
+                    help="where this run's lines start in fluid.log and solid.log (a restart appends)")
     a = ap.parse_args(argv[1:])
+    # Ctrl-C on the terminal is the launcher's to handle (it stops both servers, whose last
+    # lines this still shows); this ends when the fluid does.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     tty = sys.stdout.isatty()
     try:
         every = float(os.environ.get("COSIM_PROGRESS_EVERY_S", "10"))
     except ValueError:
         every = 10.0
     every = 0.5 if tty else max(every, 0.05)
-    fluid_log = Follower(os.path.join(a.output, "fluid.log"))
-    solid_log = Follower(os.path.join(a.output, "solid.log"))
+    fluid_log = Follower(os.path.join(a.output, "fluid.log"), a.from_bytes[0])
+    solid_log = Follower(os.path.join(a.output, "solid.log"), a.from_bytes[1])
     latest = {"fluid": None, "solid": None}
     state = {"shown": False, "last": 0.0, "fresh": False, "summary": False}
 

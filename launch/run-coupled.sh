@@ -3,16 +3,31 @@
 # as two processes talking over LCM (DESIGN 2.3, protocol/README.md).
 #
 #   bash launch/run-coupled.sh SCENE.toml [--output DIR] [--log] [--no-build] [--quiet]
-#                              [--solid-cmd CMD] [--extra CMD] [--restart DIR] [--time-ratio N]
+#                              [--solid-cmd CMD] [--extra CMD] [--restart PATH]
+#                              [--time-ratio N | --new-time-ratio N]
 #
-# --restart DIR continues a run from its coupled checkpoints (DESIGN 2.4): DIR holds
-# fluid_NNNNNNNN.h5 and solid_NNNNNNNN.h5 (OUTPUT/checkpoints/ of the earlier run, written
-# every [coupling] checkpoint_every steps and on a clean abort); the newest step N with
-# both is taken, and each server gets --restart with its file. Give the earlier run's
-# output folder as --output to continue its files (solid.h5 and monitor.h5 are rewritten
-# from the checkpoints; the snapshots up to N are kept and listed in the XDMF files).
+# Each run has its own output folder: by default out/<scene name>/<UTC date-time>/ (always
+# new; $COSIM_OUTPUT_ROOT replaces out/); --output DIR must be new or hold no run (a folder
+# with run.id, monitor.h5, solid.h5 or checkpoints/ is refused, never reused silently),
+# unless the run continues that folder's run (--restart). OUTPUT/run.id holds the run's id; every checkpoint carries
+# it, and pruning keeps the newest three of this run only. OUTPUT/launcher.pid holds this
+# launcher's process id (for a SIGINT or SIGTERM from elsewhere).
 #
-# --time-ratio N runs both servers with A_T = N instead of the scene's [coupling] time_ratio.
+# --restart PATH continues a run from its coupled checkpoints (DESIGN 2.4). PATH is a
+# checkpoint file (OUTPUT/checkpoints/fluid_N.h5 or solid_N.h5: both of step N are taken),
+# or a folder of one run (its output folder, or a folder of checkpoints: the newest step N
+# with both fluid_N.h5 and solid_N.h5 is taken); each server gets --restart with its file
+# and refuses, in one line (exit 2), a checkpoint of another scene file (only [run] steps
+# may differ: continuing a finished run for more steps), of another A_T, or one that fails
+# its checksums. The launcher refuses a checkpoint of another run than OUTPUT's. Without
+# --output, a restart continues the files of the checkpoints' own run folder (solid.h5 and
+# monitor.h5 carry on from the checkpoints' rows; the snapshots up to N are kept and listed
+# in the XDMF files; fluid.log and solid.log are appended to), else it gets a new folder.
+# A restart that is refused leaves that folder's outputs as they were.
+#
+# --time-ratio N runs both servers with A_T = N instead of the scene's [coupling]
+# time_ratio; a restart must keep its checkpoint's A_T. --new-time-ratio N restarts at
+# A_T = N on purpose (what the watchdog's retry does).
 #
 # The terminal shows one updating progress line (launch/progress.py: phase spin-up or free,
 # LB step, simulated time, MLUPS, each side's compute and wait shares, ETA; prefixed with
@@ -39,19 +54,24 @@
 # multicast, 224.0.0.0/4 routed to lo), so no packet leaves this machine; otherwise they
 # run on the host with the scene's ttl=0 URL. Each run gets its own token and channel
 # prefix. --log records every channel of the run with lcm-logger into OUTPUT/traffic.lcmlog.
-# When one process dies, the other is given COSIM_SURVIVOR_GRACE_S seconds (default 45) to
-# notice and stop by itself (it writes its output and the reason), then it is killed. The
-# exit status is the first failure's (a 4, "the peer stopped with an error", gives way to
-# that peer's own 1, 2 or 3); OUTPUT/fluid.exit and OUTPUT/solid.exit hold each
+# When one process dies, the other is given time to notice and stop by itself (it writes
+# its checkpoint, its output and the reason): the scene's longer timeout (handshake_timeout_s
+# or peer_timeout_s, [coupling]) plus 30 s to write (COSIM_SURVIVOR_GRACE_S overrides it);
+# then it is stopped with SIGTERM (it still writes its checkpoint), and killed 30 s later.
+# SIGINT (Ctrl-C) or SIGTERM to the launcher interrupts the fluid, which stops the run at its
+# next step: both servers write a checkpoint of that step and the reason, exit 1.
+# The exit status is always one of the servers' documented codes 0-4: the first failure's
+# (a 4, "the peer stopped with an error", gives way to that peer's own 1, 2 or 3; a server
+# killed by a signal counts as 1); OUTPUT/fluid.exit and OUTPUT/solid.exit hold each
 # process's own status, OUTPUT/fluid.log and OUTPUT/solid.log their output.
 set -euo pipefail
 . "$(dirname "${BASH_SOURCE[0]}")/help.sh" && answer_help "${BASH_SOURCE[0]}" "$@"
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 
-usage() { echo "usage: bash launch/run-coupled.sh SCENE.toml [--output DIR] [--log] [--no-build] [--quiet] [--solid-cmd CMD] [--extra CMD] [--restart DIR] [--time-ratio N]" >&2; exit 2; }
+usage() { echo "usage: bash launch/run-coupled.sh SCENE.toml [--output DIR] [--log] [--no-build] [--quiet] [--solid-cmd CMD] [--extra CMD] [--restart PATH] [--time-ratio N | --new-time-ratio N]" >&2; exit 2; }
 [ $# -ge 1 ] || usage
 scene=$1; shift
-output=""; log=0; build=1; quiet=""; solid_cmd=""; extra=""; restart=""; time_ratio=""
+output=""; log=0; build=1; quiet=""; solid_cmd=""; extra=""; restart=""; time_ratio=""; new_ratio=0
 while [ $# -gt 0 ]; do
   case "$1" in
     --output) [ $# -ge 2 ] || usage; output=$2; shift 2 ;;
@@ -61,7 +81,8 @@ while [ $# -gt 0 ]; do
     --solid-cmd) [ $# -ge 2 ] || usage; solid_cmd=$2; shift 2 ;;
     --extra) [ $# -ge 2 ] || usage; extra=$2; shift 2 ;;
     --restart) [ $# -ge 2 ] || usage; restart=$2; shift 2 ;;
-    --time-ratio) [ $# -ge 2 ] || usage; time_ratio=$2; shift 2
+    --time-ratio|--new-time-ratio) [ $# -ge 2 ] || usage; [ "$1" = --new-time-ratio ] && new_ratio=1
+      time_ratio=$2; shift 2
       [[ "$time_ratio" =~ ^[1-9][0-9]{0,6}$ ]] && [ "$time_ratio" -le 1000000 ] || {
         echo "run-coupled: --time-ratio $time_ratio: allowed: an integer from 1 to 1000000 (A_T)" >&2; exit 2; } ;;
     *) echo "run-coupled: unknown option $1" >&2; usage ;;
@@ -80,25 +101,87 @@ newest_pair() {
   done
 }
 scene=$(cd "$(dirname "$scene")" && pwd)/$(basename "$scene")
-export COSIM_FLUID_RESTART="" COSIM_SOLID_RESTART=""
-if [ -n "$restart" ]; then
-  [ -d "$restart" ] || { echo "run-coupled: --restart $restart: no such folder" >&2; exit 2; }
-  restart=$(cd "$restart" && pwd)
-  step=$(newest_pair "$restart" "")
-  [ -n "$step" ] || { echo "run-coupled: --restart $restart: no step with both fluid_N.h5 and solid_N.h5 (allowed: a checkpoints folder of a coupled run)" >&2; exit 2; }
-  COSIM_FLUID_RESTART=$restart/fluid_$step.h5
-  COSIM_SOLID_RESTART=$restart/solid_$step.h5
-  echo "run-coupled: restarting from step $((10#$step)) ($COSIM_FLUID_RESTART, $COSIM_SOLID_RESTART)"
-fi
+refuse() { echo "run-coupled: $*" >&2; exit 2; }
+[ $new_ratio -eq 0 ] || [ -n "$restart" ] || refuse "--new-time-ratio: only with --restart (a fresh run takes --time-ratio N)"
 
 if [ $build -eq 1 ]; then
   bash "$root/launch/bootstrap.sh"
   bash "$root/launch/build.sh" >/dev/null
 fi
 name=$(basename "$scene" .toml)
-output=${output:-$root/out/$name}
+
+# The run id a checkpoint carries ("run_id"; empty if it has none or is not HDF5: the
+# servers then say what is wrong with it).
+checkpoint_run_id() {
+  /usr/bin/python3 -c 'import sys, h5py
+with h5py.File(sys.argv[1], "r") as f:
+    print(bytes(f["run_id"][()]).decode() if "run_id" in f else "")' "$1" 2>/dev/null || true
+}
+# Whether a folder holds a run's outputs.
+holds_run() { [ -f "$1/run.id" ] || [ -f "$1/monitor.h5" ] || [ -f "$1/solid.h5" ] || [ -d "$1/checkpoints" ]; }
+# A new folder out/<scene name>/<UTC date-time>[-K] (COSIM_OUTPUT_ROOT instead of out/).
+new_folder() {
+  local base d k=2
+  base=${COSIM_OUTPUT_ROOT:-$root/out}/$name/$(date -u +%Y%m%d-%H%M%S)
+  d=$base
+  while [ -e "$d" ]; do d=$base-$k; k=$((k + 1)); done
+  echo "$d"
+}
+
+export COSIM_FLUID_RESTART="" COSIM_SOLID_RESTART="" COSIM_NEW_TIME_RATIO=""
+run_id=""
+if [ -n "$restart" ]; then
+  if [ -f "$restart" ]; then
+    ckdir=$(cd "$(dirname "$restart")" && pwd)
+    f=$(basename "$restart")
+    [[ "$f" =~ ^(fluid|solid)_([0-9]{8})\.h5$ ]] ||
+      refuse "--restart $restart: not a checkpoint file (allowed: OUTPUT/checkpoints/fluid_N.h5 or solid_N.h5, or a run's folder)"
+    step=${BASH_REMATCH[2]}
+    for side in fluid solid; do
+      [ -f "$ckdir/${side}_$step.h5" ] || refuse "--restart $restart: no ${side}_$step.h5 beside it (a restart needs both sides' checkpoints of a step)"
+    done
+  elif [ -d "$restart" ]; then
+    ckdir=$(cd "$restart" && pwd)
+    [ -d "$ckdir/checkpoints" ] && ckdir=$ckdir/checkpoints
+    step=$(newest_pair "$ckdir" "")
+    [ -n "$step" ] || refuse "--restart $restart: no step with both fluid_N.h5 and solid_N.h5 (allowed: a checkpoint file, a run's output folder or its checkpoints folder)"
+  else
+    refuse "--restart $restart: no such file or folder"
+  fi
+  COSIM_FLUID_RESTART=$ckdir/fluid_$step.h5
+  COSIM_SOLID_RESTART=$ckdir/solid_$step.h5
+  run_id=$(checkpoint_run_id "$COSIM_FLUID_RESTART")
+  solid_run=$(checkpoint_run_id "$COSIM_SOLID_RESTART")
+  [ "$run_id" = "$solid_run" ] ||
+    refuse "--restart $restart: fluid_$step.h5 is of run '$run_id', solid_$step.h5 of run '$solid_run' (allowed: both of one run)"
+  if [ -z "$output" ]; then  # the checkpoints' own run folder, if they are in one
+    parent=$(dirname "$ckdir")
+    if [ "$(basename "$ckdir")" = checkpoints ] && [ -f "$parent/run.id" ] && [ "$(cat "$parent/run.id")" = "$run_id" ]; then
+      output=$parent
+    else
+      output=$(new_folder)
+    fi
+  fi
+  [ $new_ratio -eq 1 ] && COSIM_NEW_TIME_RATIO=1
+fi
+output=${output:-$(new_folder)}
+if [ -d "$output" ] && holds_run "$output"; then
+  if [ -z "$restart" ]; then
+    refuse "--output $output: holds an earlier run$([ -f "$output/run.id" ] && echo " ($(cat "$output/run.id"))") (allowed: a new or empty folder, e.g. the default out/$name/DATE-TIME, or --restart $output to continue that run)"
+  fi
+  if [ -f "$output/run.id" ] && [ "$(cat "$output/run.id")" != "$run_id" ]; then
+    refuse "--restart $restart: a checkpoint of another run (run '$run_id'; $output is run '$(cat "$output/run.id")') (allowed: a checkpoint of that folder's run, or a new --output folder to continue run '$run_id' in)"
+  fi
+fi
 mkdir -p "$output"
 output=$(cd "$output" && pwd)
+if [ -z "$run_id" ]; then
+  run_id=$(date -u +%Y%m%dT%H%M%SZ)-$(od -An -N4 -tx1 /dev/urandom | tr -d ' \n')
+fi
+[ -f "$output/run.id" ] || echo "$run_id" >"$output/run.id"
+export COSIM_RUN_ID=$run_id
+echo $$ >"$output/launcher.pid"
+[ -n "$restart" ] && echo "run-coupled: restarting run $run_id from step $((10#$step)) ($COSIM_FLUID_RESTART, $COSIM_SOLID_RESTART)"
 token=$(od -An -N8 -tx1 /dev/urandom | tr -d ' \n')
 prefix="COSIM_${token:0:8}_"
 export COSIM_RUN_TOKEN=$token
@@ -107,29 +190,53 @@ export COSIM_SOLID_CMD=${solid_cmd:-$root/build/solid/solid}
 export COSIM_EXTRA_CMD=$extra
 inner=(bash "$root/launch/coupled-inner.sh" "$root" "$scene" "$output" "$prefix" "$log" "$quiet")
 retries=0; retried=""
+# SIGINT (Ctrl-C) or SIGTERM: passed on to the supervisor (coupled-inner.sh), which
+# passes it on to the fluid; the run then ends as usual, with both checkpoints and reasons.
+inner_pid=""; interrupted=""
+on_interrupt() {
+  interrupted=$1
+  echo "run-coupled: SIG$1: stopping the run at the fluid's next step (both servers write a checkpoint)" >&2
+  [ -n "$inner_pid" ] && kill -"$(signal_for_inner)" "$inner_pid" 2>/dev/null
+}
+# SIGINT travels to the supervisor as SIGUSR1: a background shell cannot trap SIGINT.
+signal_for_inner() { [ "$interrupted" = INT ] && echo USR1 || echo TERM; }
+trap 'on_interrupt INT' INT
+trap 'on_interrupt TERM' TERM
 while :; do
   export COSIM_TIME_RATIO=$time_ratio
   rm -f "$output/fluid.exit" "$output/solid.exit" "$output/fluid.pid" "$output/solid.pid"
-  echo "run-coupled: scene $scene, token $token, channels ${prefix}*, output $output${time_ratio:+, A_T = $time_ratio}"
+  # This attempt's lines of fluid.log start here (a restart appends to it).
+  log_from=1
+  [ -f "$output/fluid.log" ] && log_from=$(($(wc -l <"$output/fluid.log") + 1))
+  echo "run-coupled: scene $scene, run $run_id, token $token, channels ${prefix}*, output $output${time_ratio:+, A_T = $time_ratio}"
   if [ "$(id -u)" -eq 0 ] && command -v unshare >/dev/null 2>&1; then
-    set +e
-    unshare -n "${inner[@]}"
-    status=$?
-    set -e
+    launch=(unshare -n "${inner[@]}")
   else
     echo "run-coupled: not root: running on the host network with the scene's ttl=0 URL" >&2
-    set +e
-    "${inner[@]}"
-    status=$?
-    set -e
-    if [ $status -eq 1 ] && grep -q "cannot open LCM" "$output/fluid.log" 2>/dev/null; then
-      echo "run-coupled: LCM could not open its multicast socket: enable multicast on lo" \
-           "(ip link set lo multicast on; ip route add 224.0.0.0/4 dev lo) or run as root" >&2
-    fi
+    launch=("${inner[@]}")
   fi
+  # In the background, so that a trapped signal is handled at once (bash runs a trap only
+  # once a foreground command has ended).
+  set +e
+  "${launch[@]}" &
+  inner_pid=$!
+  [ -n "$interrupted" ] && kill -"$(signal_for_inner)" "$inner_pid" 2>/dev/null
+  while :; do
+    wait "$inner_pid"
+    status=$?
+    [ $status -gt 128 ] && kill -0 "$inner_pid" 2>/dev/null && continue
+    break
+  done
+  inner_pid=""
+  set -e
+  if [ $status -eq 1 ] && [ "$(id -u)" -ne 0 ] && grep -q "cannot open LCM" "$output/fluid.log" 2>/dev/null; then
+    echo "run-coupled: LCM could not open its multicast socket: enable multicast on lo" \
+         "(ip link set lo multicast on; ip route add 224.0.0.0/4 dev lo) or run as root" >&2
+  fi
+  [ -z "$interrupted" ] || break
   # The watchdog's retry ([watchdog] retry): the fluid names the new A_T, the step the
   # restart must precede and how many retries the scene allows.
-  advice=$(grep -E '^fluid: watchdog retry: time_ratio = [0-9]+ ' "$output/fluid.log" 2>/dev/null | tail -1 || true)
+  advice=$(tail -n +"$log_from" "$output/fluid.log" 2>/dev/null | grep -E '^fluid: watchdog retry: time_ratio = [0-9]+ ' | tail -1 || true)
   [ $status -ne 0 ] && [ -n "$advice" ] || break
   next=$(sed -E 's/.*time_ratio = ([0-9]+) .*/\1/' <<<"$advice")
   before=$(sed -E 's/.*before step ([0-9]+),.*/\1/' <<<"$advice")
@@ -166,6 +273,7 @@ while :; do
   echo "run-coupled: watchdog retry $retries of $allowed: $why"
   echo "run-coupled: watchdog retry $retries of $allowed: A_T ${old_ratio:-150} -> $next, from $start; the failed attempt's logs are in $kept"
   time_ratio=$next
+  export COSIM_NEW_TIME_RATIO=1
   token=$(od -An -N8 -tx1 /dev/urandom | tr -d ' \n')
   prefix="COSIM_${token:0:8}_"
   export COSIM_RUN_TOKEN=$token
@@ -173,5 +281,7 @@ while :; do
 done
 echo "run-coupled: fluid exit $(cat "$output/fluid.exit" 2>/dev/null || echo '?'), solid exit" \
      "$(cat "$output/solid.exit" 2>/dev/null || echo '?'); outputs in $output" \
-     "(monitor.h5, solid.h5, fluid.log, solid.log$([ "$log" -eq 1 ] && echo ', traffic.lcmlog'))${retried:+; watchdog retries: $retried}"
-exit $status
+     "(monitor.h5, solid.h5, fluid.log, solid.log$([ "$log" -eq 1 ] && echo ', traffic.lcmlog'))${retried:+; watchdog retries: $retried}${interrupted:+; interrupted by SIG$interrupted}"
+# Always one of the documented codes 0-4 (anything else, e.g. unshare failing, is 1).
+if [ $status -ge 0 ] && [ $status -le 4 ]; then exit $status; fi
+exit 1

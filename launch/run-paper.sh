@@ -21,7 +21,7 @@ while [ $# -gt 0 ]; do
     *) echo "run-paper: unknown option $1 (allowed: --full, --output DIR, --no-build)" >&2; exit 2 ;;
   esac
 done
-output=${output:-$root/out/$scene}
+output=${output:-$root/out/$scene/$(date -u +%Y%m%d-%H%M%S)}  # a new folder for every run
 args=("$root/scenes/paper/$scene.toml" --output "$output")
 [ $build -eq 0 ] && args+=(--no-build)
 bash "$root/launch/run-coupled.sh" "${args[@]}"

@@ -5,6 +5,8 @@
 
 #include <hdf5.h>
 
+#include "protocol/hdf5_quiet.hpp"
+
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -23,6 +25,13 @@ namespace cosim::protocol {
       },
       &inner);
   H5Eclear2(H5E_DEFAULT);
+  // The sec2 driver's "file write failed: time = ..., filename = ..., errno = 28, error
+  // message = 'No space left on device', buf = ..." is said by its error message alone.
+  const std::string tag = "error message = '";
+  if (const std::size_t at = inner.find(tag); at != std::string::npos) {
+    const std::size_t end = inner.find('\'', at + tag.size());
+    if (end != std::string::npos) inner = inner.substr(at + tag.size(), end - at - tag.size());
+  }
   for (char& c : inner)
     if (c == '\n' || c == '\r') c = ' ';
   throw std::runtime_error(inner.empty() ? what : what + ": " + inner);
@@ -65,11 +74,22 @@ class H5Id {
   }
 
  private:
+  /// A close that fails here (a full disk: nothing more can be written) is not reported:
+  /// the write that failed first was; HDF5's own error stack stays off stderr.
   void reset() {
-    if (id_ >= 0) close_(std::exchange(id_, -1));
+    if (id_ < 0) return;
+    const H5Quiet quiet;
+    close_(std::exchange(id_, -1));
+    H5Eclear2(H5E_DEFAULT);
   }
   hid_t id_ = -1;
   Closer close_ = nullptr;
 };
+
+/// Call before any other HDF5 call: the library registers no clean-up at process exit. A
+/// file whose close failed (a full disk) would otherwise be closed again there, which HDF5
+/// 1.10 answers with "infinite loop closing library" or a crash; every file the servers
+/// write is closed by its owner (H5Id) before exit.
+inline void hdf5_no_exit_cleanup() { H5dont_atexit(); }
 
 }  // namespace cosim::protocol

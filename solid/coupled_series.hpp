@@ -1,10 +1,12 @@
 // The time series of a coupled run, OUTPUT/solid.h5 (protocol/README.md section 10 keeps it
 // in the solid's checkpoints too): one row per LB step, step 0 included, kept in memory and
-// written once at the end of the run.
+// appended to solid.h5 as the run goes (CoupledSeriesFile), like monitor.h5, so that a
+// killed solid leaves its rows (KilledSolidLeavesItsRows).
 #pragma once
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <utility>
 #include <vector>
@@ -36,9 +38,32 @@ struct CoupledSeries {
     int time_ratio = 0;
     std::int64_t total_steps = 0, rigid_steps = 0;
   };
+};
 
-  /// Writes `path` (solid.h5). Throws std::runtime_error (one line) on an output error.
-  void write(const std::string& path, const Attributes& a) const;
+/// solid.h5 as the run goes: created (an existing file replaced) with the attributes and the
+/// rows recorded so far, then append() adds the rows recorded since and flushes the file.
+/// Datasets (n rows, S sheets): step [n] int64, time_s [n], solid_time_s [n],
+/// marked_displacement_um [n][S][3], marked_normal_displacement_um [n][S],
+/// fluid_force_N [n][S][3], bulk_velocity_m_s [n], force_coefficients [n][S][3],
+/// leading_edge_strain [n][S][3], kinetic_energy_J, elastic_energy_J, total_energy_J [n].
+/// Every error is a std::runtime_error of one line naming the file.
+class CoupledSeriesFile {
+ public:
+  CoupledSeriesFile(const std::string& path, const CoupledSeries::Attributes& a, CoupledSeries& s);
+  ~CoupledSeriesFile();
+  CoupledSeriesFile(const CoupledSeriesFile&) = delete;
+  CoupledSeriesFile& operator=(const CoupledSeriesFile&) = delete;
+
+  /// Appends the rows of `s` after those written, and flushes.
+  void append(CoupledSeries& s);
+  /// Closes the file (its last metadata written).
+  void close();
+  std::size_t rows() const;
+  const std::string& path() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
 };
 
 }  // namespace cosim::solid

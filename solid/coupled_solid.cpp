@@ -14,9 +14,11 @@
 
 #include <Eigen/Core>
 
+#include "protocol/hdf5_handle.hpp"
 #include "protocol/progress.hpp"
 #include "protocol/provenance.hpp"
 #include "protocol/session/exit_codes.hpp"
+#include "protocol/session/interrupt.hpp"
 #include "protocol/text.hpp"
 #include "solid/schemes/solid_scheme.hpp"
 #include "solid/solid_checkpoints.hpp"
@@ -41,7 +43,7 @@ class CoupledSolid {
         run_(scene),
         peer_(*scene.coupling, options, *scheme_, [this](const cosimlcm::fluid_state_t& m) { return run_.check(m); },
               out),
-        checkpoints_(scene, run_, peer_, *scheme_, out), ctx_{run_, peer_, checkpoints_, out} {}
+        checkpoints_(scene, options, run_, peer_, *scheme_, out), ctx_{run_, peer_, checkpoints_, out} {}
 
   CoupledSolid(const CoupledSolid&) = delete;
   CoupledSolid& operator=(const CoupledSolid&) = delete;
@@ -73,10 +75,12 @@ class CoupledSolid {
         return finish(Ending{exit_code::bad_input, "--restart " + o_.restart + ": " + one_line(e.what()), true});
       }
       out_ << "solid: restarted from " << o_.restart << " at step " << peer_.last_step() << "\n";
+      if (const auto e = open_series()) return finish(*e);
     } else {
       // Step 0: the initial positions, zero impulses (section 5).
       ctx_.publish(0, 0, run_.coupler().positions_lb(), Eigen::Matrix3Xd::Zero(3, run_.num_cgps()));
       run_.start();
+      if (const auto e = open_series()) return finish(*e);
       if (const auto e = run_.snapshot(0)) return finish(*e);
     }
     first_step_ = peer_.last_step();
@@ -88,6 +92,7 @@ class CoupledSolid {
       const Clock::time_point t1 = Clock::now();
       const cosimlcm::fluid_state_t m = peer_.awaited();
       if (const auto e = scheme_->on_fluid_state(m, ctx_)) return finish(*e);
+      if (const auto e = append_series()) return finish(*e);
       wait_s_ += std::chrono::duration<double>(t1 - t0).count();
       compute_s_ += std::chrono::duration<double>(Clock::now() - t1).count();
       ++timed_steps_;
@@ -132,7 +137,9 @@ class CoupledSolid {
 
   std::string output_path() const { return (std::filesystem::path(s_.output_dir) / "solid.h5").string(); }
 
-  void write_series() {
+  /// solid.h5 from the rows so far (after step 0 or a restart), then appended as the run
+  /// goes (CoupledSeriesFile): a failed restart never touches an earlier run's file.
+  std::optional<Ending> open_series() {
     CoupledSeries::Attributes a;
     a.scene = s_.name;
     a.model = s_.model;
@@ -142,14 +149,30 @@ class CoupledSolid {
     a.time_ratio = run_.coupling().time_ratio;
     a.total_steps = run_.total_steps();
     a.rigid_steps = run_.rigid_steps();
-    run_.series().write(output_path(), a);
+    try {
+      series_file_ = std::make_unique<CoupledSeriesFile>(output_path(), a, run_.series());
+    } catch (const std::exception& x) {
+      return Ending{exit_code::system, one_line(x.what()), true};
+    }
+    return std::nullopt;
+  }
+  std::optional<Ending> append_series() {
+    try {
+      if (series_file_ && !series_failed_) series_file_->append(run_.series());
+    } catch (const std::exception& x) {
+      series_failed_ = true;  // what the file holds stays; nothing more is tried
+      return Ending{exit_code::system, one_line(x.what()), true};
+    }
+    return std::nullopt;
   }
 
   /// Ends the run: stop_t for our own errors, solid.h5, the counters, the one-line reason.
   int finish(Ending e) {
     // A clean abort (the fluid lost, or stopped with an error) keeps the state after the
     // last interval for a restart (DESIGN 2.4).
-    if (e.code == exit_code::peer_lost && run_.built() && peer_.sent_any() && peer_.last_step() > first_step_) {
+    // So does an interrupt (SIGINT, SIGTERM).
+    const bool clean_abort = e.code == exit_code::peer_lost || protocol::interrupted() != 0;
+    if (clean_abort && run_.built() && peer_.sent_any() && peer_.last_step() > first_step_) {
       try {
         e.reason += "; checkpoint " + checkpoints_.write(e.reason);
       } catch (const std::exception& x) {
@@ -158,9 +181,10 @@ class CoupledSolid {
     }
     peer_.stop(e);
     const CoupledSeries& series = run_.series();
-    if (series.rows() > 0) {
+    if (series_file_ && !series_failed_) {
       try {
-        write_series();
+        series_file_->append(run_.series());
+        series_file_->close();
       } catch (const std::exception& x) {
         if (e.code == exit_code::ok) e = Ending{exit_code::system, one_line(x.what()), false};
         else err_ << "solid: " << one_line(x.what()) << "\n";
@@ -177,7 +201,7 @@ class CoupledSolid {
     out_ << "solid: coupled run " << (e.code == exit_code::ok ? "done" : "stopped") << " at step "
          << peer_.last_step() << " of " << run_.total_steps() << ", " << substeps << " substeps ("
          << fmt("%.5g", run_.solid_time_s(substeps) * 1e6) << " us) in " << fmt("%.1f", wall) << " s; "
-         << peer_.counters() << "; " << series.rows() << " rows in " << output_path()
+         << peer_.counters() << "; " << (series_file_ ? series_file_->rows() : 0) << " rows in " << output_path()
          << (snapshots ? ", " + std::to_string(snapshots->count()) + " sheet snapshots in " +
                              snapshots->xdmf_path().string()
                        : std::string())
@@ -208,6 +232,8 @@ class CoupledSolid {
   SolidRun run_;
   SolidPeer peer_;
   SolidCheckpoints checkpoints_;
+  std::unique_ptr<CoupledSeriesFile> series_file_;  ///< solid.h5, once step 0 or the restart is in
+  bool series_failed_ = false;                      ///< an append failed (a full disk)
   SchemeContext ctx_;
 
   std::int64_t first_step_ = 0;  ///< 0, or the step of --restart
@@ -222,6 +248,7 @@ class CoupledSolid {
 
 int run_coupled_solid(const SolidScene& scene, const CoupledSolidOptions& options,
                       std::ostream& out, std::ostream& err) {
+  protocol::hdf5_no_exit_cleanup();
   if (!scene.coupled()) {
     err << "solid: " << scene.path << ": not a coupled scene (no [coupling] section)\n";
     return exit_code::bad_input;

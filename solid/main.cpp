@@ -51,6 +51,7 @@
 #include "protocol/hdf5_handle.hpp"
 #include "protocol/progress.hpp"
 #include "protocol/session/exit_codes.hpp"
+#include "protocol/session/interrupt.hpp"
 #include "protocol/hdf5_quiet.hpp"
 #include "protocol/text.hpp"
 #include "protocol/units.hpp"
@@ -527,6 +528,7 @@ int main_impl(int argc, char** argv) {
   }
   protocol::record_scene(scene.path);
   if (scene.coupled()) {
+    protocol::catch_interrupts();  // before any thread starts (OpenMP, LCM)
     CoupledSolidOptions co;
     co.token = token;
     if (!o_token->count())
@@ -534,6 +536,7 @@ int main_impl(int argc, char** argv) {
     co.quiet = quiet;
     co.check_only = check;
     co.restart = restart;
+    co.read_environment();
     try {
       co.faults = protocol::fault_settings_from(o_faults->count() ? &faults : nullptr);
     } catch (const std::invalid_argument& e) {

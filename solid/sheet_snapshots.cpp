@@ -108,8 +108,14 @@ void SheetSnapshotWriter::write(std::int64_t step, double time_s, const SolidMod
                                 std::to_string(n_));
   const fs::path final_path = snapshot_path(step);
   const fs::path part = fs::path(final_path).concat(".part");
-  write_hdf5(part, step, time_s, model);
-  rename_or_throw(part, final_path);
+  try {
+    write_hdf5(part, step, time_s, model);
+    rename_or_throw(part, final_path);
+  } catch (...) {
+    std::error_code ec;
+    fs::remove(part, ec);  // a full disk leaves no .part behind
+    throw;
+  }
 
   const double time_us = time_s / kMicrometre;
   const auto it = std::find_if(snapshots_.begin(), snapshots_.end(),
@@ -218,9 +224,13 @@ void SheetSnapshotWriter::write_xdmf() const {
     std::ofstream out(part, std::ios::trunc);
     out << x.str();
     out.flush();
-    if (!out)
-      throw std::runtime_error("cannot write " + part.string() +
+    if (!out) {
+      out.close();
+      std::error_code ec;
+      fs::remove(part, ec);
+      throw std::runtime_error("cannot write " + final_path.string() +
                                " (disk full or directory not writable?)");
+    }
   }
   rename_or_throw(part, final_path);
 }

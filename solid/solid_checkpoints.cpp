@@ -9,6 +9,7 @@
 
 #include "cosimlcm/solid_state_t.hpp"
 #include "protocol/checkpoint_file.hpp"
+#include "protocol/checkpoint_identity.hpp"
 #include "protocol/energy_watch.hpp"
 #include "protocol/handshake.hpp"
 #include "protocol/text.hpp"
@@ -32,14 +33,13 @@ std::string SolidCheckpoints::write(const std::string& reason) {
   scheme_.save(w, ctx);
   w.attr("total_substeps", run_.total_substeps());
   w.attr("num_cgps", static_cast<std::int64_t>(run_.num_cgps()));
-  w.attr("time_ratio", static_cast<std::int64_t>(run_.coupling().time_ratio));
   const protocol::EnergyWatch::State ew = run_.energy_watch().state();
   w.attr("watchdog_energy_started", static_cast<std::int64_t>(ew.started ? 1 : 0));
   w.attr("watchdog_energy0_J", ew.energy0);
   w.attr("watchdog_work_J", ew.work);
   w.attr("watchdog_work_abs_J", ew.work_abs);
   w.attr("watchdog_energy_max_J", ew.energy_max);
-  w.text("scene_hash", protocol::scene_hash_of_file(s_.path));
+  protocol::write_identity(w, {s_.path, o_.run_id, run_.coupling().time_ratio, o_.new_time_ratio});
   w.text("reason", reason.empty() ? "every coupling.checkpoint_every steps" : reason);
   const SolidState st = point ? *point->state : run_.model().state();
   w.text("model", st.model);
@@ -55,7 +55,7 @@ std::string SolidCheckpoints::write(const std::string& reason) {
   w.put("series_step", series.step);
   for (const auto& [name, column] : series.columns()) w.put(std::string("series_") + name, *column);
   w.commit();
-  protocol::prune_checkpoints(dir, "solid_", 3);
+  protocol::prune_checkpoints(dir, "solid_", 3, o_.run_id);
   return file.string();
 }
 
@@ -73,10 +73,13 @@ std::optional<protocol::Ending> SolidCheckpoints::write_if_due(std::int64_t step
 
 void SolidCheckpoints::restore(const std::string& path) {
   const protocol::CheckpointReader r(path);
-  if (r.text("scene_hash") != protocol::scene_hash_of_file(s_.path))
-    throw std::runtime_error("a checkpoint of another scene file (scene_hash differs from " + s_.path + ")");
+  protocol::check_identity(r, {s_.path, o_.run_id, run_.coupling().time_ratio, o_.new_time_ratio});
   const std::int64_t total_steps = peer_.total_steps();
   const std::int64_t step = r.int64_attr("step");
+  if (step >= total_steps && step >= 1)
+    throw std::runtime_error("step = " + std::to_string(step) + ": the run already ends there (" +
+                             std::to_string(total_steps) + " steps); to continue it, raise [run] steps above " +
+                             std::to_string(step));
   if (step < 1 || step >= total_steps)
     throw std::runtime_error("step = " + std::to_string(step) + ", allowed: 1 to " + std::to_string(total_steps - 1));
   const Eigen::Index n = run_.num_cgps();

@@ -11,6 +11,7 @@
 #include <string>
 
 #include "protocol/session/exit_codes.hpp"
+#include "protocol/session/session_options.hpp"
 #include "solid/solid_scene.hpp"
 
 namespace cosim::solid {
@@ -21,8 +22,9 @@ class SolidScheme;
 
 class SolidCheckpoints {
  public:
-  SolidCheckpoints(const SolidScene& scene, SolidRun& run, SolidPeer& peer, SolidScheme& scheme, std::ostream& out)
-      : s_(scene), run_(run), peer_(peer), scheme_(scheme), out_(out) {}
+  SolidCheckpoints(const SolidScene& scene, const protocol::SessionOptions& options, SolidRun& run, SolidPeer& peer,
+                   SolidScheme& scheme, std::ostream& out)
+      : s_(scene), o_(options), run_(run), peer_(peer), scheme_(scheme), out_(out) {}
 
   /// Writes the checkpoint of the last step sent (or the scheme's restart point) and keeps
   /// the newest three; returns its path. Throws (one line) on an output error.
@@ -38,6 +40,7 @@ class SolidCheckpoints {
 
  private:
   const SolidScene& s_;
+  const protocol::SessionOptions& o_;  ///< the run id and whether a restart may change A_T
   SolidRun& run_;
   SolidPeer& peer_;
   SolidScheme& scheme_;

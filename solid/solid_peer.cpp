@@ -5,6 +5,7 @@
 #include <utility>
 
 #include "protocol/message_checks.hpp"
+#include "protocol/session/interrupt.hpp"
 #include "protocol/session/stop_rules.hpp"
 #include "protocol/step_sequencer.hpp"
 #include "protocol/text.hpp"
@@ -107,6 +108,8 @@ std::optional<Ending> SolidPeer::handshake(const cosimlcm::hello_t& hello) {
   while (!welcome_) {
     if (const auto e = failure()) return e;
     if (stop_) return peer_stop();
+    if (protocol::interrupted())
+      return Ending{exit_code::system, protocol::interrupt_reason() + " before the handshake completed", true};
     const Clock::time_point now = Clock::now();
     if (now >= deadline)
       return Ending{exit_code::peer_lost,
@@ -148,6 +151,11 @@ std::optional<Ending> SolidPeer::wait(const std::function<void()>& idle) {
   while (!inbox_.ready()) {
     if (const auto e = failure()) return e;
     if (stop_) return peer_stop();
+    // SIGINT or SIGTERM to the solid alone (run-coupled.sh interrupts the fluid, whose
+    // stop_t then ends this side at the same step): stop here, after the last step sent.
+    if (protocol::interrupted())
+      return Ending{exit_code::system, protocol::interrupt_reason() + " after step " + std::to_string(last_step_),
+                    true};
     pump(kPoll);
     if (inbox_.ready() || stop_ || failure()) continue;
     switch (inbox_.poll(Clock::now())) {

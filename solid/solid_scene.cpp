@@ -15,7 +15,10 @@
 #include "protocol/config/reaction_section.hpp"
 #include "protocol/config/shared_sections.hpp"
 #include "protocol/lcm_url.hpp"
+#include "protocol/memory_budget.hpp"
+#include "protocol/text.hpp"
 #include "protocol/units.hpp"
+#include "solid/elastic_sheet_model.hpp"
 #include "solid/model_registry.hpp"
 #include "solid/sheet_spec.hpp"
 
@@ -141,6 +144,26 @@ void load_solid(const SceneReader& r, SolidScene& s) {
   }
 }
 
+/// The memory a sheet needs, estimated before anything is allocated, within the solid's
+/// share of this machine's (protocol/memory_budget.hpp). The elastic models' time-step check
+/// finds each sheet's highest natural frequency from a dense eigenvalue problem: three dense
+/// (3N)^2 matrices of doubles for a sheet of N CGPs (the stiffness, the mass-scaled free
+/// block, the solver's workspace); measured, a 48 x 48 sheet peaks at 1.09 GB against 1.15 GB
+/// estimated (`/usr/bin/time -f %M build/solid/solid SCENE --check`). Every model keeps about
+/// 112 bytes per CGP when built (rigid, 1024 x 1024: 127 MB; 512 x 512: 41 MB).
+void check_sheet_memory(const Table& sec, const std::string& model, const SheetSpec& spec) {
+  const double n = double(spec.nx_cg) * double(spec.ny_cg);
+  const bool modal = model == ElasticSheetModel::kRcgpName || model == ElasticSheetModel::kCorotationalName;
+  const double need = 112.0 * n + (modal ? 3.0 * 8.0 * (3.0 * n) * (3.0 * n) : 0.0);
+  const std::string beyond = protocol::beyond_share(need, protocol::kSolidMemoryShare,
+                                                    "the rest is the fluid's and the system's");
+  if (beyond.empty()) return;
+  sec.fail(sec.name() + ": nx_cg x ny_cg = " + std::to_string(spec.nx_cg) + " x " + std::to_string(spec.ny_cg) +
+           " = " + protocol::fmt("%.0f", n) + " CGPs: the " + model + " model needs about " + protocol::human_bytes(need) +
+           (modal ? " (its time-step check solves a dense (3N)^2 eigenvalue problem)" : std::string()) + ", " +
+           beyond + "; reduce nx_cg, ny_cg");
+}
+
 void load_sheets(const SceneReader& r, SolidScene& s) {
   const std::vector<Table> sheets = r.array_section("sheet");
   if (sheets.empty())
@@ -183,9 +206,13 @@ void load_sheets(const SceneReader& r, SolidScene& s) {
                                     " (at least one row on the plate, at least one free)");
       spec.clamped_rows = int(*v);
     }
-    if (const auto v = sec.positive("atoms_per_cgp", "carbon atoms lumped into one CGP"))
+    if (const auto v = sec.positive("atoms_per_cgp", "carbon atoms lumped into one CGP")) {
+      if (*v > SolidSceneLimits::atoms_per_cgp_max)
+        sec.bad("atoms_per_cgp", "must be a number of carbon atoms lumped into one CGP from above 0 to 1e15");
       spec.cgp_mass_me =
           *v * PhysicalConstants::carbon_mass_kg / PhysicalConstants::electron_mass_kg;
+    }
+    check_sheet_memory(sec, s.model, spec);
     try {
       check_sheet_spec(spec);  // what the models check; the rules above should cover it
     } catch (const std::invalid_argument& e) {

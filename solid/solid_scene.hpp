@@ -40,6 +40,9 @@ enum class SolidRunMode {
 /// options: beside the models, e.g. solid/elastic_sheet_options.cpp).
 struct SolidSceneLimits {
   static constexpr int cgps_per_axis_max = 65536;
+  /// A CGP lumps at most this many carbon atoms (a larger count is a typo; its mass would
+  /// overflow the models' arithmetic).
+  static constexpr double atoms_per_cgp_max = 1e15;
   // Lengths in micrometres (dx_um, spacing_um, cutoff_um, base_um, tip_displacement_um):
   // magnitudes within protocol::config::Table::length_min_um and length_max_um, as in every
   // scene, so that every conversion to bohr and to the lattice stays a positive finite number.

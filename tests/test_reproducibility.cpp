@@ -144,7 +144,7 @@ TEST(Reproducibility, ImplicitSchemeIsBitIdenticalUnderFaultsAndRestart) {
 
 /// The watchdog's retry in the implicit scheme (protocol/README.md 10, 13): a restart at
 /// another A_T from a checkpoint taken while a step is iterated, as run-coupled.sh runs it
-/// (--restart with --time-ratio). The checkpoint's solid_state_t(40, 0) holds the old A_T's
+/// (--restart with --new-time-ratio). The checkpoint's solid_state_t(40, 0) holds the old A_T's
 /// impulses; the fluid must spread, and commit, those of the iterate the solid goes on from.
 /// Step 40 is the first free step, so the state at its start does not depend on A_T: the
 /// retry must give every HDF5 output of a run at the new A_T from step 0, bit for bit. With
@@ -172,7 +172,7 @@ TEST(Reproducibility, ImplicitRetryAtNewTimeRatioIsConsistent) {
       fs::copy_file(a150 / "checkpoints" / (std::string(side) + "_00000040.h5"),
                     from / (std::string(side) + "_00000040.h5"));
     expect_done(retried, run_launcher(kSource, scene, retried,
-                                      "--restart " + cosim::test::quoted(from.string()) + " --time-ratio 300"));
+                                      "--restart " + cosim::test::quoted(from.string()) + " --new-time-ratio 300"));
     const std::string solid_log = slurp(retried / "solid.log");
     EXPECT_NE(solid_log.find("the checkpoint ran A_T = 150, this run A_T = 300"), std::string::npos) << logs(retried);
     EXPECT_NE(solid_log.find("step 40's first iterate computed again at A_T = 300"), std::string::npos)

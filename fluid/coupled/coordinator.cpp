@@ -7,6 +7,7 @@
 #include <thread>
 
 #include "protocol/handshake.hpp"
+#include "protocol/session/interrupt.hpp"
 #include "protocol/hello_lcm.hpp"
 #include "protocol/message_checks.hpp"
 #include "protocol/session/announcement.hpp"
@@ -87,6 +88,11 @@ std::optional<Ending> Coordinator::handshake() {
   const Clock::time_point deadline = Clock::now() + ms(c_.handshake_timeout_s);
   while (!solid_hello_ && !hello_refusal_) {
     if (stop_) return stop_;
+    if (protocol::interrupted()) {
+      const std::string why = protocol::interrupt_reason() + " before the handshake completed";
+      publish_stop(0, exit_code::system, why);
+      return Ending{exit_code::system, why, false};
+    }
     if (Clock::now() > deadline) {
       publish_stop(0, exit_code::peer_lost, "no solid hello_t within the handshake timeout");
       return Ending{exit_code::peer_lost, "no solid announced itself on " + ch_.hello + " within " +

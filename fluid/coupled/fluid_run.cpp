@@ -10,10 +10,12 @@
 #include "fluid/d3q19.hpp"
 #include "fluid/schemes/fluid_scheme.hpp"
 #include "protocol/checkpoint_file.hpp"
+#include "protocol/checkpoint_identity.hpp"
 #include "protocol/handshake.hpp"
 #include "protocol/peak_memory.hpp"
 #include "protocol/progress.hpp"
 #include "protocol/provenance.hpp"
+#include "protocol/session/interrupt.hpp"
 #include "protocol/text.hpp"
 
 namespace cosim::fluid {
@@ -72,11 +74,12 @@ std::vector<FlowSummary> get_rows(const protocol::CheckpointReader& r) {
 
 FluidRun::FluidRun(const FluidScene& scene, const CoupledFluidOptions& options, Coordinator& coordinator,
                    const FluidScheme& scheme)
-    : s_(scene), restart_(options.restart), quiet_(options.quiet), coord_(coordinator), scheme_(scheme),
+    : s_(scene), restart_(options.restart), run_id_(options.run_id), new_time_ratio_(options.new_time_ratio),
+      quiet_(options.quiet), coord_(coordinator), scheme_(scheme),
       solver_(scene.params), ib_(solver_),
       limits_{scene.mach_limit, 0.0, scene.watchdog.rho_min, scene.watchdog.rho_max},
       dt_us_(coordinator.units().dt_lb_s() * 1e6),
-      log_((std::filesystem::path(created(scene.output_dir)) / "monitor.h5").string(), dt_us_),
+      monitor_path_((std::filesystem::path(created(scene.output_dir)) / "monitor.h5").string()),
       snapshots_(scene, dt_us_), markers_(scene.watchdog, scene.mach_limit, scene.coupling->time_ratio) {
   initialize_flow(solver_, s_);
   protocol::write_provenance_files(s_.output_dir);  // OUTPUT/scene.toml, provenance_fluid.toml
@@ -86,6 +89,10 @@ FluidRun::FluidRun(const FluidScene& scene, const CoupledFluidOptions& options, 
 }
 
 FluidRun::~FluidRun() { coord_.on_end({}); }
+
+protocol::CheckpointIdentity FluidRun::identity() const {
+  return {s_.path, run_id_, s_.coupling->time_ratio, new_time_ratio_};
+}
 
 std::int64_t FluidRun::start(std::optional<int>& failed) {
   std::int64_t first_step = 0;
@@ -103,7 +110,8 @@ std::int64_t FluidRun::start(std::optional<int>& failed) {
     const FlowSummary first = summarize(solver_);
     mass0_ = first.mass;
     bulk_u_ = first.momentum[0] / first.mass;
-    log_.append(first);
+    log_.emplace(monitor_path_, dt_us_);
+    log_->append(first);
     rows_.push_back(first);
     if (snapshots_.due(0, false)) snapshots_.write(solver_, false);
   }
@@ -186,7 +194,7 @@ std::optional<int> FluidRun::step_outputs(std::int64_t now, bool last, bool peri
     const std::string problem = health_problem(sum, limits_);
     if (!problem.empty()) return unhealthy(problem, now);
     if (monitor) {
-      log_.append(sum);
+      log_->append(sum);
       rows_.push_back(sum);
       bulk_u_ = sum.momentum[0] / sum.mass;
       coord_.out() << format_summary(sum, dt_us_, mass0_) << "\n";
@@ -195,6 +203,12 @@ std::optional<int> FluidRun::step_outputs(std::int64_t now, bool last, bool peri
   }
   if (snapshot) snapshots_.write(solver_, last);
   return std::nullopt;
+}
+
+int FluidRun::interrupt(std::int64_t step) {
+  std::string reason = protocol::interrupt_reason() + " at step " + std::to_string(step);
+  if (step > coord_.first_step()) reason += checkpoint(step, reason);
+  return coord_.stop_and_end({exit_code::system, reason, false}, step);
 }
 
 int FluidRun::peer_ending(Ending e, std::int64_t step, const std::string& note) {
@@ -234,20 +248,19 @@ std::string FluidRun::checkpoint_of(const BasicPopulationField<T>& f, std::int64
     w.attr("num_cgps", static_cast<std::int64_t>(coord_.num_cgps()));
     w.attr("bulk_velocity_lb", bulk_u_);
     w.attr("mass0", mass0_);
-    w.attr("time_ratio", static_cast<std::int64_t>(s_.coupling->time_ratio));
     if (markers_.has_reference()) {
       const protocol::MarkerWatch::Reference ref = markers_.reference();
       w.put("watchdog_neighbour", ref.neighbour);
       w.put("watchdog_distance", ref.distance);
       w.put("watchdog_last_positions", ref.last_positions);
     }
-    w.text("scene_hash", protocol::scene_hash_of_file(s_.path));
+    protocol::write_identity(w, identity());
     w.text("reason", reason.empty() ? "every coupling.checkpoint_every steps" : reason);
     w.put("populations", f.q(0), std::size_t(D3Q19::Q) * f.layout().stride());
     w.text("precision", std::is_same_v<T, float> ? "single" : "double");
     put_rows(w, rows_);
     w.commit();
-    protocol::prune_checkpoints(dir, "fluid_", 3);
+    protocol::prune_checkpoints(dir, "fluid_", 3, run_id_);
   } catch (const std::exception& x) {
     if (reason.empty()) throw;
     return "; no checkpoint: " + std::string(x.what());
@@ -261,10 +274,13 @@ std::string FluidRun::checkpoint_of(const BasicPopulationField<T>& f, std::int64
 /// this scene.
 std::int64_t FluidRun::restore(std::optional<cosimlcm::fluid_state_t>& in_flight) {
   const protocol::CheckpointReader r(restart_);
-  if (r.text("scene_hash") != protocol::scene_hash_of_file(s_.path))
-    throw std::runtime_error("a checkpoint of another scene file (scene_hash differs from " + s_.path + ")");
+  protocol::check_identity(r, identity());
   const std::int64_t step = r.int64_attr("step");
-  if (step < 1 || step >= s_.steps)
+  if (step >= s_.steps && step >= 1)
+    throw std::runtime_error("step = " + std::to_string(step) + ": the run already ends there (run.steps = " +
+                             std::to_string(s_.steps) + "); to continue it, raise [run] steps above " +
+                             std::to_string(step));
+  if (step < 1)
     throw std::runtime_error("step = " + std::to_string(step) + ", allowed: 1 to " + std::to_string(s_.steps - 1) +
                              " (run.steps = " + std::to_string(s_.steps) + ")");
   if (r.int64_attr("num_cgps") != coord_.num_cgps())
@@ -300,7 +316,9 @@ std::int64_t FluidRun::restore(std::optional<cosimlcm::fluid_state_t>& in_flight
   }
   in_flight = scheme_.read_checkpoint(r, step);
   rows_ = get_rows(r);
-  for (const FlowSummary& row : rows_) log_.append(row);
+  // monitor.h5 only now that the checkpoint is read: a refused restart leaves it as it was.
+  log_.emplace(monitor_path_, dt_us_);
+  for (const FlowSummary& row : rows_) log_->append(row);
   snapshots_.adopt_up_to(step);
   // The in-flight solid_state_t(step) was computed with the checkpoint's A_T (a retry may
   // run another: the fluid's state does not depend on it). The solid republishes it once

@@ -23,6 +23,10 @@
 #include "protocol/session/exit_codes.hpp"
 #include "protocol/watchdog.hpp"
 
+namespace cosim::protocol {
+struct CheckpointIdentity;
+}
+
 namespace cosim::fluid {
 
 class Coordinator;
@@ -90,6 +94,9 @@ class FluidRun {
   /// The peer lost or stopped with an error while the fluid waited at `step`: `note` (a
   /// checkpoint's line, or why there is none) added, the retry advice when a smaller dt_CG
   /// may cure the solid's trip; the exit code.
+  /// SIGINT or SIGTERM (protocol/session/interrupt.hpp) noticed at `step`, whose state is
+  /// whole: its checkpoint (after a restart's first step), stop_t(1) naming the signal.
+  int interrupt(std::int64_t step);
   int peer_ending(protocol::Ending e, std::int64_t step, const std::string& note);
 
   /// Every protocol::progress_every_s(1) seconds, unless quiet: "fluid: progress step N/M
@@ -105,9 +112,12 @@ class FluidRun {
   template <class T>
   std::string checkpoint_of(const BasicPopulationField<T>& f, std::int64_t step, const std::string& reason);
   std::int64_t restore(std::optional<cosimlcm::fluid_state_t>& in_flight);
+  protocol::CheckpointIdentity identity() const;
 
   const FluidScene& s_;
   const std::string restart_;
+  const std::string run_id_;   ///< the launcher's run id (checkpoints; a restart's check)
+  const bool new_time_ratio_;  ///< a restart may change A_T
   const bool quiet_;
   Coordinator& coord_;
   const FluidScheme& scheme_;
@@ -115,7 +125,8 @@ class FluidRun {
   ImmersedBoundary ib_;
   HealthLimits limits_;
   double dt_us_;
-  MonitorLog log_;
+  std::string monitor_path_;        ///< OUTPUT/monitor.h5
+  std::optional<MonitorLog> log_;  ///< created at step 0, or once a restart's checkpoint is read
   Snapshots snapshots_;
   protocol::MarkerWatch markers_;  ///< the watchdog's per-step sentinels (DESIGN 6)
   StepTiming timing_;

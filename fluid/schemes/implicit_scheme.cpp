@@ -16,6 +16,7 @@
 #include "protocol/message_checks.hpp"
 #include "protocol/text.hpp"
 
+#include "protocol/session/interrupt.hpp"
 namespace cosim::fluid {
 
 namespace {
@@ -113,6 +114,14 @@ int ImplicitFluidScheme::run(Coordinator& coord, FluidRun& run, std::int64_t fir
                : iteration < 0 ? run.checkpoint(step, e->reason)
                                : "; no checkpoint (the spin-up step was not accepted yet)";
       return run.peer_ending(*e, step, note);
+    }
+    if (protocol::interrupted()) {  // SIGINT or SIGTERM: as a lost solid, with the committed state
+      std::string reason = protocol::interrupt_reason() + " at step " + std::to_string(step);
+      if (step > first_step)
+        reason += have_backup      ? backup.checkpoint(run, step, reason)
+                  : iteration < 0 ? run.checkpoint(step, reason)
+                                  : "; no checkpoint (the spin-up step was not accepted yet)";
+      return coord.stop_and_end({protocol::exit_code::system, reason, false}, step);
     }
     const Clock::time_point t1 = Clock::now();
     timing.wait += seconds(t0, t1);

@@ -5,6 +5,7 @@
 
 #include "fluid/coupled/coordinator.hpp"
 #include "fluid/coupled/fluid_run.hpp"
+#include "protocol/session/interrupt.hpp"
 
 namespace cosim::fluid {
 
@@ -38,6 +39,9 @@ int SerialFluidScheme::run(Coordinator& coord, FluidRun& run, std::int64_t first
       const bool keep = e->code == protocol::exit_code::peer_lost && step > first_step;
       return run.peer_ending(*e, step, keep ? run.checkpoint(step, e->reason) : "");
     }
+    // SIGINT or SIGTERM: the fluid at `step` is whole and solid_state_t(step) has come (the
+    // solid's checkpoint of `step` holds it in flight): both keep `step`.
+    if (protocol::interrupted()) return run.interrupt(step);
     Clock::time_point t1 = Clock::now();
     timing.wait += seconds(t0, t1);
     // A message of the next step that came early is offered again, now due (in the

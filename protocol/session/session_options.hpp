@@ -3,6 +3,7 @@
 // test setting of injected faults, and the checkpoint to continue from.
 #pragma once
 
+#include <cstdlib>
 #include <string>
 
 #include "protocol/fault_injection.hpp"
@@ -28,6 +29,18 @@ struct SessionOptions {
   /// A checkpoint file (OUTPUT/checkpoints/{fluid,solid}_NNNNNNNN.h5) to continue from; the
   /// peer restarts from its own checkpoint of the same step (DESIGN 2.4).
   std::string restart;
+  /// The run's id (the launcher's, $COSIM_RUN_ID; OUTPUT/run.id): stamped into every
+  /// checkpoint; a restart refuses another run's checkpoint. Empty: not checked.
+  std::string run_id;
+  /// A restart may run another A_T than its checkpoint's ($COSIM_NEW_TIME_RATIO=1: the
+  /// launcher's --new-time-ratio and the watchdog's retry); otherwise it is refused.
+  bool new_time_ratio = false;
+
+  /// run_id and new_time_ratio from the launcher's environment.
+  void read_environment() {
+    if (const char* v = std::getenv("COSIM_RUN_ID")) run_id = v;
+    if (const char* v = std::getenv("COSIM_NEW_TIME_RATIO")) new_time_ratio = std::string(v) == "1";
+  }
 };
 
 }  // namespace cosim::protocol

@@ -1,0 +1,453 @@
+// Runs that keep their data (launch/run-coupled.sh, protocol/checkpoint_file.hpp,
+// protocol/checkpoint_identity.hpp): each run its own folder, restarts that refuse another
+// run's, scene's or A_T's checkpoint and corrupted ones, interrupts and killed peers that
+// leave checkpoints and rows, a full disk, XDMF indexes after a restart, and a finished run
+// continued for more steps. Two processes through the launcher on a small scene (a few
+// seconds a run).
+#include <gtest/gtest.h>
+#include <hdf5.h>
+#include <sys/wait.h>
+
+#include <chrono>
+#include <csignal>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <string>
+#include <thread>
+#include <utility>
+#include <vector>
+
+#include "support/run_compare.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using cosim::test::compare_h5;
+using cosim::test::logs;
+using cosim::test::quoted;
+using cosim::test::read_datasets;
+using cosim::test::run_launcher;
+using cosim::test::scratch;
+using cosim::test::slurp;
+
+const fs::path kSource = COSIM_SOURCE_DIR;
+const fs::path kShim = FULL_DISK_SHIM;
+
+/// scenes/coupled_small.toml with `steps` LB steps (20 rigid), monitor rows every 10 steps,
+/// field and sheet snapshots every 20, checkpoints every 20, a 3 s peer timeout; `edits`
+/// (text -> text) after those. Written as dir/NAME.toml.
+fs::path small_scene(const fs::path& dir, int steps, const std::vector<std::pair<std::string, std::string>>& edits = {},
+                     const std::string& name = "small") {
+  std::string s = slurp(kSource / "scenes" / "coupled_small.toml");
+  std::vector<std::pair<std::string, std::string>> all = {
+      {"steps = 200", "steps = " + std::to_string(steps)},
+      {"rigid_steps = 50", "rigid_steps = 20"},
+      {"monitor_every = 50", "monitor_every = 10"},
+      {"fields_every = 50", "fields_every = 20"},
+      {"sheets_every = 50", "sheets_every = 20"},
+      {"peer_timeout_s = 10", "peer_timeout_s = 3\ncheckpoint_every = 20"},
+      {"resend_after_s = 0.5", "resend_after_s = 0.05"}};
+  all.insert(all.end(), edits.begin(), edits.end());
+  for (const auto& [from, to] : all) {
+    const std::size_t at = s.find(from);
+    if (at == std::string::npos) throw std::runtime_error("scene template lacks " + from);
+    s.replace(at, from.size(), to);
+  }
+  const fs::path scene = dir / (name + ".toml");
+  std::ofstream(scene) << s;
+  return scene;
+}
+
+/// run-coupled.sh SCENE ARGS --no-build --quiet, its lines into `log`; the exit status.
+int launch(const fs::path& scene, const std::string& args, const fs::path& log, const std::string& env = "") {
+  const std::string cmd = (env.empty() ? "" : "env " + env + " ") + "bash " +
+                          quoted((kSource / "launch" / "run-coupled.sh").string()) + " " + quoted(scene.string()) +
+                          " " + args + " --no-build --quiet >" + quoted(log.string()) + " 2>&1";
+  const int s = std::system(cmd.c_str());
+  return WIFEXITED(s) ? WEXITSTATUS(s) : -1;
+}
+
+/// Every data file of a run's folder (HDF5, XDMF, run.id), by relative path, with its bytes.
+std::map<std::string, std::string> data_files(const fs::path& dir) {
+  std::map<std::string, std::string> files;
+  for (const auto& e : fs::recursive_directory_iterator(dir)) {
+    if (!e.is_regular_file()) continue;
+    const std::string ext = e.path().extension().string();
+    if (ext == ".h5" || ext == ".xmf" || ext == ".id") files[fs::relative(e.path(), dir).string()] = slurp(e.path());
+  }
+  return files;
+}
+
+/// The .part files left anywhere under `dir`.
+std::vector<std::string> part_files(const fs::path& dir) {
+  std::vector<std::string> parts;
+  for (const auto& e : fs::recursive_directory_iterator(dir))
+    if (e.path().string().find(".part") != std::string::npos) parts.push_back(e.path().string());
+  return parts;
+}
+
+/// The one line of `text` that contains `what` ("" if none).
+std::string line_with(const std::string& text, const std::string& what) {
+  const std::size_t at = text.find(what);
+  if (at == std::string::npos) return "";
+  const std::size_t begin = text.rfind('\n', at) == std::string::npos ? 0 : text.rfind('\n', at) + 1;
+  return text.substr(begin, text.find('\n', at) - begin);
+}
+
+/// The last line of `text` that is not empty.
+std::string last_line(std::string text) {
+  while (!text.empty() && text.back() == '\n') text.pop_back();
+  return text.substr(text.rfind('\n') == std::string::npos ? 0 : text.rfind('\n') + 1);
+}
+
+/// A dataset of an HDF5 file as doubles (empty if it cannot be read).
+std::vector<double> column(const fs::path& file, const std::string& name) {
+  const auto sets = read_datasets(file);
+  const auto it = sets.find(name);
+  return it == sets.end() ? std::vector<double>{} : it->second.values;
+}
+
+/// Waits (at most `seconds`) for `file` to exist.
+bool wait_for(const fs::path& file, double seconds) {
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  while (!fs::exists(file) && std::chrono::steady_clock::now() < end)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  return fs::exists(file);
+}
+
+/// Runs `scene` into `out` through the launcher and, once `marker` exists (at most 120 s),
+/// sends `signal` to the process whose id `pid_file` (under `out`) holds; the launcher's
+/// exit status, and in `reached` whether the marker came. `sent` is when the signal went.
+int run_and_signal(const fs::path& scene, const fs::path& out, const fs::path& marker, const std::string& pid_file,
+                   int signal, bool& reached, std::chrono::steady_clock::time_point* sent = nullptr) {
+  int status = -1;
+  std::thread launcher([&] { status = run_launcher(kSource, scene, out); });
+  reached = wait_for(out / marker, 120);
+  const std::string pid = slurp(out / pid_file);
+  if (sent != nullptr) *sent = std::chrono::steady_clock::now();
+  if (reached && !pid.empty()) kill(std::stoi(pid), signal);
+  launcher.join();
+  return status;
+}
+
+void expect_done(const fs::path& out, int status) {
+  ASSERT_EQ(status, 0) << logs(out);
+  ASSERT_EQ(slurp(out / "fluid.exit"), "0\n") << logs(out);
+  ASSERT_EQ(slurp(out / "solid.exit"), "0\n") << logs(out);
+}
+
+/// Flips one bit in the middle of dataset `name` of an HDF5 file (contiguous storage).
+void flip_bit(const fs::path& file, const std::string& name) {
+  const hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  ASSERT_GE(f, 0) << file;
+  const hid_t d = H5Dopen2(f, name.c_str(), H5P_DEFAULT);
+  ASSERT_GE(d, 0) << name;
+  const haddr_t offset = H5Dget_offset(d);
+  const hsize_t size = H5Dget_storage_size(d);
+  H5Dclose(d);
+  H5Fclose(f);
+  ASSERT_NE(offset, HADDR_UNDEF);
+  std::fstream io(file, std::ios::in | std::ios::out | std::ios::binary);
+  io.seekg(static_cast<std::streamoff>(offset + size / 2));
+  char c = 0;
+  io.read(&c, 1);
+  c = static_cast<char>(c ^ 0x10);
+  io.seekp(static_cast<std::streamoff>(offset + size / 2));
+  io.write(&c, 1);
+}
+
+TEST(RunData, RerunDoesNotTouchAnotherRun) {
+  const fs::path dir = scratch("rerun");
+  const fs::path scene = small_scene(dir, 60);
+  const std::string env = "COSIM_OUTPUT_ROOT=" + quoted((dir / "out").string());
+  ASSERT_EQ(launch(scene, "", dir / "first.log", env), 0) << slurp(dir / "first.log");
+  std::vector<fs::path> runs;
+  for (const auto& e : fs::directory_iterator(dir / "out" / "small")) runs.push_back(e.path());
+  ASSERT_EQ(runs.size(), 1u);
+  const fs::path first = runs[0];
+  const auto before = data_files(first);
+  ASSERT_TRUE(before.count("checkpoints/fluid_00000040.h5")) << logs(first);
+  // The same scene again, the default folder: a new one; the first run's files untouched.
+  ASSERT_EQ(launch(scene, "", dir / "second.log", env), 0) << slurp(dir / "second.log");
+  runs.clear();
+  for (const auto& e : fs::directory_iterator(dir / "out" / "small")) runs.push_back(e.path());
+  ASSERT_EQ(runs.size(), 2u);
+  const fs::path second = runs[0] == first ? runs[1] : runs[0];
+  EXPECT_TRUE(data_files(first) == before) << "the second run changed the first run's files";
+  EXPECT_NE(slurp(first / "run.id"), slurp(second / "run.id"));
+  for (const char* f : {"checkpoints/fluid_00000040.h5", "checkpoints/solid_00000040.h5"})
+    EXPECT_TRUE(fs::exists(second / f)) << f << "\n" << logs(second);
+  // The first run's folder given as --output of a new run: refused in one line, untouched.
+  EXPECT_EQ(launch(scene, "--output " + quoted(first.string()), dir / "third.log"), 2);
+  const std::string refusal = slurp(dir / "third.log");
+  EXPECT_NE(refusal.find("holds an earlier run"), std::string::npos) << refusal;
+  EXPECT_EQ(std::count(refusal.begin(), refusal.end(), '\n'), 1) << refusal;
+  EXPECT_TRUE(data_files(first) == before) << "a refused run changed the first run's files";
+  std::printf("runs in %s and %s; the refusal: %s", first.filename().c_str(), second.filename().c_str(),
+              refusal.c_str());
+  if (!HasFailure()) fs::remove_all(dir);
+}
+
+TEST(RunData, RestartRefusesAnotherRunsCheckpoint) {
+  const fs::path dir = scratch("refuse_restart");
+  const fs::path scene = small_scene(dir, 60);
+  const fs::path a = dir / "a", b = dir / "b";
+  expect_done(a, run_launcher(kSource, scene, a));
+  expect_done(b, run_launcher(kSource, scene, b));
+  const auto files_a = data_files(a), files_b = data_files(b);
+  struct Case {
+    std::string what, args, expect;
+    fs::path scene;
+  };
+  const fs::path other_scene = small_scene(dir, 60, {{"tau = 0.8", "tau = 0.9"}}, "other");
+  fs::create_directories(dir / "mixed");
+  fs::copy_file(a / "checkpoints" / "fluid_00000040.h5", dir / "mixed" / "fluid_00000040.h5");
+  fs::copy_file(b / "checkpoints" / "solid_00000040.h5", dir / "mixed" / "solid_00000040.h5");
+  const std::vector<Case> cases = {
+      {"another run's checkpoint into b",
+       "--restart " + quoted((a / "checkpoints" / "fluid_00000040.h5").string()) + " --output " + quoted(b.string()),
+       "a checkpoint of another run", scene},
+      {"another A_T", "--restart " + quoted(a.string()) + " --time-ratio 300", "A_T = 150, this run has A_T = 300",
+       scene},
+      {"another scene", "--restart " + quoted(a.string()), "a checkpoint of another scene", other_scene},
+      {"a pair of two runs", "--restart " + quoted((dir / "mixed").string()) + " --output " + quoted((dir / "m").string()),
+       "of run", scene},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.what);
+    const fs::path log = dir / "refused.log";
+    const int status = launch(c.scene, c.args, log);
+    std::string text = slurp(log);
+    for (const fs::path& out : {a, b})
+      for (const char* f : {"fluid.log", "solid.log"}) text += slurp(out / f);
+    EXPECT_EQ(status, 2) << text;
+    const std::string line = line_with(text, c.expect);
+    EXPECT_FALSE(line.empty()) << text;
+    std::printf("%s: %s\n", c.what.c_str(), line.c_str());
+    EXPECT_TRUE(data_files(a) == files_a) << "a refused restart changed a's files";
+    EXPECT_TRUE(data_files(b) == files_b) << "a refused restart changed b's files";
+  }
+  if (!HasFailure()) fs::remove_all(dir);
+}
+
+TEST(RunData, CorruptCheckpointIsRefused) {
+  const fs::path dir = scratch("corrupt");
+  const fs::path scene = small_scene(dir, 60);
+  const fs::path a = dir / "a";
+  expect_done(a, run_launcher(kSource, scene, a));
+  for (const auto& [side, dataset] : {std::pair<std::string, std::string>{"fluid", "populations"},
+                                      {"solid", "positions_bohr"}}) {
+    SCOPED_TRACE(side + " " + dataset);
+    const fs::path from = dir / ("flipped_" + side), out = dir / ("out_" + side);
+    fs::create_directories(from);
+    for (const char* s : {"fluid", "solid"})
+      fs::copy_file(a / "checkpoints" / (std::string(s) + "_00000040.h5"), from / (std::string(s) + "_00000040.h5"));
+    const fs::path file = from / (side + "_00000040.h5");
+    flip_bit(file, dataset);
+    EXPECT_EQ(run_launcher(kSource, scene, out, "--restart " + quoted(from.string())), 2) << logs(out);
+    const std::string line = line_with(slurp(out / (side + ".log")), "does not match its checksum");
+    EXPECT_NE(line.find(file.string()), std::string::npos) << logs(out);
+    EXPECT_NE(line.find(dataset), std::string::npos) << logs(out);
+    std::printf("%s\n", line.c_str());
+  }
+  if (!HasFailure()) fs::remove_all(dir);
+}
+
+TEST(RunData, InterruptStopsBothWithCheckpoint) {
+  const fs::path dir = scratch("interrupt");
+  const fs::path scene = small_scene(dir, 400);
+  const fs::path clean = dir / "clean", out = dir / "interrupted";
+  expect_done(clean, run_launcher(kSource, scene, clean));
+  bool reached = false;  // Ctrl-C to the launcher once the run is under way
+  const int status = run_and_signal(scene, out, fs::path("checkpoints") / "solid_00000100.h5", "launcher.pid", SIGINT,
+                                    reached);
+  ASSERT_TRUE(reached) << logs(out);
+  EXPECT_EQ(status, 1) << logs(out);
+  EXPECT_EQ(slurp(out / "fluid.exit"), "1\n") << logs(out);
+  EXPECT_EQ(slurp(out / "solid.exit"), "4\n") << logs(out);
+  const std::string fluid = line_with(slurp(out / "fluid.log"), "interrupted by SIGINT at step ");
+  const std::string solid = line_with(slurp(out / "solid.log"), "; checkpoint ");
+  ASSERT_FALSE(fluid.empty()) << logs(out);
+  ASSERT_FALSE(solid.empty()) << logs(out);
+  std::printf("fluid: %s\nsolid: %s\n", fluid.c_str(), solid.c_str());
+  const std::string at = "at step ";
+  const long step = std::stol(fluid.substr(fluid.find(at) + at.size()));
+  char name[32];
+  std::snprintf(name, sizeof name, "_%08ld.h5", step);
+  for (const char* side : {"fluid", "solid"})
+    EXPECT_TRUE(fs::exists(out / "checkpoints" / (std::string(side) + name))) << side << name << "\n" << logs(out);
+  EXPECT_NE(solid.find(std::string("solid") + name), std::string::npos) << solid;
+  for (const char* side : {"fluid", "solid"})  // no server left running
+    EXPECT_NE(kill(std::stoi(slurp(out / (std::string(side) + ".pid"))), 0), 0) << side;
+  // The pair of the interrupted step continues the run as if nothing happened.
+  expect_done(out, run_launcher(kSource, scene, out, "--restart " + quoted(out.string())));
+  for (const char* f : {"monitor.h5", "solid.h5"}) EXPECT_EQ(compare_h5(clean, out, f), "") << f;
+  if (!HasFailure()) fs::remove_all(dir);
+}
+
+TEST(RunData, SurvivorGraceFollowsTimeouts) {
+  // A peer timeout above the launcher's old fixed grace (45 s): the fluid must be left to
+  // notice the lost solid by itself, write its checkpoint and say why.
+  const fs::path dir = scratch("grace");
+  const fs::path scene = small_scene(dir, 400, {{"peer_timeout_s = 3", "peer_timeout_s = 47"}});
+  const fs::path out = dir / "out";
+  bool reached = false;
+  std::chrono::steady_clock::time_point killed;
+  const int status = run_and_signal(scene, out, fs::path("checkpoints") / "solid_00000060.h5", "solid.pid", SIGKILL,
+                                    reached, &killed);
+  const double waited = std::chrono::duration<double>(std::chrono::steady_clock::now() - killed).count();
+  ASSERT_TRUE(reached) << logs(out);
+  EXPECT_EQ(status, 1) << logs(out);  // the killed solid's 137 counts as 1
+  EXPECT_EQ(slurp(out / "fluid.exit"), "4\n") << logs(out);
+  const std::string reason = line_with(slurp(out / "fluid.log"), "the solid was silent for 47");
+  EXPECT_NE(reason.find("; checkpoint "), std::string::npos) << logs(out);
+  EXPECT_EQ(slurp(out / "launcher.log").find("still running"), std::string::npos) << logs(out);
+  EXPECT_GE(waited, 47.0);
+  std::printf("the launcher ended %.1f s after the kill; %s\n", waited, reason.c_str());
+  if (!HasFailure()) fs::remove_all(dir);
+}
+
+TEST(RunData, KilledSolidLeavesItsRows) {
+  const fs::path dir = scratch("killed_solid");
+  const fs::path scene = small_scene(dir, 400);
+  const fs::path clean = dir / "clean", out = dir / "killed";
+  expect_done(clean, run_launcher(kSource, scene, clean));
+  bool reached = false;
+  const int status = run_and_signal(scene, out, fs::path("checkpoints") / "solid_00000100.h5", "solid.pid", SIGKILL,
+                                    reached);
+  ASSERT_TRUE(reached) << logs(out);
+  EXPECT_EQ(status, 1) << logs(out);
+  const std::vector<double> steps = column(out / "solid.h5", "step"), all = column(clean / "solid.h5", "step");
+  ASSERT_GE(steps.size(), 100u) << "solid.h5 of the killed solid holds " << steps.size() << " rows\n" << logs(out);
+  // Every row it holds is the clean run's, bit for bit.
+  const auto killed_sets = read_datasets(out / "solid.h5"), clean_sets = read_datasets(clean / "solid.h5");
+  for (const auto& [name, d] : killed_sets) {
+    const auto& c = clean_sets.at(name);
+    ASSERT_LE(d.bytes.size(), c.bytes.size()) << name;
+    EXPECT_TRUE(std::equal(d.bytes.begin(), d.bytes.end(), c.bytes.begin())) << name;
+  }
+  std::printf("the killed solid left %zu rows (steps 0 to %.0f) of %zu\n", steps.size(), steps.back(), all.size());
+  if (!HasFailure()) fs::remove_all(dir);
+}
+
+TEST(RunData, DiskFullLosesAtMostOneInterval) {
+  const fs::path dir = scratch("disk_full");
+  const fs::path scene = small_scene(dir, 120);
+  for (const char* side : {"fluid", "solid"}) {
+    SCOPED_TRACE(std::string("a full disk for the ") + side);
+    // What the side writes in a whole run (the shim counting only: a clean run), then a
+    // disk that is full after half of it.
+    const fs::path clean = dir / (std::string("clean_") + side), out = dir / (std::string("full_") + side);
+    const std::string shim = "LD_PRELOAD=" + quoted(kShim.string()) + " COSIM_FULL_DISK_PROGRAM=" + side;
+    expect_done(clean, run_launcher(kSource, scene, clean, "",
+                                    shim + " COSIM_FULL_DISK_DIR=" + quoted(clean.string()) +
+                                        " COSIM_FULL_DISK_BYTES=0 COSIM_FULL_DISK_COUNT=" +
+                                        quoted((dir / "count").string())));
+    const long long budget = std::stoll(slurp(dir / "count")) / 2;
+    ASSERT_GT(budget, 0);
+    const int status = run_launcher(kSource, scene, out, "",
+                                    shim + " COSIM_FULL_DISK_DIR=" + quoted(out.string()) +
+                                        " COSIM_FULL_DISK_BYTES=" + std::to_string(budget));
+    EXPECT_GE(status, 1) << logs(out);
+    EXPECT_LE(status, 4) << logs(out);
+    // One line naming the file that could not be written, and no HDF5 noise.
+    const std::string log = slurp(out / (std::string(side) + ".log"));
+    const std::string line = last_line(log);
+    EXPECT_NE(line.find(out.string()), std::string::npos) << logs(out);
+    EXPECT_EQ(log.find("HDF5"), std::string::npos) << logs(out);
+    EXPECT_EQ(part_files(out), std::vector<std::string>{}) << logs(out);
+    std::printf("%s after %lld bytes: exit %d: %s\n", side, budget, status, line.c_str());
+    // What was written is the clean run's; a restart from the newest pair of checkpoints
+    // completes it (the disk has room again) as if nothing happened.
+    for (const char* f : {"monitor.h5", "solid.h5"}) {
+      const auto part = read_datasets(out / f), whole = read_datasets(clean / f);
+      for (const auto& [name, d] : part) {
+        const auto& c = whole.at(name);
+        EXPECT_TRUE(d.bytes.size() <= c.bytes.size() && std::equal(d.bytes.begin(), d.bytes.end(), c.bytes.begin()))
+            << f << " " << name;
+      }
+    }
+    expect_done(out, run_launcher(kSource, scene, out, "--restart " + quoted(out.string())));
+    for (const char* f : {"monitor.h5", "solid.h5"}) EXPECT_EQ(compare_h5(clean, out, f), "") << f;
+  }
+  if (!HasFailure()) fs::remove_all(dir);
+}
+
+TEST(RunData, XdmfAfterRestartOpens) {
+  const fs::path dir = scratch("xdmf_restart");
+  const fs::path scene = small_scene(dir, 60);
+  const fs::path a = dir / "a", from = dir / "from20", fresh = dir / "fresh";
+  expect_done(a, run_launcher(kSource, scene, a));
+  fs::create_directories(from);
+  for (const char* side : {"fluid", "solid"})
+    fs::copy_file(a / "checkpoints" / (std::string(side) + "_00000020.h5"), from / (std::string(side) + "_00000020.h5"));
+  // Into a new folder (the snapshots before step 20 are not there), and into the run's own
+  // folder from its checkpoint of step 20 (they are).
+  expect_done(fresh, run_launcher(kSource, scene, fresh, "--restart " + quoted(from.string())));
+  expect_done(a, run_launcher(kSource, scene, a, "--restart " + quoted((a / "checkpoints" / "solid_00000020.h5").string())));
+  const std::string script = R"(
+import sys
+from vtkmodules.vtkCommonExecutionModel import vtkStreamingDemandDrivenPipeline
+from vtkmodules.vtkIOXdmf2 import vtkXdmfReader
+for name in sys.argv[1:]:
+    r = vtkXdmfReader()
+    r.SetFileName(name)
+    r.UpdateInformation()
+    info = r.GetOutputInformation(0)
+    key = vtkStreamingDemandDrivenPipeline.TIME_STEPS()
+    times = [info.Get(key, k) for k in range(info.Length(key))] if info.Has(key) else []
+    cells = []
+    for t in times:
+        r.UpdateTimeStep(t)
+        out = r.GetOutputDataObject(0)
+        n = out.GetNumberOfPoints() if out is not None else 0
+        if n == 0 and hasattr(out, "GetNumberOfBlocks"):
+            it = out.NewIterator(); it.InitTraversal()
+            while not it.IsDoneWithTraversal():
+                n += it.GetCurrentDataObject().GetNumberOfPoints(); it.GoToNextItem()
+        cells.append(n)
+    print(name, len(times), "snapshots, points per snapshot", cells)
+    if not times or min(cells) == 0:
+        sys.exit(1)
+)";
+  std::ofstream(dir / "read_xdmf.py") << script;
+  for (const fs::path& out : {fresh, a}) {
+    const std::string cmd = "/usr/bin/python3 " + quoted((dir / "read_xdmf.py").string()) + " " +
+                            quoted((out / "fields.xmf").string()) + " " + quoted((out / "sheets.xmf").string()) +
+                            " >" + quoted((dir / "vtk.log").string()) + " 2>&1";
+    const int s = std::system(cmd.c_str());
+    const std::string said = slurp(dir / "vtk.log");
+    EXPECT_TRUE(WIFEXITED(s) && WEXITSTATUS(s) == 0) << said;
+    EXPECT_EQ(said.find("Dimensions=\"0 0 0\""), std::string::npos);
+    EXPECT_EQ(slurp(out / "fields.xmf").find("Dimensions=\"0 0 0\""), std::string::npos) << slurp(out / "fields.xmf");
+    std::printf("%s", said.c_str());
+  }
+  // The fresh folder lists only the snapshots it holds (40 and 60), the run's own all four.
+  EXPECT_EQ(slurp(fresh / "fields.xmf").find("fields_000000.h5"), std::string::npos);
+  EXPECT_NE(slurp(a / "fields.xmf").find("fields_000000.h5"), std::string::npos);
+  if (!HasFailure()) fs::remove_all(dir);
+}
+
+TEST(RunData, ContinueFinishedRun) {
+  const fs::path dir = scratch("continue");
+  const fs::path scene = small_scene(dir, 60);
+  const fs::path run = dir / "run", longer = dir / "longer";
+  expect_done(run, run_launcher(kSource, scene, run));
+  // The same scene, 100 LB steps: from step 0, and the finished run continued from its last
+  // checkpoint (40) in its own folder.
+  const fs::path scene100 = small_scene(dir, 100, {}, "small100");
+  expect_done(longer, run_launcher(kSource, scene100, longer));
+  const std::string log = (dir / "continue.log").string();
+  ASSERT_EQ(launch(scene100, "--restart " + quoted(run.string()), log), 0) << slurp(log) << logs(run);
+  EXPECT_NE(slurp(log).find("restarting run"), std::string::npos) << slurp(log);
+  for (const char* f : {"monitor.h5", "solid.h5", "fields_000080.h5", "fields_000100.h5"})
+    EXPECT_EQ(compare_h5(longer, run, f), "") << f;
+  // Any other change of the scene is refused.
+  const fs::path other = small_scene(dir, 120, {{"u_max = 0.05", "u_max = 0.04"}}, "other");
+  EXPECT_EQ(launch(other, "--restart " + quoted(run.string()), log), 2) << slurp(log);
+  if (!HasFailure()) fs::remove_all(dir);
+}
+
+}  // namespace
