@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "protocol/checkpoint_file.hpp"
+#include "protocol/checkpoint_identity.hpp"
 #include "protocol/cli_parse.hpp"
 #include "protocol/fault_injection.hpp"
 #include "protocol/hello_lcm.hpp"
@@ -268,8 +269,7 @@ class SdkRun {
     w.attr("solid_seq", peer_.next_seq());
     w.attr("total_substeps", total_substeps_);
     w.attr("num_cgps", static_cast<std::int64_t>(n_));
-    w.attr("time_ratio", static_cast<std::int64_t>(s_.coupling->time_ratio));
-    w.text("scene_hash", protocol::scene_hash_of_file(s_.path));
+    protocol::write_identity(w, identity());
     w.text("reason", reason);
     w.text("model", solid_.model());
     w.put("positions_lb", x_.data(), std::size_t(x_.size()));
@@ -279,16 +279,21 @@ class SdkRun {
     sent.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
     w.put("in_flight_solid_state", bytes);
     w.commit();
-    protocol::prune_checkpoints(dir, "solid_", 3);
+    protocol::prune_checkpoints(dir, "solid_", 3, o_.run_id);
     return file.string();
+  }
+
+  /// Whose checkpoints this run writes and accepts: its scene, run and A_T (a library solid
+  /// restarts at its checkpoint's A_T only, see restore).
+  protocol::CheckpointIdentity identity() const {
+    return {s_.path, o_.run_id, s_.coupling->time_ratio, o_.new_time_ratio};
   }
 
   /// The checkpoint at `path` back: throws (one line) for one of another scene, model, CGP
   /// count or A_T.
   void restore(const std::string& path) {
     const protocol::CheckpointReader r(path);
-    if (r.text("scene_hash") != protocol::scene_hash_of_file(s_.path))
-      throw std::runtime_error("a checkpoint of another scene file (scene_hash differs from " + s_.path + ")");
+    protocol::check_identity(r, identity());
     if (r.text("model") != solid_.model())
       throw std::runtime_error("a checkpoint of the model '" + r.text("model") + "', this is '" + solid_.model() + "'");
     const std::int64_t step = r.int64_attr("step");
@@ -417,6 +422,7 @@ int run_impl(Solid& solid, std::vector<std::string> args) {
     return bad("a coupled run needs the run's token: --token TOKEN or COSIM_RUN_TOKEN (the launcher draws one per run)");
   options.quiet = quiet;
   options.restart = restart;
+  options.read_environment();  // the launcher's run id and --new-time-ratio
   try {
     options.faults = protocol::fault_settings_from(o_faults->count() ? &faults : nullptr);
   } catch (const std::invalid_argument& e) {
