@@ -172,8 +172,9 @@ def main():
                 d = os.path.abspath(os.path.join(a.out, name))
                 os.makedirs(d, exist_ok=True)
                 scene = os.path.join(d, "scene.toml")
-                with open(scene, "w") as f:
-                    f.write(scene_text(name, case, dx, box, a.law, os.path.join(d, "run"), a.t_end_us))
+                if not (a.table_only and os.path.exists(scene)):  # else: the scene the run was made with
+                    with open(scene, "w") as f:
+                        f.write(scene_text(name, case, dx, box, a.law, os.path.join(d, "run"), a.t_end_us))
                 if a.scene_only:
                     print(scene)
                     continue
