@@ -176,9 +176,17 @@ def run_coupled(scene: Path, output: Path, threads: int) -> tuple[int, float, di
     """launch/run-coupled.sh on `scene`: exit code, wall time, peak RSS of fluid and solid
     (VmHWM polled from /proc every 20 ms; the peak is reached at start-up, when the
     populations and the sheet's matrices are allocated) and of the launcher's largest
-    descendant (ru_maxrss). The study's own folder `output` is emptied first (a repeat replaces
-    the run before it; the launcher never reuses a run's folder by itself)."""
-    shutil.rmtree(output, ignore_errors=True)
+    descendant (ru_maxrss). The study's own folder `output` is emptied first, all but the
+    scene when it lies there (a repeat replaces the run before it; the launcher never reuses
+    a run's folder by itself)."""
+    if output.is_dir():
+        for p in output.iterdir():
+            if p.resolve() == scene.resolve():
+                continue
+            if p.is_dir() and not p.is_symlink():
+                shutil.rmtree(p)
+            else:
+                p.unlink()
     output.mkdir(parents=True, exist_ok=True)
     rss = {"fluid": 0, "solid": 0}
     done = threading.Event()
