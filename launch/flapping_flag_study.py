@@ -306,10 +306,10 @@ def main():
         return 1 if failures else 0
     lines = [f"Trailing-edge transverse displacement from {a.measure_from:g} of each run on "
              f"({a.length_times:g} L/U in all): A / L peak to peak, St = f L / U.", "",
-             "| N (cells along L) | dx (um) | tau | Re | gamma | M | periods | A / L | St |",
+             "| L / dx | dx (um) | tau | Re | gamma | M | periods | A / L | St |",
              "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
     for c, gamma, m in rows:
-        lines.append(f"| {c['n']} | {c['dx'] * 1e6:.4g} | {c['tau']:.4f} | {RE:g} | {gamma:.4g} | "
+        lines.append(f"| {c['l_cells']:g} | {c['dx'] * 1e6:.4g} | {c['tau']:.4f} | {RE:g} | {gamma:.4g} | "
                      f"{MASS_RATIO:g} | {m['periods']} | {m['amp']:.3f} | {m['st']:.3f} |")
     path = os.path.join(a.out, "flapping_flag.md")
     with open(path, "w") as f:
