@@ -310,7 +310,7 @@ def main():
              "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
     for c, gamma, m in rows:
         lines.append(f"| {c['l_cells']:g} | {c['dx'] * 1e6:.4g} | {c['tau']:.4f} | {RE:g} | {gamma:.4g} | "
-                     f"{MASS_RATIO:g} | {m['periods']} | {m['amp']:.3f} | {m['st']:.3f} |")
+                     f"{MASS_RATIO:g} | {m['periods']} | {m['amp']:.3f} | {m['st']:.4f} |")
     path = os.path.join(a.out, "flapping_flag.md")
     with open(path, "w") as f:
         f.write("\n".join(lines) + "\n")
