@@ -25,7 +25,7 @@ const fs::path kSource = COSIM_SOURCE_DIR;
 constexpr const char* kStBand = "0.251,0.278";
 constexpr const char* kAmpBand = "1.073,1.311";
 
-TEST(SheetInStream, FlappingFlagMatchesReference) {
+TEST(SheetInStream, FlappingFlagConvergesToFinestGrid) {
   const fs::path out = fs::path(::testing::TempDir()) / "cosim_flapping_flag";
   fs::remove_all(out);
   const cosim::test::RunResult r = cosim::test::run_command(
