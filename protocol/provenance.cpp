@@ -121,7 +121,7 @@ std::string host_cpu() {
   return cpus > 0 ? model + " x " + std::to_string(cpus) + " logical CPUs" : model;
 }
 
-std::string provenance_toml() {
+std::string provenance_toml(const std::string& scene_copy) {
   const Provenance& p = provenance();
   std::string s = "# Provenance of this output folder (protocol/provenance.hpp)\n";
   const auto kv = [&s](const char* k, const std::string& v) { s += std::string(k) + " = " + toml_string(v) + "\n"; };
@@ -134,17 +134,44 @@ std::string provenance_toml() {
   kv("host", p.host);
   kv("host_cpu", p.host_cpu);
   kv("scene_path", p.scene_path);
-  if (!p.scene_path.empty()) kv("scene_copy", "scene.toml");
+  if (!p.scene_path.empty()) kv("scene_copy", scene_copy);
   return s;
 }
+
+namespace {
+
+std::string file_text(const std::filesystem::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+/// DIR/STEM.toml, or, when that file holds another text (an earlier attempt of a run that a
+/// restart continues in its folder), the first DIR/STEM.N.toml (N = 2, 3, ...) that is free
+/// or holds `text` already: an earlier attempt's record is never overwritten.
+std::filesystem::path record_file(const std::filesystem::path& dir, const std::string& stem, const std::string& text) {
+  for (int n = 1;; ++n) {
+    const std::filesystem::path f = dir / (n == 1 ? stem + ".toml" : stem + "." + std::to_string(n) + ".toml");
+    if (!std::filesystem::exists(f) || file_text(f) == text) return f;
+  }
+}
+
+}  // namespace
 
 void write_provenance_files(const std::filesystem::path& dir) {
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
   if (ec) throw std::runtime_error("cannot create the output folder " + dir.string() + ": " + ec.message());
   const Provenance& p = provenance();
-  if (!p.scene_path.empty()) write_atomically(dir / "scene.toml", p.scene_text);
-  write_atomically(dir / ("provenance_" + p.program + ".toml"), provenance_toml());
+  std::string scene_copy;
+  if (!p.scene_path.empty()) {
+    const std::filesystem::path scene = record_file(dir, "scene", p.scene_text);
+    write_atomically(scene, p.scene_text);
+    scene_copy = scene.filename().string();
+  }
+  const std::string text = provenance_toml(scene_copy);
+  write_atomically(record_file(dir, "provenance_" + p.program, text), text);
 }
 
 }  // namespace cosim::protocol

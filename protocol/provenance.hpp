@@ -33,11 +33,14 @@ const Provenance& provenance();
 
 /// "AMD EPYC 7B12 x 2 logical CPUs" from /proc/cpuinfo; "unknown" when it cannot be read.
 std::string host_cpu();
-/// The provenance as key = "value" lines (TOML), version and commit included.
-std::string provenance_toml();
+/// The provenance as key = "value" lines (TOML), version and commit included; scene_copy
+/// names the copy of the scene in the output folder.
+std::string provenance_toml(const std::string& scene_copy = "scene.toml");
 /// Writes DIR/scene.toml (the recorded scene's text, when there is one) and
 /// DIR/provenance_PROGRAM.toml, each by an atomic rename (both servers of a coupled run
-/// write the same scene.toml). Throws std::runtime_error (one line) when it cannot.
+/// write the same scene.toml). A run continued in its folder (--restart) keeps the earlier
+/// attempts' files and writes its own as scene.N.toml / provenance_PROGRAM.N.toml (N = 2,
+/// 3, ...) when its text differs. Throws std::runtime_error (one line) when it cannot.
 void write_provenance_files(const std::filesystem::path& dir);
 
 }  // namespace cosim::protocol

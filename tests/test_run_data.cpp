@@ -444,6 +444,14 @@ TEST(RunData, ContinueFinishedRun) {
   EXPECT_NE(slurp(log).find("restarting run"), std::string::npos) << slurp(log);
   for (const char* f : {"monitor.h5", "solid.h5", "fields_000080.h5", "fields_000100.h5"})
     EXPECT_EQ(compare_h5(longer, run, f), "") << f;
+  // The first attempt's provenance and scene copy are kept; the continuation's are beside them.
+  for (const char* f : {"scene.toml", "provenance_fluid.toml", "provenance_solid.toml", "scene.2.toml",
+                        "provenance_fluid.2.toml", "provenance_solid.2.toml"})
+    EXPECT_TRUE(fs::exists(run / f)) << f;
+  EXPECT_EQ(slurp(run / "scene.toml"), slurp(scene)) << "the first attempt's scene copy was overwritten";
+  EXPECT_EQ(slurp(run / "scene.2.toml"), slurp(scene100));
+  EXPECT_NE(slurp(run / "provenance_fluid.2.toml").find("scene_copy = \"scene.2.toml\""), std::string::npos)
+      << slurp(run / "provenance_fluid.2.toml");
   // Any other change of the scene is refused.
   const fs::path other = small_scene(dir, 120, {{"u_max = 0.05", "u_max = 0.04"}}, "other");
   EXPECT_EQ(launch(other, "--restart " + quoted(run.string()), log), 2) << slurp(log);

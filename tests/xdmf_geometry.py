@@ -1,17 +1,14 @@
 #!/usr/bin/env python3
-"""The point coordinates of a run's XDMF files, as a reader of XDMF 3 computes them (used by
-XdmfGeometryMatchesSheets, tests/test_watch_coupled.cpp).
+"""The point coordinates of a run's XDMF files, as VTK's XDMF reader computes them (used by
+XdmfGeometryMatchesSheets, tests/test_watch_run.cpp).
 
     /usr/bin/python3 tests/xdmf_geometry.py OUTPUT_DIR
 
-Reads every OUTPUT_DIR/*.xmf with the standard library's XML parser and h5py: for each
-file's first grid, the coordinates of its points from its Topology and Geometry, as the
-XDMF model defines them (3DCoRectMesh + ORIGIN_DXDYDZ: origin and spacing listed slowest
-axis first, z y x, like the Dimensions; Unstructured + XYZ: the HDF5 dataset the DataItem
-names). Prints one JSON object: per file, the bounds (x, y, z) of its points, its point
-counts per axis where structured, and for a plane snapshot the y_um attribute of its HDF5
-file. Debian 12's VTK 9.1 (python3-vtk9) has no XDMF reader module (vtkIOXdmf2/3 are not
-built) and its python3-xdmf does not import, hence this reader.
+Opens every OUTPUT_DIR/*.xmf with vtkXdmfReader (the reader ParaView uses; Debian 12 ships
+it in python3-paraview's vtkmodules, python3-vtk9's VTK 9.1 is built without it) at the
+file's first time: per file, the bounds (x, y, z) of its points, its point counts per axis
+and spacing where the grid is structured, its number of points otherwise, the time, and for
+a plane snapshot the y_um attribute of its HDF5 file (read with h5py). Prints one JSON object.
 """
 import glob
 import json
@@ -23,43 +20,56 @@ import h5py
 import numpy as np
 
 
-def numbers(text):
-    return [float(v) for v in text.split()]
+def vtk_datasets(obj):
+    """The datasets of a VTK data object, a composite one walked through."""
+    if obj is None:
+        return []
+    if hasattr(obj, "NewIterator") and not hasattr(obj, "GetNumberOfPoints"):
+        out, it = [], obj.NewIterator()
+        it.InitTraversal()
+        while not it.IsDoneWithTraversal():
+            out.append(it.GetCurrentDataObject())
+            it.GoToNextItem()
+        return out
+    return [obj]
 
 
-def hdf_data(item, folder):
-    path, name = item.text.strip().split(":", 1)
-    with h5py.File(os.path.join(folder, path), "r") as f:
-        return np.asarray(f[name]), dict(f.attrs)
+def read_with_vtk(path):
+    from vtkmodules.vtkCommonExecutionModel import vtkStreamingDemandDrivenPipeline
+    from vtkmodules.vtkIOXdmf2 import vtkXdmfReader
 
-
-def grid_points(grid, folder):
-    topo, geom = grid.find("Topology"), grid.find("Geometry")
-    kind = geom.get("GeometryType") or geom.get("Type")
-    out = {}
-    if kind == "ORIGIN_DXDYDZ":
-        dims = [int(v) for v in topo.get("Dimensions").split()]  # nz ny nx
-        origin, spacing = (numbers(d.text) for d in geom.findall("DataItem"))
-        nz, ny, nx = dims
-        oz, oy, ox = origin
-        sz, sy, sx = spacing
-        x = ox + sx * np.arange(nx)
-        y = oy + sy * np.arange(ny)
-        z = oz + sz * np.arange(nz)
-        out.update(nx=nx, ny=ny, nz=nz, spacing=[sx, sy, sz],
-                   bounds=[[x.min(), x.max()], [y.min(), y.max()], [z.min(), z.max()]])
-        attr = grid.find("Attribute/DataItem")
-        if attr is not None:
-            _, attrs = hdf_data(attr, folder)
-            if "y_um" in attrs:
-                out["y_um_attribute"] = float(np.asarray(attrs["y_um"]))
-    elif kind == "XYZ":
-        pts, _ = hdf_data(geom.find("DataItem"), folder)
-        pts = pts.reshape(-1, 3)
-        out.update(points=len(pts), bounds=[[pts[:, a].min(), pts[:, a].max()] for a in range(3)])
-    else:
-        raise SystemExit(f"xdmf_geometry: {kind}: a geometry type this reader does not know")
+    r = vtkXdmfReader()
+    r.SetFileName(path)
+    r.UpdateInformation()
+    info = r.GetOutputInformation(0)
+    key = vtkStreamingDemandDrivenPipeline.TIME_STEPS()
+    times = [info.Get(key, k) for k in range(info.Length(key))] if info.Has(key) else [0.0]
+    r.UpdateTimeStep(times[0])
+    sets = [d for d in vtk_datasets(r.GetOutputDataObject(0)) if d is not None and d.GetNumberOfPoints() > 0]
+    if len(sets) != 1:
+        raise SystemExit(f"xdmf_geometry: {path}: VTK's reader gave {len(sets)} datasets with points, expected 1")
+    d = sets[0]
+    b = d.GetBounds()
+    out = dict(time=float(times[0]), points=d.GetNumberOfPoints(),
+               bounds=[[b[0], b[1]], [b[2], b[3]], [b[4], b[5]]])
+    if hasattr(d, "GetDimensions"):
+        nx, ny, nz = d.GetDimensions()
+        out.update(nx=nx, ny=ny, nz=nz, spacing=list(d.GetSpacing()))
     return out
+
+
+def y_um_attribute(path, folder):
+    """The y_um attribute of the HDF5 file behind the first grid's first attribute, if any."""
+    for grid in ET.parse(path).getroot().iter("Grid"):
+        if grid.get("GridType", "Uniform") != "Uniform":
+            continue
+        item = grid.find("Attribute/DataItem")
+        if item is None:
+            return None
+        file, _ = item.text.strip().split(":", 1)
+        with h5py.File(os.path.join(folder, file), "r") as f:
+            return float(np.asarray(f.attrs["y_um"])) if "y_um" in f.attrs else None
+    return None
 
 
 def main(argv):
@@ -69,11 +79,11 @@ def main(argv):
     folder = argv[1]
     result = {}
     for path in sorted(glob.glob(os.path.join(folder, "*.xmf"))):
-        root = ET.parse(path).getroot()
-        grids = [g for g in root.iter("Grid") if g.get("GridType", "Uniform") == "Uniform"]
-        if not grids:
-            continue
-        result[os.path.basename(path)] = dict(grid_points(grids[0], folder), time=float(grids[0].find("Time").get("Value")))
+        entry = read_with_vtk(path)
+        y_um = y_um_attribute(path, folder)
+        if y_um is not None:
+            entry["y_um_attribute"] = y_um
+        result[os.path.basename(path)] = entry
     print(json.dumps(result))
     return 0
 
