@@ -53,11 +53,6 @@ class CoupledSolid {
     run_.print_header(out_, peer_.channel_prefix());
     if (o_.check_only) return exit_code::ok;
     if (const auto e = run_.open_output()) return report(*e);
-    try {
-      protocol::write_provenance_files(s_.output_dir);  // OUTPUT/scene.toml, provenance_solid.toml
-    } catch (const std::exception& x) {
-      return report(Ending{exit_code::system, one_line(x.what())});
-    }
     if (const auto e = peer_.open(run_.num_cgps())) return report(*e);
     if (const auto e = handshake()) return finish(*e);
     out_ << "solid: handshake accepted: " << run_.total_steps() << " LB steps (" << run_.rigid_steps()
@@ -82,6 +77,13 @@ class CoupledSolid {
       run_.start();
       if (const auto e = open_series()) return finish(*e);
       if (const auto e = run_.snapshot(0)) return finish(*e);
+    }
+    // OUTPUT/scene.toml, provenance_solid.toml: once the run is accepted (a refused start or
+    // restart adds nothing to the folder).
+    try {
+      protocol::write_provenance_files(s_.output_dir);
+    } catch (const std::exception& x) {
+      return finish(Ending{exit_code::system, one_line(x.what()), true});
     }
     first_step_ = peer_.last_step();
     clock_ = protocol::ProgressClock(run_.total_steps() - 1, first_step_);

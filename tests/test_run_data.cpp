@@ -69,13 +69,13 @@ int launch(const fs::path& scene, const std::string& args, const fs::path& log, 
   return WIFEXITED(s) ? WEXITSTATUS(s) : -1;
 }
 
-/// Every data file of a run's folder (HDF5, XDMF, run.id), by relative path, with its bytes.
+/// Every data file of a run's folder (HDF5, XDMF, run.id, the scene copy and provenance), by relative path, with its bytes.
 std::map<std::string, std::string> data_files(const fs::path& dir) {
   std::map<std::string, std::string> files;
   for (const auto& e : fs::recursive_directory_iterator(dir)) {
     if (!e.is_regular_file()) continue;
     const std::string ext = e.path().extension().string();
-    if (ext == ".h5" || ext == ".xmf" || ext == ".id") files[fs::relative(e.path(), dir).string()] = slurp(e.path());
+    if (ext == ".h5" || ext == ".xmf" || ext == ".id" || ext == ".toml") files[fs::relative(e.path(), dir).string()] = slurp(e.path());
   }
   return files;
 }

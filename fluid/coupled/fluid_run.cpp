@@ -82,7 +82,6 @@ FluidRun::FluidRun(const FluidScene& scene, const CoupledFluidOptions& options, 
       monitor_path_((std::filesystem::path(created(scene.output_dir)) / "monitor.h5").string()),
       snapshots_(scene, dt_us_), markers_(scene.watchdog, scene.mach_limit, scene.coupling->time_ratio) {
   initialize_flow(solver_, s_);
-  protocol::write_provenance_files(s_.output_dir);  // OUTPUT/scene.toml, provenance_fluid.toml
   coord_.on_end([this](std::ostream& out) {
     if (markers_.has_reference()) out << "fluid: watchdog margins: " << markers_.margins() << "\n";
   });
@@ -114,6 +113,14 @@ std::int64_t FluidRun::start(std::optional<int>& failed) {
     log_->append(first);
     rows_.push_back(first);
     if (snapshots_.due(0, false)) snapshots_.write(solver_, false);
+  }
+  // OUTPUT/scene.toml, provenance_fluid.toml: once the run is accepted (a refused restart
+  // adds nothing to the folder).
+  try {
+    protocol::write_provenance_files(s_.output_dir);
+  } catch (const std::exception& x) {
+    failed = coord_.stop_and_end({exit_code::system, protocol::one_line(x.what()), true}, first_step);
+    return first_step;
   }
   coord_.set_first_step(first_step);
   start_ = Clock::now();
