@@ -79,7 +79,7 @@ echo $solid >"$output/solid.pid"
 # The launcher's one progress line, and the fluid's other lines as they come (with --quiet
 # only its closing summary): launch/progress.py, until the fluid ends; from where this run's
 # lines start in the logs (a restart appends to them).
-/usr/bin/python3 "$root/launch/progress.py" "$output" --pid $fluid $quiet \
+/usr/bin/python3 "$root/launch/progress.py" "$output" --pid $fluid --solid-pid $solid $quiet \
   --from-bytes "$fluid_from" "$solid_from" &
 watcher=$!
 

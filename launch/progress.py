@@ -2,7 +2,7 @@
 """The launcher's one progress line for a coupled run (started by launch/coupled-inner.sh).
 
     /usr/bin/python3 launch/progress.py OUTPUT_DIR --pid FLUID_PID [--label TEXT] [--quiet]
-                                        [--from-bytes FLUID SOLID]
+                                        [--from-bytes FLUID SOLID] [--solid-pid PID]
 
 Follows OUTPUT_DIR/fluid.log and OUTPUT_DIR/solid.log while the fluid (FLUID_PID) runs. Both
 servers write a "progress" line every second (protocol/progress.hpp); they are shown merged
@@ -94,6 +94,8 @@ def main(argv):
                                  formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__)
     ap.add_argument("output", help="the run's output folder (fluid.log, solid.log)")
     ap.add_argument("--pid", type=int, required=True, help="the fluid's process id: follow while it runs")
+    ap.add_argument("--solid-pid", type=int, default=0,
+                    help="the solid's process id: its last lines are read once it has ended too")
     ap.add_argument("--label", default=os.environ.get("COSIM_RUN_LABEL", ""),
                     help="shown first, e.g. 'run 2 of 5' (default: $COSIM_RUN_LABEL)")
     ap.add_argument("--quiet", action="store_true", help="only the fluid's closing summary")
@@ -169,13 +171,23 @@ def main(argv):
             last_term = time.monotonic()
             show_term()
         time.sleep(0.2)
+    # The solid writes its last line as it ends, maybe after the fluid: wait for it (the
+    # launcher stops a solid that outlives its grace), then both sides' last lines count.
+    while a.solid_pid and alive(a.solid_pid):
+        time.sleep(0.05)
+    fluid_rest = fluid_log.rest()
+    for line in fluid_rest:
+        m = PROGRESS.match(line)
+        if m:
+            latest[m.group(1)] = m.groups()
+            state["fresh"] = True
     take(solid_log.rest(), "solid")
     show(force=not tty)  # a log's last word on the progress
     clear()
     if term:
         term.write("\r" + " " * 150 + "\r")
         term.close()
-    take(fluid_log.rest(), "fluid")
+    take(fluid_rest, "fluid")
     sys.stdout.flush()
     return 0
 

@@ -118,12 +118,14 @@ class CoupledSolid {
     return std::nullopt;
   }
 
-  /// Every protocol::progress_every_s(1) seconds, unless quiet: "solid: progress step N/M
+  /// Every protocol::progress_every_s(1) seconds and at the last step, unless quiet: "solid: progress step N/M
   /// phase spin-up|free t = .. us .. LB steps/s compute .. % wait .. % ETA .." on stderr,
   /// for launch/progress.py (the launcher's one line).
   void progress() {
-    if (o_.quiet || !clock_.due(progress_every_s_)) return;
+    if (o_.quiet) return;
     const std::int64_t step = peer_.last_step(), total = run_.total_steps();
+    // The last step's line always goes out, so that a run shorter than the interval has one.
+    if (!clock_.due(progress_every_s_) && step != total - 1) return;
     const double wall = clock_.elapsed_s(), rate = clock_.rate(step);
     const auto share = [wall](double part) { return wall > 0.0 ? 100.0 * part / wall : 0.0; };
     char line[256];
