@@ -103,26 +103,24 @@ echo $s_first >"$output/$first.exit"
 # A process that refused its input (exit 2) may never have spoken to its peer, which
 # would then wait for its whole handshake timeout: stop it at once.
 if [ "$s_first" -eq 2 ]; then grace=2; fi
-sleep "$grace" &
-sleeper=$!
-wait_either $b $sleeper
-second_pid=$ended s_other=$ended_status
-if [ "$second_pid" = "$sleeper" ]; then
+# Waits up to $2 seconds for process $1: 0 with its status in s_other once it has ended,
+# 1 while it still runs.
+wait_up_to() {
+  sleep "$2" &
+  local sleeper=$!
+  wait_either "$1" $sleeper
+  [ "$ended" = "$sleeper" ] && return 1
+  kill $sleeper 2>/dev/null; wait $sleeper 2>/dev/null
+  s_other=$ended_status
+}
+if ! wait_up_to $b "$grace"; then
   echo "run-coupled: $other still running ${grace} s after $first ended (the scene's timeouts + 30 s); stopping it (SIGTERM)" >&2
   kill -TERM $b 2>/dev/null
-  sleep "$term_wait" &
-  sleeper=$!
-  wait_either $b $sleeper
-  second_pid=$ended s_other=$ended_status
-  if [ "$second_pid" = "$sleeper" ]; then
+  if ! wait_up_to $b "$term_wait"; then
     echo "run-coupled: $other did not stop within ${term_wait} s of SIGTERM; killing it" >&2
     kill -KILL $b 2>/dev/null
     wait $b; s_other=$?
-  else
-    kill $sleeper 2>/dev/null; wait $sleeper 2>/dev/null
   fi
-else
-  kill $sleeper 2>/dev/null; wait $sleeper 2>/dev/null
 fi
 echo $s_other >"$output/$other.exit"
 wait $watcher 2>/dev/null
