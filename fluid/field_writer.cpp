@@ -12,6 +12,7 @@
 
 #include "fluid/hdf5_handle.hpp"
 #include "fluid/hdf5_quiet.hpp"
+#include "protocol/atomic_file.hpp"
 #include "protocol/provenance_h5.hpp"
 
 namespace cosim::fluid {
@@ -39,12 +40,6 @@ void write_field(hid_t file, const std::string& file_name, const char* name, con
                   H5Dclose, "cannot create " + where);
   h5_check(H5Dwrite(dset.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, data), "cannot write " + where);
   protocol::put_string_attribute(dset.get(), "units", units);
-}
-
-void rename_or_throw(const fs::path& from, const fs::path& to) {
-  std::error_code ec;
-  fs::rename(from, to, ec);
-  if (ec) throw std::runtime_error("cannot rename " + from.string() + " to " + to.string() + ": " + ec.message());
 }
 
 }  // namespace
@@ -115,16 +110,7 @@ void FieldWriter::write(const FluidSolver& solver) {
     throw std::invalid_argument("FieldWriter: plane y = " + std::to_string(y_plane_) +
                                 " outside a grid of ny = " + std::to_string(m_.shape.ny));
 
-  const fs::path final_path = snapshot_path(step);
-  const fs::path part = fs::path(final_path).concat(".part");
-  try {
-    write_hdf5(part, step);
-    rename_or_throw(part, final_path);
-  } catch (...) {
-    std::error_code ec;
-    fs::remove(part, ec);  // a full disk leaves no .part behind
-    throw;
-  }
+  protocol::write_atomically(snapshot_path(step), [&](const fs::path& part) { write_hdf5(part, step); });
 
   const auto same = [step](const Snapshot& s) { return s.step == step; };
   const auto it = std::find_if(snapshots_.begin(), snapshots_.end(), same);
@@ -225,20 +211,7 @@ void FieldWriter::write_xdmf() const {
     << "  </Domain>\n"
     << "</Xdmf>\n";
 
-  const fs::path final_path = xdmf_path();
-  const fs::path part = fs::path(final_path).concat(".part");
-  {
-    std::ofstream out(part, std::ios::trunc);
-    out << x.str();
-    out.flush();
-    if (!out) {
-      out.close();
-      std::error_code ec;
-      fs::remove(part, ec);
-      throw std::runtime_error("cannot write " + final_path.string() + " (disk full or directory not writable?)");
-    }
-  }
-  rename_or_throw(part, final_path);
+  protocol::write_text_atomically(xdmf_path(), x.str());
 }
 
 }  // namespace cosim::fluid

@@ -25,6 +25,7 @@
 #include <string>
 #include <vector>
 
+#include "protocol/atomic_file.hpp"
 #include "protocol/checksum.hpp"
 #include "protocol/hdf5_handle.hpp"
 #include "protocol/hdf5_quiet.hpp"
@@ -86,7 +87,7 @@ class CheckpointWriter {
   /// Creates `path`.part (the folder must exist). Every error is a std::runtime_error naming
   /// `path` (the .part file is removed when the writer goes without commit()).
   explicit CheckpointWriter(std::filesystem::path path)
-      : path_(std::move(path)), part_(path_.string() + ".part") {
+      : path_(std::move(path)), part_(part_path(path_).string()) {
     const H5Quiet quiet;
     file_ = H5Id(H5Fcreate(part_.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose,
                  "cannot create the checkpoint " + path_.string());
@@ -127,9 +128,7 @@ class CheckpointWriter {
     const std::uint64_t value = sum.value();
     scalar_unsummed("attributes_checksum", H5T_STD_U64LE, H5T_NATIVE_UINT64, &value);
     file_.close("cannot write the checkpoint " + path_.string());
-    std::error_code ec;
-    std::filesystem::rename(part_, path_, ec);
-    if (ec) throw std::runtime_error("cannot rename " + part_ + " to " + path_.string() + ": " + ec.message());
+    rename_or_throw(part_, path_);
     committed_ = true;
   }
 

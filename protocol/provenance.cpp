@@ -9,6 +9,7 @@
 #include <stdexcept>
 #include <system_error>
 
+#include "protocol/atomic_file.hpp"
 #include "protocol/version.hpp"
 
 namespace cosim::protocol {
@@ -55,19 +56,6 @@ std::string toml_string(const std::string& s) {
     }
   }
   return q + "\"";
-}
-
-void write_atomically(const std::filesystem::path& file, const std::string& text) {
-  const std::filesystem::path part = file.string() + ".part" + std::to_string(::getpid());
-  {
-    std::ofstream out(part, std::ios::binary);
-    out << text;
-    out.flush();
-    if (!out) throw std::runtime_error("cannot write " + part.string());
-  }
-  std::error_code ec;
-  std::filesystem::rename(part, file, ec);
-  if (ec) throw std::runtime_error("cannot write " + file.string() + ": " + ec.message());
 }
 
 }  // namespace
@@ -167,11 +155,12 @@ void write_provenance_files(const std::filesystem::path& dir) {
   std::string scene_copy;
   if (!p.scene_path.empty()) {
     const std::filesystem::path scene = record_file(dir, "scene", p.scene_text);
-    write_atomically(scene, p.scene_text);
+    write_text_atomically(scene, p.scene_text, PartName::PerProcess);
     scene_copy = scene.filename().string();
   }
   const std::string text = provenance_toml(scene_copy);
-  write_atomically(record_file(dir, "provenance_" + p.program, text), text);
+  write_text_atomically(record_file(dir, "provenance_" + p.program, text), text,
+                        PartName::PerProcess);
 }
 
 }  // namespace cosim::protocol

@@ -11,6 +11,7 @@
 #include <system_error>
 #include <utility>
 
+#include "protocol/atomic_file.hpp"
 #include "protocol/hdf5_handle.hpp"
 #include "protocol/hdf5_quiet.hpp"
 #include "protocol/units.hpp"
@@ -43,14 +44,6 @@ void write_int64_attribute(hid_t obj, const char* name, std::int64_t value) {
   const H5Id attr(H5Acreate2(obj, name, H5T_STD_I64LE, space.get(), H5P_DEFAULT, H5P_DEFAULT),
                   H5Aclose, what);
   protocol::h5_check(H5Awrite(attr.get(), H5T_NATIVE_INT64, &value), what);
-}
-
-void rename_or_throw(const fs::path& from, const fs::path& to) {
-  std::error_code ec;
-  fs::rename(from, to, ec);
-  if (ec)
-    throw std::runtime_error("cannot rename " + from.string() + " to " + to.string() + ": " +
-                             ec.message());
 }
 
 }  // namespace
@@ -106,16 +99,7 @@ void SheetSnapshotWriter::write(std::int64_t step, double time_s, const SolidMod
     throw std::invalid_argument("SheetSnapshotWriter: a model of " +
                                 std::to_string(model.num_cgps()) + " CGPs, the sheets have " +
                                 std::to_string(n_));
-  const fs::path final_path = snapshot_path(step);
-  const fs::path part = fs::path(final_path).concat(".part");
-  try {
-    write_hdf5(part, step, time_s, model);
-    rename_or_throw(part, final_path);
-  } catch (...) {
-    std::error_code ec;
-    fs::remove(part, ec);  // a full disk leaves no .part behind
-    throw;
-  }
+  protocol::write_atomically(snapshot_path(step), [&](const fs::path& part) { write_hdf5(part, step, time_s, model); });
 
   const double time_us = time_s / kMicrometre;
   const auto it = std::find_if(snapshots_.begin(), snapshots_.end(),
@@ -218,21 +202,7 @@ void SheetSnapshotWriter::write_xdmf() const {
     << "  </Domain>\n"
     << "</Xdmf>\n";
 
-  const fs::path final_path = xdmf_path();
-  const fs::path part = fs::path(final_path).concat(".part");
-  {
-    std::ofstream out(part, std::ios::trunc);
-    out << x.str();
-    out.flush();
-    if (!out) {
-      out.close();
-      std::error_code ec;
-      fs::remove(part, ec);
-      throw std::runtime_error("cannot write " + final_path.string() +
-                               " (disk full or directory not writable?)");
-    }
-  }
-  rename_or_throw(part, final_path);
+  protocol::write_text_atomically(xdmf_path(), x.str());
 }
 
 }  // namespace cosim::solid
