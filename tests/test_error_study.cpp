@@ -17,27 +17,18 @@
 #include <system_error>
 #include <vector>
 
+#include "support/run_command.hpp"
+
 namespace {
 
 namespace fs = std::filesystem;
+using cosim::test::slurp;
+using cosim::test::quoted;
 
 const fs::path kSource = COSIM_SOURCE_DIR;
 const fs::path kFluid = FLUID_EXE;
 const fs::path kSolid = SOLID_EXE;
 const char* const kPython = "/usr/bin/python3";  // Debian's, with h5py, numpy and matplotlib
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-std::string quoted(const std::string& s) {
-  std::string q = "'";
-  for (const char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return q + "'";
-}
 
 int run(const std::string& cmd) {
   const int s = std::system(cmd.c_str());

@@ -12,19 +12,15 @@
 #include <sstream>
 #include <string>
 
+#include "support/run_command.hpp"
+
 namespace {
 
 namespace fs = std::filesystem;
+using cosim::test::slurp;
 
 const fs::path kSource = COSIM_SOURCE_DIR;
 const fs::path kPlate = PRESCRIBED_PLATE_EXE;
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 TEST(TwoProcess, ExternalSolidProcessCouples) {
   const fs::path dir = fs::path(::testing::TempDir()) / "cosim_external_solid";

@@ -26,10 +26,12 @@
 #include "cosimlcm/stop_t.hpp"
 #include "cosimlcm/welcome_t.hpp"
 #include "tools/log/log_inspector.hpp"
+#include "support/run_command.hpp"
 
 namespace {
 
 namespace fs = std::filesystem;
+using cosim::test::slurp;
 namespace lt = cosim::logtool;
 
 const std::string kPrefix = "COSIM_TEST_";
@@ -38,19 +40,7 @@ const std::string kForeign = "bbbb000000000002";
 constexpr int kCgps = 4;
 constexpr std::int64_t kT0 = 1'700'000'000'000'000;  // us since 1970
 
-fs::path scratch(const std::string& name) {
-  const fs::path dir = fs::path(::testing::TempDir()) / ("cosim_log_" + name);
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+fs::path scratch(const std::string& name) { return cosim::test::fresh_scratch("cosim_log_" + name); }
 
 template <class T>
 std::vector<std::uint8_t> encode(const T& m) {

@@ -43,6 +43,7 @@
 #include "solid/solid_scene.hpp"
 #include "tests/scene_invariants.hpp"
 #include "tests/support/fake_peer.hpp"
+#include "support/run_command.hpp"
 
 namespace {
 
@@ -57,13 +58,7 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr int kTimeRatio = 150;
 
-fs::path scratch_dir(const std::string& name) {
-  const fs::path p = fs::temp_directory_path() /
-                     ("cosim_test_message_security_" + std::to_string(getpid()) + "_" + name);
-  fs::remove_all(p);
-  fs::create_directories(p);
-  return p;
-}
+fs::path scratch_dir(const std::string& name) { return cosim::test::fresh_scratch("cosim_test_message_security_" + name); }
 
 Expectation expect_state(std::int32_t n = 4) {
   Expectation e;

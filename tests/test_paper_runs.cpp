@@ -11,17 +11,13 @@
 #include <string>
 #include <vector>
 
+#include "support/run_command.hpp"
+
 namespace {
 
 namespace fs = std::filesystem;
+using cosim::test::slurp;
 const fs::path kSource = COSIM_SOURCE_DIR;
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 /// A paper scene shortened to its spin-up plus `free_steps`, without field output.
 fs::path shortened(const std::string& name, int free_steps, const fs::path& dir) {

@@ -25,10 +25,13 @@
 
 #include "cosimlcm/fluid_state_t.hpp"
 #include "cosimlcm/solid_state_t.hpp"
+#include "support/run_command.hpp"
 
 namespace {
 
 namespace fs = std::filesystem;
+using cosim::test::slurp;
+using cosim::test::quoted;
 
 const fs::path kSource = COSIM_SOURCE_DIR;
 const fs::path kReplay = REPLAY_EXE;
@@ -39,19 +42,6 @@ constexpr int kSteps = 60;
 constexpr std::int64_t kPerturbedStep = 37;  // in the free phase (rigid_steps = 20)
 constexpr std::size_t kPerturbedCgp = 17;
 constexpr std::size_t kPerturbedComponent = 0;
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-std::string quoted(const std::string& s) {
-  std::string q = "'";
-  for (const char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return q + "'";
-}
 
 std::string fmt(const char* f, double v) {
   char buf[64];

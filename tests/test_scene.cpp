@@ -206,10 +206,7 @@ RunResult run_fluid(const std::string& args, const fs::path& scratch) {
   return cosim::test::run_command(quote(FLUID_EXE) + " " + args, scratch);
 }
 
-fs::path scratch_dir(const char* name) {
-  return fs::temp_directory_path() /
-         ("cosim_test_scene_" + std::to_string(getpid()) + "_" + name);
-}
+fs::path scratch_dir(const std::string& name) { return cosim::test::fresh_scratch("cosim_test_scene_" + name); }
 
 TEST(FluidExecutable, BadSceneExitsTwoWithOneLine) {
   const fs::path scratch = scratch_dir("bad");

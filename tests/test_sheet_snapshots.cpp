@@ -22,30 +22,19 @@
 #include "solid/sheet_spec.hpp"
 #include "solid/solid_config.hpp"
 #include "solid/solid_scene.hpp"
+#include "support/run_command.hpp"
 
 namespace {
 
 namespace fs = std::filesystem;
+using cosim::test::slurp;
 using cosim::protocol::PhysicalConstants;
 using cosim::protocol::UnitConverter;
 using cosim::solid::SheetSnapshotWriter;
 using cosim::solid::SheetSpec;
 using cosim::solid::SolidConfig;
 
-fs::path scratch(const char* name) {
-  const fs::path d = fs::temp_directory_path() /
-                     ("cosim_test_sheet_snapshots_" + std::to_string(getpid()) + "_" + name);
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
+fs::path scratch(const std::string& name) { return cosim::test::fresh_scratch("cosim_test_sheet_snapshots_" + name); }
 
 std::size_t occurrences(const std::string& text, const std::string& what) {
   std::size_t n = 0;

@@ -43,6 +43,7 @@
 #include "solid/coupled_solid.hpp"
 #include "solid/sheet_spec.hpp"
 #include "solid/solid_scene.hpp"
+#include "support/run_command.hpp"
 
 namespace {
 
@@ -57,13 +58,7 @@ constexpr const char* kToken = "0123456789abcdef";
 constexpr int kTimeRatio = 150;
 constexpr double kU = 0.01;  // the fake fluid's velocity at every marker, lattice units
 
-fs::path scratch_dir(const std::string& name) {
-  const fs::path p = fs::temp_directory_path() /
-                     ("cosim_test_solid_coupled_" + std::to_string(getpid()) + "_" + name);
-  fs::remove_all(p);
-  fs::create_directories(p);
-  return p;
-}
+fs::path scratch_dir(const std::string& name) { return cosim::test::fresh_scratch("cosim_test_solid_coupled_" + name); }
 
 /// A coupled scene with the fluid's sections (which the solid leaves alone), a 3 x 4 rcgp
 /// sheet (12 CGPs) standing in the flow, memq:// and short timeouts.

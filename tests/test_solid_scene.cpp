@@ -397,10 +397,7 @@ RunResult run_solid(const std::string& args, const fs::path& scratch, bool with_
   return cosim::test::run_command((with_exe ? quote(SOLID_EXE) + " " : std::string()) + args, scratch);
 }
 
-fs::path scratch_dir(const char* name) {
-  return fs::temp_directory_path() /
-         ("cosim_test_solid_scene_" + std::to_string(getpid()) + "_" + name);
-}
+fs::path scratch_dir(const std::string& name) { return cosim::test::fresh_scratch("cosim_test_solid_scene_" + name); }
 
 /// Rows of a one-dimensional dataset of an HDF5 file; -1 if it cannot be read.
 long long dataset_rows(const fs::path& file, const char* name) {

@@ -11,26 +11,17 @@
 #include <string>
 #include <thread>
 
+#include "support/run_command.hpp"
+
 namespace {
 
 namespace fs = std::filesystem;
+using cosim::test::slurp;
 using Clock = std::chrono::steady_clock;
 
 const fs::path kSource = COSIM_SOURCE_DIR;
 
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-fs::path scratch(const std::string& name) {
-  const fs::path dir = fs::path(::testing::TempDir()) / ("cosim_" + name);
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
+fs::path scratch(const std::string& name) { return cosim::test::fresh_scratch("cosim_" + name); }
 
 /// The small coupled scene with some keys replaced (a line "key = ..." per entry).
 fs::path scene_with(const fs::path& dir, const std::vector<std::pair<std::string, std::string>>& edits) {
