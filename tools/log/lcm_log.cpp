@@ -11,6 +11,7 @@
 #include "cosimlcm/solid_state_t.hpp"
 #include "cosimlcm/stop_t.hpp"
 #include "cosimlcm/welcome_t.hpp"
+#include "protocol/message_checks.hpp"
 
 namespace cosim::logtool {
 
@@ -146,129 +147,6 @@ const TypeInfo* types() {
 }
 constexpr int kTypes = 6;
 
-// Field layouts of the encodings (after the 8-byte fingerprint), for the checks before
-// the generated decoder runs: S string, B boolean, I int32, L int64, D double,
-// N the int32 num_cgps that sizes the arrays, 1 double[num_cgps], 3 double[num_cgps][3].
-struct Field {
-  char kind;
-  const char* name;
-};
-
-std::vector<Field> layout(MsgType t) {
-  switch (t) {
-    case MsgType::hello:
-      return {{'S', "token"},
-              {'S', "role"},
-              {'S', "model"},
-              {'S', "version"},
-              {'S', "scene_hash"},
-              {'S', "scheme"},
-              {'D', "dx_m"},
-              {'D', "dt_lb_s"},
-              {'D', "sound_speed_m_s"},
-              {'D', "air_density_kg_m3"},
-              {'I', "time_ratio"},
-              {'D', "dt_cg_s"},
-              {'D', "stable_dt_cg_s"},
-              {'I', "num_cgps"},
-              {'D', "light_cgp_mass_kg"},
-              {'D', "light_cgp_area_m2"}};
-    case MsgType::welcome:
-      return {{'S', "token"},       {'B', "accepted"},    {'S', "reason"},
-              {'L', "total_steps"}, {'L', "rigid_steps"}, {'I', "time_ratio"}, {'S', "scheme"}};
-    case MsgType::solid_state:
-      return {{'S', "token"},        {'L', "seq"},      {'L', "step"},        {'I', "iteration"},
-              {'I', "substeps"},     {'D', "solid_time_s"}, {'N', "num_cgps"}, {'3', "position_lb"},
-              {'3', "impulse_lb"}};
-    case MsgType::fluid_state:
-      return {{'S', "token"},    {'L', "seq"},    {'L', "step"},       {'I', "iteration"},
-              {'D', "bulk_velocity_lb"}, {'N', "num_cgps"}, {'1', "rho_lb"}, {'3', "velocity_lb"},
-              {'1', "rho_start_lb"}, {'3', "velocity_start_lb"}};
-    case MsgType::resend:
-      return {{'S', "token"}, {'L', "step"}, {'S', "what"}};
-    case MsgType::stop:
-      return {{'S', "token"}, {'S', "sender"}, {'L', "step"}, {'I', "exit_code"}, {'S', "reason"}};
-    case MsgType::unknown:
-      break;
-  }
-  return {};
-}
-
-// "" when `data` is laid out as a message of type t; otherwise the reason.
-std::string check_layout(MsgType t, const std::vector<std::uint8_t>& data) {
-  const std::string name = type_name(t);
-  const std::uint64_t n = data.size();
-  if (n < 8)
-    return "not a " + name + ": " + std::to_string(n) + " bytes, shorter than a fingerprint";
-  const auto fp = static_cast<std::int64_t>(be(data.data(), 8));
-  const TypeInfo& info = types()[static_cast<int>(t)];
-  if (fp != info.fingerprint) {
-    const MsgType other = type_by_fingerprint(data);
-    return "not a " + name + ": its fingerprint " + fingerprint_text(data) +
-           (other != MsgType::unknown ? std::string(" is ") + type_name(other) + "'s"
-                                      : std::string(" is none of the protocol's types"));
-  }
-  std::uint64_t pos = 8;
-  std::int64_t num = 0;
-  const auto need = [&](std::uint64_t bytes, const char* field) -> std::string {
-    if (n - pos < bytes)
-      return name + " truncated: " + field + " needs " + std::to_string(bytes) + " bytes at byte " +
-             std::to_string(pos) + ", " + std::to_string(n - pos) + " left";
-    return "";
-  };
-  for (const Field& f : layout(t)) {
-    std::string err;
-    switch (f.kind) {
-      case 'S': {
-        if (!(err = need(4, f.name)).empty()) return err;
-        const auto len = static_cast<std::int32_t>(be(data.data() + pos, 4));
-        pos += 4;
-        if (len < 1 || std::uint64_t(len) > n - pos)
-          return name + ": string " + f.name + " has length " + std::to_string(len) + " at byte " +
-                 std::to_string(pos - 4) + " (allowed 1 to " + std::to_string(n - pos) +
-                 ", the NUL included)";
-        if (data[pos + std::uint64_t(len) - 1] != 0)
-          return name + ": string " + f.name + " is not NUL-terminated";
-        pos += std::uint64_t(len);
-        break;
-      }
-      case 'B':
-        if (!(err = need(1, f.name)).empty()) return err;
-        pos += 1;
-        break;
-      case 'I':
-      case 'N':
-        if (!(err = need(4, f.name)).empty()) return err;
-        if (f.kind == 'N') {
-          num = static_cast<std::int32_t>(be(data.data() + pos, 4));
-          if (num < 0) return name + ": num_cgps " + std::to_string(num) + " is negative";
-        }
-        pos += 4;
-        break;
-      case 'L':
-      case 'D':
-        if (!(err = need(8, f.name)).empty()) return err;
-        pos += 8;
-        break;
-      case '1':
-      case '3': {
-        const std::uint64_t bytes = std::uint64_t(num) * 8u * (f.kind == '3' ? 3u : 1u);
-        if (n - pos < bytes)
-          return name + " truncated: num_cgps " + std::to_string(num) + " needs " +
-                 std::to_string(bytes) + " bytes of " + f.name + " at byte " + std::to_string(pos) +
-                 ", " + std::to_string(n - pos) + " left";
-        pos += bytes;
-        break;
-      }
-      default:
-        break;
-    }
-  }
-  if (pos != n)
-    return name + ": " + std::to_string(n - pos) + " bytes left over after the last field";
-  return "";
-}
-
 }  // namespace
 
 const char* type_name(MsgType t) {
@@ -340,10 +218,31 @@ MsgType type_of<cosimlcm::stop_t>() {
 }
 }  // namespace
 
+// "" when `data` is a well-formed message of type t, else the reason. The fingerprint is
+// checked here, so that the reason can name the type the bytes are; the layout (string
+// lengths, counts, arrays, nothing left over) by the servers' own check
+// (protocol/message_checks.hpp, check_encoding).
+template <class T>
+std::string check_layout(MsgType t, const std::vector<std::uint8_t>& data) {
+  const std::string name = type_name(t);
+  if (data.size() < 8)
+    return "not a " + name + ": " + std::to_string(data.size()) +
+           " bytes, shorter than a fingerprint";
+  const auto fp = static_cast<std::int64_t>(be(data.data(), 8));
+  if (fp != types()[static_cast<int>(t)].fingerprint) {
+    const MsgType other = type_by_fingerprint(data);
+    return "not a " + name + ": its fingerprint " + fingerprint_text(data) +
+           (other != MsgType::unknown ? std::string(" is ") + type_name(other) + "'s"
+                                      : std::string(" is none of the protocol's types"));
+  }
+  return protocol::check_encoding(static_cast<const T*>(nullptr), data.data(), data.size())
+      .value_or("");
+}
+
 template <class T>
 std::string decode_as(const std::vector<std::uint8_t>& data, T& out) {
   const MsgType t = type_of<T>();
-  std::string err = check_layout(t, data);
+  std::string err = check_layout<T>(t, data);
   if (!err.empty()) return err;
   try {
     const int used = out.decode(data.data(), 0, static_cast<int>(data.size()));
