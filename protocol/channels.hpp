@@ -3,8 +3,10 @@
 // name. The protocol is protocol/README.md.
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <cstdio>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -38,17 +40,50 @@ inline void validate_channel_prefix(std::string_view prefix) {
   }
 }
 
+/// The six messages of a run, one channel each.
+enum class MessageKind { Hello, Welcome, SolidState, FluidState, Resend, Stop };
+inline constexpr std::size_t kMessageKinds = 6;
+
+/// The channel name of each message after the prefix, in MessageKind's order.
+inline constexpr std::array<std::string_view, kMessageKinds> kChannelNames = {
+    "HELLO", "WELCOME", "SOLID_STATE", "FLUID_STATE", "RESEND", "STOP"};
+
+inline std::string_view channel_name(MessageKind k) { return kChannelNames[std::size_t(k)]; }
+
+/// What a channel of a run is: its prefix and the message it carries.
+struct ChannelKind {
+  std::string prefix;
+  MessageKind kind;
+};
+
+/// The prefix and message of `channel` when it is a run's channel (a prefix that passes
+/// validate_channel_prefix, then one of kChannelNames); nullopt for any other channel.
+inline std::optional<ChannelKind> classify_channel(std::string_view channel) {
+  for (std::size_t k = 0; k < kMessageKinds; ++k) {
+    const std::string_view name = kChannelNames[k];
+    if (channel.size() <= name.size() || !channel.ends_with(name)) continue;
+    const std::string_view prefix = channel.substr(0, channel.size() - name.size());
+    try {
+      validate_channel_prefix(prefix);
+    } catch (const std::invalid_argument&) {
+      continue;
+    }
+    return ChannelKind{std::string(prefix), static_cast<MessageKind>(k)};
+  }
+  return std::nullopt;
+}
+
 /// The six channels of one run, prefix + message name (protocol/README.md, "Channels").
 struct Channels {
   /// @pre prefix passes validate_channel_prefix (throws std::invalid_argument otherwise)
   explicit Channels(std::string_view prefix_ = default_channel_prefix)
       : prefix(validated(prefix_)),
-        hello(prefix + "HELLO"),
-        welcome(prefix + "WELCOME"),
-        solid_state(prefix + "SOLID_STATE"),
-        fluid_state(prefix + "FLUID_STATE"),
-        resend(prefix + "RESEND"),
-        stop(prefix + "STOP") {}
+        hello(named(MessageKind::Hello)),
+        welcome(named(MessageKind::Welcome)),
+        solid_state(named(MessageKind::SolidState)),
+        fluid_state(named(MessageKind::FluidState)),
+        resend(named(MessageKind::Resend)),
+        stop(named(MessageKind::Stop)) {}
 
   std::string prefix;
   std::string hello;        ///< hello_t, both sides
@@ -59,6 +94,7 @@ struct Channels {
   std::string stop;         ///< stop_t, either side
 
  private:
+  std::string named(MessageKind k) const { return prefix + std::string(channel_name(k)); }
   static std::string validated(std::string_view p) {
     validate_channel_prefix(p);
     return std::string(p);

@@ -184,10 +184,9 @@ class Bytes {
       return fail("num_cgps = " + std::to_string(*n) + "; allowed: 0 or more");
     const std::size_t need = static_cast<std::size_t>(*n) * doubles_per_cgp * 8;
     if (need > left())
-      return fail_truncated("num_cgps = " + std::to_string(*n) + " needs " +
-                            std::to_string(need) + " bytes of arrays, but " +
-                            std::to_string(left()) + " are left (from byte " +
-                            std::to_string(pos_) + ")");
+      return fail("num_cgps = " + std::to_string(*n) + " needs " + std::to_string(need) +
+                  " bytes of arrays, but " + std::to_string(left()) + " are left (from byte " +
+                  std::to_string(pos_) + ")");
     pos_ += need;
   }
 
@@ -201,16 +200,12 @@ class Bytes {
   void fail(const std::string& what) {
     if (!problem_) problem_ = std::string(type_) + ": " + what;
   }
-  /// A message cut short: "TYPE truncated: ...", as the log inspector reports it.
-  void fail_truncated(const std::string& what) {
-    if (!problem_) problem_ = std::string(type_) + " truncated: " + what;
-  }
 
   std::optional<std::uint64_t> read(std::size_t n, const char* field) {
     if (problem_) return std::nullopt;
     if (left() < n) {
-      fail_truncated(std::string(field) + ": the message ends after " + std::to_string(size_) +
-                     " bytes (" + std::to_string(n) + " more needed)");
+      fail(std::string(field) + ": the message ends after " + std::to_string(size_) +
+           " bytes (" + std::to_string(n) + " more needed)");
       return std::nullopt;
     }
     std::uint64_t v = 0;

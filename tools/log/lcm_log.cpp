@@ -11,6 +11,7 @@
 #include "cosimlcm/solid_state_t.hpp"
 #include "cosimlcm/stop_t.hpp"
 #include "cosimlcm/welcome_t.hpp"
+#include "protocol/channels.hpp"
 #include "protocol/message_checks.hpp"
 
 namespace cosim::logtool {
@@ -127,25 +128,26 @@ bool LogReader::next(LogEvent& event) {
 
 namespace {
 
+// In protocol::MessageKind's order, as MsgType is.
 struct TypeInfo {
   MsgType type;
   const char* name;
-  const char* suffix;
   std::int64_t fingerprint;
 };
 
 const TypeInfo* types() {
   static const TypeInfo t[] = {
-      {MsgType::hello, "hello_t", "HELLO", cosimlcm::hello_t::getHash()},
-      {MsgType::welcome, "welcome_t", "WELCOME", cosimlcm::welcome_t::getHash()},
-      {MsgType::solid_state, "solid_state_t", "SOLID_STATE", cosimlcm::solid_state_t::getHash()},
-      {MsgType::fluid_state, "fluid_state_t", "FLUID_STATE", cosimlcm::fluid_state_t::getHash()},
-      {MsgType::resend, "resend_t", "RESEND", cosimlcm::resend_t::getHash()},
-      {MsgType::stop, "stop_t", "STOP", cosimlcm::stop_t::getHash()},
+      {MsgType::hello, "hello_t", cosimlcm::hello_t::getHash()},
+      {MsgType::welcome, "welcome_t", cosimlcm::welcome_t::getHash()},
+      {MsgType::solid_state, "solid_state_t", cosimlcm::solid_state_t::getHash()},
+      {MsgType::fluid_state, "fluid_state_t", cosimlcm::fluid_state_t::getHash()},
+      {MsgType::resend, "resend_t", cosimlcm::resend_t::getHash()},
+      {MsgType::stop, "stop_t", cosimlcm::stop_t::getHash()},
   };
   return t;
 }
 constexpr int kTypes = 6;
+static_assert(kTypes == int(protocol::kMessageKinds));
 
 }  // namespace
 
@@ -154,21 +156,14 @@ const char* type_name(MsgType t) {
 }
 
 const char* type_suffix(MsgType t) {
-  return t == MsgType::unknown ? "" : types()[static_cast<int>(t)].suffix;
+  return t == MsgType::unknown ? ""
+                               : protocol::kChannelNames[static_cast<std::size_t>(t)].data();
 }
 
 MsgType type_by_channel(std::string_view channel, std::string* prefix) {
-  for (int i = 0; i < kTypes; ++i) {
-    const std::string_view suffix = types()[i].suffix;
-    if (channel.size() > suffix.size() &&
-        channel.substr(channel.size() - suffix.size()) == suffix) {
-      if (prefix != nullptr)
-        *prefix = std::string(channel.substr(0, channel.size() - suffix.size()));
-      return types()[i].type;
-    }
-  }
-  if (prefix != nullptr) prefix->clear();
-  return MsgType::unknown;
+  const auto what = protocol::classify_channel(channel);
+  if (prefix != nullptr) *prefix = what ? what->prefix : std::string();
+  return what ? static_cast<MsgType>(what->kind) : MsgType::unknown;
 }
 
 MsgType type_by_fingerprint(const std::vector<std::uint8_t>& data) {

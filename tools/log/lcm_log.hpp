@@ -65,15 +65,15 @@ class LogReader {
   std::string truncated_;
 };
 
-/// The six message types of the protocol, and the rest.
+/// The six message types of the protocol (in protocol::MessageKind's order), and the rest.
 enum class MsgType { hello, welcome, solid_state, fluid_state, resend, stop, unknown };
 
 /// "hello_t", ..., "stop_t"; "unknown" for MsgType::unknown.
 const char* type_name(MsgType t);
 /// The channel suffix of a type: "HELLO", ..., "STOP"; "" for unknown.
 const char* type_suffix(MsgType t);
-/// The type a channel carries by its suffix (protocol/README.md, "Channels"), and the
-/// prefix before the suffix; MsgType::unknown (prefix empty) for a channel with none of them.
+/// The type a run's channel carries (protocol::classify_channel: a valid prefix, then the
+/// message's name), and the prefix; MsgType::unknown (prefix empty) for any other channel.
 MsgType type_by_channel(std::string_view channel, std::string* prefix = nullptr);
 /// The type whose LCM fingerprint the message starts with; unknown when it has no
 /// fingerprint of the project's types.

@@ -57,15 +57,8 @@ const char* side_name(Side s) { return s == Side::Fluid ? "fluid" : "solid"; }
 
 // ---- the log ----
 
-/// The message types by channel name: prefix + message name (protocol/README.md section 2).
-enum class Kind { Hello, Welcome, SolidState, FluidState, Resend, Stop };
-struct Suffix {
-  std::string_view name;
-  Kind kind;
-};
-constexpr Suffix kSuffixes[] = {{"HELLO", Kind::Hello},           {"WELCOME", Kind::Welcome},
-                                {"SOLID_STATE", Kind::SolidState}, {"FLUID_STATE", Kind::FluidState},
-                                {"RESEND", Kind::Resend},         {"STOP", Kind::Stop}};
+/// The message types, by channel: prefix + message name (protocol/channels.hpp).
+using Kind = protocol::MessageKind;
 
 /// An LCM log read with lcm::LogFile, with the file offset of every event so that a logged
 /// message can be read again when it is due (a long run's log need not fit in memory).
@@ -160,39 +153,24 @@ struct LogScan {
   std::int64_t events = 0, other_channels = 0, undecodable = 0;
 };
 
-/// The prefix of a run's channel and its message type; nullopt for another channel.
-std::optional<std::pair<std::string, Kind>> classify(const std::string& channel) {
-  for (const Suffix& s : kSuffixes) {
-    if (channel.size() <= s.name.size() || !channel.ends_with(s.name)) continue;
-    std::string prefix = channel.substr(0, channel.size() - s.name.size());
-    try {
-      protocol::validate_channel_prefix(prefix);
-    } catch (const std::invalid_argument&) {
-      continue;
-    }
-    return std::make_pair(std::move(prefix), s.kind);
-  }
-  return std::nullopt;
-}
-
 LogScan scan(LogReader& log) {
   LogScan s;
   long offset = 0;
   while (const lcm::LogEvent* e = log.next(offset)) {
     ++s.events;
-    const auto what = classify(e->channel);
+    const auto what = protocol::classify_channel(e->channel);
     if (!what) {
       ++s.other_channels;
       continue;
     }
-    PrefixTraffic& p = s.prefixes[what->first];
+    PrefixTraffic& p = s.prefixes[what->prefix];
     ++p.events;
     const auto run_of = [&](const std::string& token) -> RunTraffic& {
       RunTraffic& r = p.runs[token];
       ++r.messages;
       return r;
     };
-    switch (what->second) {
+    switch (what->kind) {
       case Kind::Hello:
         if (const auto m = decode<cosimlcm::hello_t>(*e)) {
           RunTraffic& r = run_of(m->token);
