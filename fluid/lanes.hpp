@@ -2,7 +2,15 @@
 // vector type as wide as the target's vector registers (AVX-512: 8, AVX: 4, else 2).
 // Arithmetic is elementwise; scalars broadcast. Loads and stores exist for double and for
 // float storage (converted to and from double lanes).
+//
+// Only for the translation units compiled once per instruction-set level (fluid/CMakeLists.txt,
+// cosim_isa_objects): everything here lives in that level's namespace COSIM_ISA_NS, so the
+// levels' inline functions never mix at link time.
 #pragma once
+
+#if !defined(COSIM_ISA_NS) || !defined(COSIM_ISA_LEVEL)
+#error "fluid/lanes.hpp belongs to the per-level kernel sources (cosim_isa_objects in fluid/CMakeLists.txt)"
+#endif
 
 #if defined(__SSE2__)
 #include <immintrin.h>
@@ -10,14 +18,22 @@
 
 #include <cstring>
 
-namespace cosim::fluid {
+namespace cosim::fluid::COSIM_ISA_NS {
 
+/// The level this unit is compiled for (fluid/kernel_dispatch.hpp) and its vectors.
+constexpr const char* kIsaLevel = COSIM_ISA_LEVEL;
 #if defined(__AVX512F__)
 constexpr int kLanes = 8;
+constexpr const char* kIsaVectors = "AVX-512, 8 doubles per group";
 #elif defined(__AVX__)
 constexpr int kLanes = 4;
+constexpr const char* kIsaVectors = "AVX2, 4 doubles per group";
+#elif defined(__SSE2__)
+constexpr int kLanes = 2;
+constexpr const char* kIsaVectors = "SSE, 2 doubles per group";
 #else
 constexpr int kLanes = 2;
+constexpr const char* kIsaVectors = "generic vectors, 2 doubles per group";
 #endif
 using Lanes = double __attribute__((vector_size(kLanes * sizeof(double))));
 
@@ -144,4 +160,11 @@ inline void store_partial(float* p, Lanes v, int n) {
   std::memcpy(p, &w, sizeof(float) * unsigned(n));
 }
 
-}  // namespace cosim::fluid
+/// kLanes values at any address (a group of doubles, or floats rounded from it).
+inline void store_unaligned(double* p, Lanes v) { std::memcpy(p, &v, sizeof v); }
+inline void store_unaligned(float* p, Lanes v) {
+  const LanesSingle w = __builtin_convertvector(v, LanesSingle);
+  std::memcpy(p, &w, sizeof w);
+}
+
+}  // namespace cosim::fluid::COSIM_ISA_NS

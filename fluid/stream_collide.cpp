@@ -1,3 +1,6 @@
+// The kernel's body, compiled once per instruction-set level into namespace COSIM_ISA_NS
+// (fluid/CMakeLists.txt, cosim_isa_objects); fluid/kernel_dispatch.cpp picks one at run time
+// and holds the public stream_collide().
 #include "fluid/stream_collide.hpp"
 
 #include <algorithm>
@@ -8,9 +11,10 @@
 
 #include "fluid/boundary.hpp"
 #include "fluid/d3q19.hpp"
+#include "fluid/kernel_dispatch.hpp"
 #include "fluid/lanes.hpp"
 
-namespace cosim::fluid {
+namespace cosim::fluid::COSIM_ISA_NS {
 
 namespace {
 
@@ -373,10 +377,9 @@ void update_rows(const BasicPopulationField<T>& src, BasicPopulationField<T>& ds
 }
 
 template <class T>
-void dispatch(const BasicPopulationField<T>& src, BasicPopulationField<T>& dst, double tau,
-              const std::array<double, 3>& force, Stores stores, const KernelOutflow& outflow,
-              KernelExtrema* extrema, RowSchedule schedule) {
-  const bool nt = uses_streaming_stores(src.layout(), stores, sizeof(T));
+void run(const BasicPopulationField<T>& src, BasicPopulationField<T>& dst, double tau,
+         const std::array<double, 3>& force, bool nt, const KernelOutflow& outflow,
+         KernelExtrema* extrema, RowSchedule schedule) {
   if (force[0] == 0.0 && force[1] == 0.0 && force[2] == 0.0)
     nt ? update_rows<T, false, true>(src, dst, tau, force, outflow, extrema, schedule)
        : update_rows<T, false, false>(src, dst, tau, force, outflow, extrema, schedule);
@@ -387,22 +390,7 @@ void dispatch(const BasicPopulationField<T>& src, BasicPopulationField<T>& dst, 
 
 }  // namespace
 
-bool uses_streaming_stores(const GridLayout& layout, Stores stores, std::size_t value_bytes) {
-  if (!kHasStreamingStores || stores == Stores::Cached) return false;
-  return stores == Stores::Streaming ||
-         D3Q19::Q * layout.stride() * value_bytes >= kStreamingStoresFrom;
-}
+extern const KernelTable kernel_table;
+const KernelTable kernel_table{kIsaLevel, kIsaVectors, kLanes, kHasStreamingStores, &run<double>, &run<float>};
 
-void stream_collide(const PopulationField& src, PopulationField& dst, double tau,
-                    const std::array<double, 3>& force, Stores stores,
-                    const KernelOutflow& outflow, KernelExtrema* extrema, RowSchedule schedule) {
-  dispatch(src, dst, tau, force, stores, outflow, extrema, schedule);
-}
-
-void stream_collide(const PopulationFieldSingle& src, PopulationFieldSingle& dst, double tau,
-                    const std::array<double, 3>& force, Stores stores,
-                    const KernelOutflow& outflow, KernelExtrema* extrema, RowSchedule schedule) {
-  dispatch(src, dst, tau, force, stores, outflow, extrema, schedule);
-}
-
-}  // namespace cosim::fluid
+}  // namespace cosim::fluid::COSIM_ISA_NS
