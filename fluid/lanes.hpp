@@ -137,6 +137,21 @@ inline void store_stream_line(float* p, const float* line) {
 #endif
 }
 
+/// One 64-byte line of doubles from an aligned buffer to an aligned address p, with the
+/// widest non-temporal store the target has (AVX-512: one, AVX: two, SSE2: four).
+inline void store_stream_line(double* p, const double* line) {
+#if defined(__AVX512F__)
+  _mm512_stream_pd(p, _mm512_load_pd(line));
+#elif defined(__AVX__)
+  _mm256_stream_pd(p, _mm256_load_pd(line));
+  _mm256_stream_pd(p + 4, _mm256_load_pd(line + 4));
+#elif defined(__SSE2__)
+  for (int i = 0; i < 8; i += 2) _mm_stream_pd(p + i, _mm_load_pd(line + i));
+#else
+  std::memcpy(p, line, 64);
+#endif
+}
+
 /// The first n < kLanes lanes from p; the others are 1 (a harmless density).
 inline Lanes load_partial(const double* p, int n) {
   Lanes v = Lanes{} + 1.0;

@@ -237,17 +237,19 @@ inline void store_outflow_ghost(const Lanes (&f)[L::Q], int lane, T* g, std::ptr
 ///
 /// Non-temporal stores must fill whole 64-byte lines back to back, or the write-combining
 /// buffers, shared by the 19 streams, flush partial lines (a first single store that wrote
-/// half lines was slower than the double one). A group of kLanes doubles is one line with
-/// AVX-512; a group of floats is half a line, so the single store collides the groups of a
-/// line first, keeps all but the last in a small buffer (L1) and then streams each
-/// population's line in one go.
+/// half lines was slower than the double one; on an AVX2 CPU the double store's half-line
+/// stores moved data at about half the rate of whole lines, issue 21). A group of kLanes
+/// doubles is one line with AVX-512; where a stored group is less than a line (floats on
+/// any level, doubles below AVX-512) the kernel collides the groups of a line first, keeps
+/// all but the last in a small buffer (L1) and then streams each population's line in one go.
 template <class T, bool kForce, bool kStream>
 void update_rows(const BasicPopulationField<T>& src, BasicPopulationField<T>& dst, double tau,
                  const std::array<double, 3>& F, const KernelOutflow& out, KernelExtrema* extrema,
                  RowSchedule schedule) {
   if (extrema != nullptr) *extrema = KernelExtrema{};
-  constexpr int kLineGroups = std::is_same_v<T, float> && kStream
-                                  ? GridLayout::kLineBytes / int(sizeof(LanesSingle))
+  constexpr int kGroupBytes = kLanes * int(sizeof(T));
+  constexpr int kLineGroups = kStream && kGroupBytes < GridLayout::kLineBytes
+                                  ? GridLayout::kLineBytes / kGroupBytes
                                   : 1;
   constexpr int kLineCells = kLineGroups * kLanes;
   const GridLayout& lay = src.layout();
@@ -296,7 +298,7 @@ void update_rows(const BasicPopulationField<T>& src, BasicPopulationField<T>& ds
           // The last group goes from registers: a 64-byte load of a line that was just
           // stored as two halves would wait for the stores (no store forwarding).
 #if defined(__AVX512F__)
-          static_assert(kLineGroups == 2);
+          static_assert(std::is_same_v<T, float> && kLineGroups == 2);
 #pragma GCC unroll 19
           for (int q = 0; q < L::Q; ++q)
             store_stream_pair(d + q * stride + x, load_aligned_single(line[q]), to_single(f[q]));
@@ -332,6 +334,15 @@ void update_rows(const BasicPopulationField<T>& src, BasicPopulationField<T>& ds
             if (out.x_min && xg == 0) store_outflow_ghost(f, 0, d - 1, stride, 1, out.rho_x_min);
 #pragma GCC unroll 19
             for (int q = 0; q < L::Q; ++q) store_aligned(line[q] + g * kLanes, f[q]);
+          }
+          // Past the row's last cell the line holds the x = nx ghost and padding. The ghost
+          // keeps what dst held (an inlet's static ghost, fill_static_ghosts; the populations
+          // an outflow ghost does not set), as the ordinary stores of the double store leave
+          // it; the padding gets zeros, not the padded lanes of the last group, so that the
+          // stored bytes (checkpoints hold the whole field) do not depend on the group width.
+          for (int q = 0; q < L::Q; ++q) {
+            line[q][n] = d[q * stride + nx];
+            for (int i = n + 1; i < kLineCells; ++i) line[q][i] = T(0);
           }
           // f holds the last group with cells; x = nx - 1 is its lane (n - 1) % kLanes.
           if (out.x_max)
