@@ -335,13 +335,14 @@ void update_rows(const BasicPopulationField<T>& src, BasicPopulationField<T>& ds
 #pragma GCC unroll 19
             for (int q = 0; q < L::Q; ++q) store_aligned(line[q] + g * kLanes, f[q]);
           }
-          // Past the row's last cell the line holds the x = nx ghost and padding. The ghost
-          // keeps what dst held (an inlet's static ghost, fill_static_ghosts; the populations
-          // an outflow ghost does not set), as the ordinary stores of the double store leave
-          // it; the padding gets zeros, not the padded lanes of the last group, so that the
-          // stored bytes (checkpoints hold the whole field) do not depend on the group width.
+          // Past the row's last cell the line holds the x = nx ghost and padding. An inlet's
+          // static ghost is kept (KernelOutflow::keep_x_max_ghosts; read back only then: a
+          // read of each line about to be streamed costs traffic); other ghosts are filled
+          // after the kernel, or by it (outflow, below). Ghost and padding get zeros, not the
+          // padded lanes of the last group, so that the stored bytes (checkpoints hold the
+          // whole field) do not depend on the group width.
           for (int q = 0; q < L::Q; ++q) {
-            line[q][n] = d[q * stride + nx];
+            line[q][n] = out.keep_x_max_ghosts ? d[q * stride + nx] : T(0);
             for (int i = n + 1; i < kLineCells; ++i) line[q][i] = T(0);
           }
           // f holds the last group with cells; x = nx - 1 is its lane (n - 1) % kLanes.
