@@ -3,7 +3,10 @@
 // copy bandwidth measured in the same run, and the fraction of the memory-bandwidth
 // roofline reached; the immersed boundary of the paper's sheet (200 markers: interpolation,
 // spreading and a step with the spread forces) timed on its own; double or single precision
-// store. Prints a plain table of medians; see docs/performance.md.
+// store; optionally the peer pattern (--peer-pattern: a minimal in-place AA-pattern D3Q19 BGK
+// kernel, fluid/bench_kernels.hpp) on the same grid in the same run. Prints the CPU model and
+// the kernel level it ran (fluid/kernel_dispatch.hpp), then a plain table of medians; see
+// docs/performance.md.
 #include <omp.h>
 
 #include <CLI/CLI.hpp>
@@ -21,13 +24,31 @@
 #include <vector>
 
 #include "protocol/cli_parse.hpp"
+#include "protocol/session/exit_codes.hpp"
+#include "fluid/bench_kernels.hpp"
 #include "fluid/d3q19.hpp"
+#include "fluid/equilibrium.hpp"
 #include "fluid/fluid_solver.hpp"
 #include "fluid/immersed_boundary.hpp"
-#include "fluid/lanes.hpp"
+#include "fluid/kernel_dispatch.hpp"
 #include "fluid/stream_collide.hpp"
 
+#define COSIM_DECLARE_BENCH_TABLE(ns, name) \
+  namespace cosim::fluid::isa_##ns {        \
+  extern const BenchKernels bench_kernel_table; \
+  }
+COSIM_FOR_EACH_ISA_LEVEL(COSIM_DECLARE_BENCH_TABLE)
+#undef COSIM_DECLARE_BENCH_TABLE
+
 namespace cosim::fluid {
+
+const BenchKernels& bench_kernels() {
+#define COSIM_BENCH_TABLE_ADDRESS(ns, name) &isa_##ns::bench_kernel_table,
+  static const BenchKernels* const tables[] = {COSIM_FOR_EACH_ISA_LEVEL(COSIM_BENCH_TABLE_ADDRESS)};
+#undef COSIM_BENCH_TABLE_ADDRESS
+  return *tables[active_kernel_index()];
+}
+
 namespace {
 
 /// Bytes per lattice update counted the way STREAM counts copy traffic: 19 values read and
@@ -95,13 +116,12 @@ std::vector<Vec3> paper_sheet_markers(const GridShape& g) {
   return X;
 }
 
-/// STREAM "copy" b[i] = a[i], kLanes doubles at a time with the kernel's loads and stores
-/// (fluid/lanes.hpp), OpenMP static schedule like the kernel. Returns bytes/s counted as
-/// STREAM does (16 B per element, write-allocate traffic not counted).
+/// STREAM "copy" b[i] = a[i] with the loads and stores of the kernel's level
+/// (fluid/bench_kernels.hpp), OpenMP static schedule like the kernel. Returns bytes/s counted
+/// as STREAM does (16 B per element, write-allocate traffic not counted).
 class CopyBench {
  public:
-  explicit CopyBench(std::size_t n)
-      : n_((n + kLanes - 1) / kLanes * kLanes), a_(alloc(n_)), b_(alloc(n_)) {
+  explicit CopyBench(std::size_t n) : n_((n + 7) / 8 * 8), a_(alloc(n_)), b_(alloc(n_)) {
     double* a = a_.get();
     double* b = b_.get();
     const std::ptrdiff_t m = std::ptrdiff_t(n_);
@@ -112,10 +132,7 @@ class CopyBench {
 
   double run(bool streaming) {
     const auto t0 = Clock::now();
-    if (streaming)
-      copy<true>(a_.get(), b_.get(), std::ptrdiff_t(n_));
-    else
-      copy<false>(a_.get(), b_.get(), std::ptrdiff_t(n_));
+    bench_kernels().copy(a_.get(), b_.get(), std::ptrdiff_t(n_), streaming);
     return 2.0 * double(bytes_per_array()) / seconds_since(t0);
   }
 
@@ -129,21 +146,6 @@ class CopyBench {
     if (p == nullptr) throw std::bad_alloc();
     return Array(static_cast<double*>(p));
   }
-  template <bool kStream>
-  static void copy(const double* a, double* b, std::ptrdiff_t n) {
-#pragma omp parallel
-    {
-#pragma omp for schedule(static) nowait
-      for (std::ptrdiff_t i = 0; i < n; i += kLanes) {
-        if constexpr (kStream)
-          store_stream(b + i, load(a + i));
-        else
-          store_aligned(b + i, load(a + i));
-      }
-      if constexpr (kStream) store_fence();
-    }
-  }
-
   std::size_t n_;
   Array a_, b_;
 };
@@ -158,6 +160,7 @@ struct Options {
   Stores stores = Stores::Auto;
   RowSchedule schedule = RowSchedule::Static;
   bool ib = true;
+  bool peer = false;
 };
 
 struct Row {
@@ -167,7 +170,26 @@ struct Row {
   bool streaming = false;  ///< the kernel's stores (and so the roofline's copy)
   double step_mlups = 0, kernel_mlups = 0, copy_gbs = 0, copy_nt_gbs = 0;
   double ib_interp_us = 0, ib_spread_us = 0, step_ib_mlups = 0;  ///< 0: not measured
+  double peer_mlups = 0;                                          ///< 0: not measured
 };
+
+/// The peer pattern's field (fluid/bench_kernels.hpp) on the solver's layout, every value
+/// (ghosts and padding too) the equilibrium of rho = 1 and a small drift.
+template <class T>
+BasicPopulationField<T> peer_field(const GridLayout& layout) {
+  BasicPopulationField<T> f(layout);
+  for (int q = 0; q < D3Q19::Q; ++q)
+    std::fill(f.q(q), f.q(q) + layout.stride(), static_cast<T>(equilibrium(q, 1.0, 0.01, 0.0, 0.0)));
+  return f;
+}
+
+template <class T>
+void run_peer(BasicPopulationField<T>& f, double tau, int steps) {
+  if constexpr (std::is_same_v<T, double>)
+    bench_kernels().peer_double(f, tau, steps);
+  else
+    bench_kernels().peer_single(f, tau, steps);
+}
 
 template <class T>
 BasicPopulationField<T>& state_of(FluidSolver& s) {
@@ -199,7 +221,13 @@ Row measure(const Case& base, int threads, Precision precision, const Options& o
   for (int s = 0; s < 2; ++s) solver.step();  // warm-up: page faults, caches
   copy.run(false);
   copy.run(true);
-  std::vector<double> step, kernel, bw, bw_nt, interp, spread, step_ib;
+  BasicPopulationField<T> peer;
+  const int peer_steps = (opt.steps + 1) / 2 * 2;  // whole AA pairs
+  if (opt.peer) {
+    peer = peer_field<T>(solver.layout());
+    run_peer(peer, solver.tau(), 2);
+  }
+  std::vector<double> step, kernel, bw, bw_nt, interp, spread, step_ib, peer_rate;
   // Interleaved, so that noise from other processes touches all of them alike.
   for (int r = 0; r < opt.repeat; ++r) {
     bw.push_back(std::max(copy.run(false), copy.run(false)));
@@ -224,6 +252,11 @@ Row measure(const Case& base, int threads, Precision precision, const Options& o
       std::swap(from, to);
     }
     kernel.push_back(updates / seconds * 1e-6);
+    if (opt.peer) {
+      t0 = Clock::now();
+      run_peer(peer, solver.tau(), peer_steps);
+      peer_rate.push_back(double(solver.shape().cells()) * peer_steps / seconds_since(t0) * 1e-6);
+    }
     if (!opt.ib || opt.stores != Stores::Auto) continue;
     // A coupled step's fluid side (DESIGN 2.1): interpolate rho and u at the markers
     // (Eq. 17), spread the momentum-exchange impulses of a sheet at rest (g = 2 rho (U_B - u),
@@ -256,6 +289,7 @@ Row measure(const Case& base, int threads, Precision precision, const Options& o
   row.kernel_mlups = median(kernel);
   row.copy_gbs = median(bw) * 1e-9;
   row.copy_nt_gbs = median(bw_nt) * 1e-9;
+  if (!peer_rate.empty()) row.peer_mlups = median(peer_rate);
   if (!interp.empty()) {
     row.ib_interp_us = median(interp);
     row.ib_spread_us = median(spread);
@@ -265,6 +299,9 @@ Row measure(const Case& base, int threads, Precision precision, const Options& o
 }
 
 void print_header(const Options& opt, const std::vector<Case>& cases) {
+  const KernelTable& k = active_kernel();
+  std::printf("CPU: %s; kernel level %s (%s), chosen by %s\n", cpu_model().c_str(), k.level, k.vectors,
+              kernel_level_source());
   std::printf("cosim fluid bench: D3Q19 BGK-Guo, arithmetic in double, populations stored in");
   for (const Precision p : opt.precisions) std::printf(" %s", precision_name(p));
   std::printf(", two grids (SoA)\n");
@@ -292,15 +329,24 @@ void print_header(const Options& opt, const std::vector<Case>& cases) {
                 "    (ImmersedBoundary::sample), spread = Eqs. 21-24 (ImmersedBoundary::spread),\n"
                 "    us per LB step; step+IB = step() with the spread forces (forced cells\n"
                 "    collided again), MLUPS\n");
+  if (opt.peer)
+    std::printf("peer = the peer pattern: a minimal D3Q19 BGK kernel, in place (AA pattern), no\n"
+                "    forcing or boundaries (fluid/bench_kernels.hpp), on the same grid and layout,\n"
+                "    MLUPS; peer/roof against the NT copy's roofline (in place: no write-allocate);\n"
+                "    step/peer = step MLUPS / peer MLUPS\n");
   std::printf("note: a shared machine; other processes add noise\n\n");
-  std::printf("%-20s %3s %6s %6s %6s %7s %10s %10s %9s %6s %6s %8s %8s %7s\n", "grid", "thr",
-              "store", "stores", "step", "kernel", "copy plain", "copy NT", "roofline", "step",
-              "kernel", "IB", "IB", "step");
-  std::printf("%-20s %3s %6s %6s %6s %7s %10s %10s %9s %6s %6s %8s %8s %7s\n", "", "", "", "",
-              "MLUPS", "MLUPS", "GB/s", "GB/s", "MLUPS", "/roof", "/roof", "interp", "spread",
-              "+IB");
-  std::printf("%-20s %3s %6s %6s %6s %7s %10s %10s %9s %6s %6s %8s %8s %7s\n", "", "", "", "", "",
-              "", "", "", "", "", "", "us", "us", "MLUPS");
+  const char* const rows[3][17] = {
+      {"grid", "thr", "store", "stores", "step", "kernel", "copy plain", "copy NT", "roofline",
+       "step", "kernel", "IB", "IB", "step", "peer", "peer", "step"},
+      {"", "", "", "", "MLUPS", "MLUPS", "GB/s", "GB/s", "MLUPS", "/roof", "/roof", "interp",
+       "spread", "+IB", "MLUPS", "/roof", "/peer"},
+      {"", "", "", "", "", "", "", "", "", "", "", "us", "us", "MLUPS", "", "NT", ""}};
+  for (const auto& c : rows) {
+    std::printf("%-20s %3s %6s %6s %6s %7s %10s %10s %9s %6s %6s %8s %8s %7s", c[0], c[1], c[2], c[3],
+                c[4], c[5], c[6], c[7], c[8], c[9], c[10], c[11], c[12], c[13]);
+    if (opt.peer) std::printf(" %7s %6s %6s", c[14], c[15], c[16]);
+    std::printf("\n");
+  }
 }
 
 void print_row(const Row& r) {
@@ -316,10 +362,17 @@ void print_row(const Row& r) {
     std::snprintf(spread, sizeof spread, "%.0f", r.ib_spread_us);
     std::snprintf(ib, sizeof ib, "%.1f", r.step_ib_mlups);
   }
-  std::printf("%-20s %3d %6s %6s %6s %7.1f %10.1f %10.1f %9.1f %6s %5.0f%% %8s %8s %7s\n",
+  std::printf("%-20s %3d %6s %6s %6s %7.1f %10.1f %10.1f %9.1f %6s %5.0f%% %8s %8s %7s",
               r.grid.c_str(), r.threads, precision_name(r.precision), r.streaming ? "NT" : "plain",
               step, r.kernel_mlups, r.copy_gbs, r.copy_nt_gbs, roof, step_ratio,
               100.0 * r.kernel_mlups / roof, interp, spread, ib);
+  if (r.peer_mlups > 0) {
+    const double roof_nt = r.copy_nt_gbs * 1e9 / bytes_per_update(r.precision) * 1e-6;
+    char per_peer[16] = "-";
+    if (r.step_mlups > 0) std::snprintf(per_peer, sizeof per_peer, "%.0f%%", 100.0 * r.step_mlups / r.peer_mlups);
+    std::printf(" %7.1f %5.0f%% %6s", r.peer_mlups, 100.0 * r.peer_mlups / roof_nt, per_peer);
+  }
+  std::printf("\n");
   std::fflush(stdout);
 }
 
@@ -356,8 +409,28 @@ int main(int argc, char** argv) {
       ->transform(CLI::CheckedTransformer(schedules, CLI::ignore_case));
   bool no_ib = false;
   app.add_flag("--no-ib", no_ib, "skip the immersed-boundary columns");
+  app.add_flag("--peer-pattern", opt.peer,
+               "also run the peer pattern, a minimal in-place (AA) D3Q19 BGK kernel, on the same grid");
+  std::string level;
+  app.add_option("--level", level,
+                 "kernel instruction-set level to run (default: the highest this CPU runs, or "
+                 "COSIM_KERNEL_LEVEL); one of the levels built in: " +
+                     [] {
+                       std::string s;
+                       for (const std::string& l : kernel_levels()) s += (s.empty() ? "" : ", ") + l;
+                       return s;
+                     }());
   if (const auto code = cosim::protocol::parse_command_line(app, argc, argv, "bench")) return *code;
   opt.ib = !no_ib;
+  try {
+    if (!level.empty())
+      set_kernel_level(level, "--level");
+    else
+      active_kernel();
+  } catch (const std::invalid_argument& e) {
+    std::fprintf(stderr, "bench: %s\n", e.what());
+    return cosim::protocol::exit_code::bad_input;
+  }
 
   std::vector<Case> cases;
   for (const std::string& g : opt.grids)

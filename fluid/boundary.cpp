@@ -167,6 +167,7 @@ KernelOutflow BoundaryConditions::kernel_outflow() const {
   k.x_max = is_kernel_outflow(faces_[XMax], XMax);
   k.rho_x_min = faces_[XMin].outflow_density;
   k.rho_x_max = faces_[XMax].outflow_density;
+  k.keep_x_max_ghosts = faces_[XMax].kind == FaceKind::Inlet;  // fill_static_ghosts wrote them
   return k;
 }
 

@@ -2,7 +2,15 @@
 // vector type as wide as the target's vector registers (AVX-512: 8, AVX: 4, else 2).
 // Arithmetic is elementwise; scalars broadcast. Loads and stores exist for double and for
 // float storage (converted to and from double lanes).
+//
+// Only for the translation units compiled once per instruction-set level (fluid/CMakeLists.txt,
+// cosim_isa_objects): everything here lives in that level's namespace COSIM_ISA_NS, so the
+// levels' inline functions never mix at link time.
 #pragma once
+
+#if !defined(COSIM_ISA_NS) || !defined(COSIM_ISA_LEVEL)
+#error "fluid/lanes.hpp belongs to the per-level kernel sources (cosim_isa_objects in fluid/CMakeLists.txt)"
+#endif
 
 #if defined(__SSE2__)
 #include <immintrin.h>
@@ -10,14 +18,22 @@
 
 #include <cstring>
 
-namespace cosim::fluid {
+namespace cosim::fluid::COSIM_ISA_NS {
 
+/// The level this unit is compiled for (fluid/kernel_dispatch.hpp) and its vectors.
+constexpr const char* kIsaLevel = COSIM_ISA_LEVEL;
 #if defined(__AVX512F__)
 constexpr int kLanes = 8;
+constexpr const char* kIsaVectors = "AVX-512, 8 doubles per group";
 #elif defined(__AVX__)
 constexpr int kLanes = 4;
+constexpr const char* kIsaVectors = "AVX2, 4 doubles per group";
+#elif defined(__SSE2__)
+constexpr int kLanes = 2;
+constexpr const char* kIsaVectors = "SSE, 2 doubles per group";
 #else
 constexpr int kLanes = 2;
+constexpr const char* kIsaVectors = "generic vectors, 2 doubles per group";
 #endif
 using Lanes = double __attribute__((vector_size(kLanes * sizeof(double))));
 
@@ -121,6 +137,21 @@ inline void store_stream_line(float* p, const float* line) {
 #endif
 }
 
+/// One 64-byte line of doubles from an aligned buffer to an aligned address p, with the
+/// widest non-temporal store the target has (AVX-512: one, AVX: two, SSE2: four).
+inline void store_stream_line(double* p, const double* line) {
+#if defined(__AVX512F__)
+  _mm512_stream_pd(p, _mm512_load_pd(line));
+#elif defined(__AVX__)
+  _mm256_stream_pd(p, _mm256_load_pd(line));
+  _mm256_stream_pd(p + 4, _mm256_load_pd(line + 4));
+#elif defined(__SSE2__)
+  for (int i = 0; i < 8; i += 2) _mm_stream_pd(p + i, _mm_load_pd(line + i));
+#else
+  std::memcpy(p, line, 64);
+#endif
+}
+
 /// The first n < kLanes lanes from p; the others are 1 (a harmless density).
 inline Lanes load_partial(const double* p, int n) {
   Lanes v = Lanes{} + 1.0;
@@ -144,4 +175,11 @@ inline void store_partial(float* p, Lanes v, int n) {
   std::memcpy(p, &w, sizeof(float) * unsigned(n));
 }
 
-}  // namespace cosim::fluid
+/// kLanes values at any address (a group of doubles, or floats rounded from it).
+inline void store_unaligned(double* p, Lanes v) { std::memcpy(p, &v, sizeof v); }
+inline void store_unaligned(float* p, Lanes v) {
+  const LanesSingle w = __builtin_convertvector(v, LanesSingle);
+  std::memcpy(p, &w, sizeof w);
+}
+
+}  // namespace cosim::fluid::COSIM_ISA_NS

@@ -32,6 +32,7 @@
 #include "fluid/field_writer.hpp"
 #include "fluid/flow_monitor.hpp"
 #include "fluid/fluid_solver.hpp"
+#include "fluid/kernel_dispatch.hpp"
 #include "fluid/monitor_log.hpp"
 #include "fluid/scene_config.hpp"
 #include "fluid/snapshots.hpp"
@@ -98,6 +99,9 @@ void print_header(const FluidScene& s, const protocol::UnitConverter& units) {
                 *s.reynolds, s.reference_speed, units.velocity_m_s(s.reference_speed),
                 s.reference_length_um, s.reference_length_um / s.dx_um);
   std::printf("\n");
+  const KernelTable& k = active_kernel();
+  std::printf("  kernel   %s (%s) on %s, chosen by %s\n", k.level, k.vectors, cpu_model().c_str(),
+              kernel_level_source());
   std::printf("  speed    fastest boundary %.4g (U/c) = Mach %.3f; health limit Mach %.3g\n", u,
               u * std::sqrt(3.0), s.mach_limit);
   std::printf("  faces   ");
@@ -291,6 +295,12 @@ int main_impl(int argc, char** argv) {
     return exit_code::bad_input;
   }
   protocol::record_scene(scene.path);
+  try {
+    active_kernel();  // COSIM_KERNEL_LEVEL, if set, names a level this binary and CPU have
+  } catch (const std::invalid_argument& e) {
+    std::fprintf(stderr, "fluid: %s\n", e.what());
+    return exit_code::bad_input;
+  }
   if (check) {
     protocol::UnitInputs in;
     in.dx_m = scene.dx_um * 1e-6;

@@ -1,3 +1,6 @@
+// The kernel's body, compiled once per instruction-set level into namespace COSIM_ISA_NS
+// (fluid/CMakeLists.txt, cosim_isa_objects); fluid/kernel_dispatch.cpp picks one at run time
+// and holds the public stream_collide().
 #include "fluid/stream_collide.hpp"
 
 #include <algorithm>
@@ -8,9 +11,10 @@
 
 #include "fluid/boundary.hpp"
 #include "fluid/d3q19.hpp"
+#include "fluid/kernel_dispatch.hpp"
 #include "fluid/lanes.hpp"
 
-namespace cosim::fluid {
+namespace cosim::fluid::COSIM_ISA_NS {
 
 namespace {
 
@@ -233,17 +237,19 @@ inline void store_outflow_ghost(const Lanes (&f)[L::Q], int lane, T* g, std::ptr
 ///
 /// Non-temporal stores must fill whole 64-byte lines back to back, or the write-combining
 /// buffers, shared by the 19 streams, flush partial lines (a first single store that wrote
-/// half lines was slower than the double one). A group of kLanes doubles is one line with
-/// AVX-512; a group of floats is half a line, so the single store collides the groups of a
-/// line first, keeps all but the last in a small buffer (L1) and then streams each
-/// population's line in one go.
+/// half lines was slower than the double one; on an AVX2 CPU the double store's half-line
+/// stores moved data at about half the rate of whole lines, issue 21). A group of kLanes
+/// doubles is one line with AVX-512; where a stored group is less than a line (floats on
+/// any level, doubles below AVX-512) the kernel collides the groups of a line first, keeps
+/// all but the last in a small buffer (L1) and then streams each population's line in one go.
 template <class T, bool kForce, bool kStream>
 void update_rows(const BasicPopulationField<T>& src, BasicPopulationField<T>& dst, double tau,
                  const std::array<double, 3>& F, const KernelOutflow& out, KernelExtrema* extrema,
                  RowSchedule schedule) {
   if (extrema != nullptr) *extrema = KernelExtrema{};
-  constexpr int kLineGroups = std::is_same_v<T, float> && kStream
-                                  ? GridLayout::kLineBytes / int(sizeof(LanesSingle))
+  constexpr int kGroupBytes = kLanes * int(sizeof(T));
+  constexpr int kLineGroups = kStream && kGroupBytes < GridLayout::kLineBytes
+                                  ? GridLayout::kLineBytes / kGroupBytes
                                   : 1;
   constexpr int kLineCells = kLineGroups * kLanes;
   const GridLayout& lay = src.layout();
@@ -292,7 +298,7 @@ void update_rows(const BasicPopulationField<T>& src, BasicPopulationField<T>& ds
           // The last group goes from registers: a 64-byte load of a line that was just
           // stored as two halves would wait for the stores (no store forwarding).
 #if defined(__AVX512F__)
-          static_assert(kLineGroups == 2);
+          static_assert(std::is_same_v<T, float> && kLineGroups == 2);
 #pragma GCC unroll 19
           for (int q = 0; q < L::Q; ++q)
             store_stream_pair(d + q * stride + x, load_aligned_single(line[q]), to_single(f[q]));
@@ -328,6 +334,16 @@ void update_rows(const BasicPopulationField<T>& src, BasicPopulationField<T>& ds
             if (out.x_min && xg == 0) store_outflow_ghost(f, 0, d - 1, stride, 1, out.rho_x_min);
 #pragma GCC unroll 19
             for (int q = 0; q < L::Q; ++q) store_aligned(line[q] + g * kLanes, f[q]);
+          }
+          // Past the row's last cell the line holds the x = nx ghost and padding. An inlet's
+          // static ghost is kept (KernelOutflow::keep_x_max_ghosts; read back only then: a
+          // read of each line about to be streamed costs traffic); other ghosts are filled
+          // after the kernel, or by it (outflow, below). Ghost and padding get zeros, not the
+          // padded lanes of the last group, so that the stored bytes (checkpoints hold the
+          // whole field) do not depend on the group width.
+          for (int q = 0; q < L::Q; ++q) {
+            line[q][n] = out.keep_x_max_ghosts ? d[q * stride + nx] : T(0);
+            for (int i = n + 1; i < kLineCells; ++i) line[q][i] = T(0);
           }
           // f holds the last group with cells; x = nx - 1 is its lane (n - 1) % kLanes.
           if (out.x_max)
@@ -373,10 +389,9 @@ void update_rows(const BasicPopulationField<T>& src, BasicPopulationField<T>& ds
 }
 
 template <class T>
-void dispatch(const BasicPopulationField<T>& src, BasicPopulationField<T>& dst, double tau,
-              const std::array<double, 3>& force, Stores stores, const KernelOutflow& outflow,
-              KernelExtrema* extrema, RowSchedule schedule) {
-  const bool nt = uses_streaming_stores(src.layout(), stores, sizeof(T));
+void run(const BasicPopulationField<T>& src, BasicPopulationField<T>& dst, double tau,
+         const std::array<double, 3>& force, bool nt, const KernelOutflow& outflow,
+         KernelExtrema* extrema, RowSchedule schedule) {
   if (force[0] == 0.0 && force[1] == 0.0 && force[2] == 0.0)
     nt ? update_rows<T, false, true>(src, dst, tau, force, outflow, extrema, schedule)
        : update_rows<T, false, false>(src, dst, tau, force, outflow, extrema, schedule);
@@ -387,22 +402,7 @@ void dispatch(const BasicPopulationField<T>& src, BasicPopulationField<T>& dst, 
 
 }  // namespace
 
-bool uses_streaming_stores(const GridLayout& layout, Stores stores, std::size_t value_bytes) {
-  if (!kHasStreamingStores || stores == Stores::Cached) return false;
-  return stores == Stores::Streaming ||
-         D3Q19::Q * layout.stride() * value_bytes >= kStreamingStoresFrom;
-}
+extern const KernelTable kernel_table;
+const KernelTable kernel_table{kIsaLevel, kIsaVectors, kLanes, kHasStreamingStores, &run<double>, &run<float>};
 
-void stream_collide(const PopulationField& src, PopulationField& dst, double tau,
-                    const std::array<double, 3>& force, Stores stores,
-                    const KernelOutflow& outflow, KernelExtrema* extrema, RowSchedule schedule) {
-  dispatch(src, dst, tau, force, stores, outflow, extrema, schedule);
-}
-
-void stream_collide(const PopulationFieldSingle& src, PopulationFieldSingle& dst, double tau,
-                    const std::array<double, 3>& force, Stores stores,
-                    const KernelOutflow& outflow, KernelExtrema* extrema, RowSchedule schedule) {
-  dispatch(src, dst, tau, force, stores, outflow, extrema, schedule);
-}
-
-}  // namespace cosim::fluid
+}  // namespace cosim::fluid::COSIM_ISA_NS

@@ -31,6 +31,11 @@ enum class Stores {
 struct KernelOutflow {
   bool x_min = false, x_max = false;
   double rho_x_min = 1.0, rho_x_max = 1.0;  ///< reference densities (FaceSpec::outflow_density)
+  /// The x = nx ghosts hold values that no fill after the kernel rewrites (an inlet's,
+  /// BoundaryConditions::fill_static_ghosts): where the kernel stores whole lines that take
+  /// in a row's x = nx ghost (non-temporal stores of a partial last line) it keeps them.
+  /// Elsewhere it stores zeros there (and in the padding past them).
+  bool keep_x_max_ghosts = false;
 };
 
 /// What the kernel saw of the state it read, over the interior cells: the extrema of rho

@@ -201,6 +201,16 @@ TEST(Precision, SingleStoreStreamingMatchesCachedStores) {
                             << z << "): " << a << " (non-temporal) != " << b << " (cached)";
           }
     EXPECT_EQ(mismatches, 0) << "nx " << nx;
+    // An inlet on x_max: its static ghosts (here -7) stay as they were.
+    std::fill(nt.q(0), nt.q(0) + n, -7.0f);
+    out.x_max = false;
+    out.keep_x_max_ghosts = true;
+    stream_collide(src, nt, 0.7, {1e-5, 0.0, -2e-5}, Stores::Streaming, out);
+    int overwritten = 0;
+    for (int q = 0; q < L::Q; ++q)
+      for (int z = 0; z < shape.nz; ++z)
+        for (int y = 0; y < shape.ny; ++y) overwritten += nt.at(q, nx, y, z) != -7.0f;
+    EXPECT_EQ(overwritten, 0) << "nx " << nx << ": x = nx ghosts of an inlet overwritten";
   }
 }
 
