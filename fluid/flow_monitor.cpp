@@ -201,8 +201,7 @@ FlowSummary summarize(const FluidSolver& solver) {
                                                  : summarize_field(solver, solver.state_single(), now);
 }
 
-std::string kernel_state_problem(const FluidSolver& solver, const HealthLimits& limits) {
-  const KernelExtrema& e = solver.last_step_extrema();
+bool kernel_extrema_suspect(const KernelExtrema& e, const HealthLimits& limits) {
   const auto near_or_past = [](double v, double bound, int side) {  // side: +1 above, -1 below
     const double slack = 1e-12 * std::max(1.0, std::abs(bound));
     return side > 0 ? v >= bound - slack : v <= bound + slack;
@@ -212,7 +211,11 @@ std::string kernel_state_problem(const FluidSolver& solver, const HealthLimits& 
                        near_or_past(e.rho_min, limits.rho_min, -1) ||
                        (std::isfinite(limits.rho_max) && near_or_past(e.rho_max, limits.rho_max, +1)) ||
                        near_or_past(e.u2_max, u2_limit, +1);
-  if (!suspect) return {};
+  return suspect;
+}
+
+std::string kernel_state_problem(const FluidSolver& solver, const HealthLimits& limits) {
+  if (!kernel_extrema_suspect(solver.last_step_extrema(), limits)) return {};
   if (solver.mid_step()) return health_problem(summarize(solver), limits);
   const std::int64_t before = solver.step_count() - 1;
   const FlowSummary s = solver.precision() == Precision::Double

@@ -64,4 +64,9 @@ std::string health_problem(const FlowSummary& s, const HealthLimits& limits);
 /// last set
 std::string kernel_state_problem(const FluidSolver& solver, const HealthLimits& limits);
 
+/// Whether kernel extrema are within a relative 1e-12 of a limit or past it (or not finite):
+/// the test kernel_state_problem() applies before it looks closer. The extrema of several
+/// blocks combine exactly (min, max, and), so a decomposed grid asks the same of the whole.
+bool kernel_extrema_suspect(const KernelExtrema& e, const HealthLimits& limits);
+
 }  // namespace cosim::fluid
