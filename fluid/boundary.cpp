@@ -130,36 +130,52 @@ bool BoundaryConditions::fills_copy(int face, bool all) const {
 }
 
 template <class T>
-void BoundaryConditions::fill_around_halo(BasicPopulationField<T>& f, HaloExchange& halo, bool all) const {
-  if (halo.faces() != halo_)
-    throw std::logic_error("BoundaryConditions: the halo exchange fills other faces than the conditions leave to it");
-  // The copy-type faces of the axes before the halo's, the halo (a periodic copy from the
-  // neighbour, in its axis' place), the copy-type faces after it, the reflecting faces:
-  // the order of fill_ghosts.
-  int halo_axis = 0;
-  while (!halo_[2 * halo_axis] && !halo_[2 * halo_axis + 1]) ++halo_axis;
-#pragma omp parallel
-  for (int face = 0; face < 2 * halo_axis; ++face)
+void BoundaryConditions::fill_copy_faces(BasicPopulationField<T>& f, int from, int to, bool all) const {
+  for (int face = from; face < to; ++face)
     if (fills_copy(face, all)) {
       fill_copy_face(f, face);
 #pragma omp barrier
     }
-  halo.exchange(f);
-#pragma omp parallel
-  {
-    for (int face = 2 * halo_axis; face < kFaces; ++face)
-      if (fills_copy(face, all)) {
-        fill_copy_face(f, face);
-#pragma omp barrier
-      }
-    for (int face = 0; face < kFaces; ++face)
-      if (!is_copy(faces_[face].kind)) {
-        fill_reflect_face(f, face);
-#pragma omp barrier
-      }
-  }
 }
 
+template <class T>
+void BoundaryConditions::fill_reflect_faces(BasicPopulationField<T>& f) const {
+  for (int face = 0; face < kFaces; ++face)
+    if (!is_copy(faces_[face].kind)) {
+      fill_reflect_face(f, face);
+#pragma omp barrier
+    }
+}
+
+template <class T>
+void BoundaryConditions::fill(BasicPopulationField<T>& f, HaloExchange* halo, bool all) const {
+  if (!has_halo()) {
+    // One parallel region; the loops of a face (one per population) run without waiting for
+    // each other, and one barrier after each face keeps the faces in order.
+#pragma omp parallel
+    {
+      fill_copy_faces(f, 0, kFaces, all);
+      fill_reflect_faces(f);
+    }
+    return;
+  }
+  if (halo == nullptr) throw std::logic_error("BoundaryConditions: a block with halo faces needs its exchange");
+  if (halo->faces() != halo_)
+    throw std::logic_error("BoundaryConditions: the halo exchange fills other faces than the conditions leave to it");
+  // The copy-type faces of the axes before the halo's, the halo (a periodic copy from the
+  // neighbour, in its axis' place), the copy-type faces after it, the reflecting faces:
+  // the order above, in two parallel regions around the exchange.
+  int halo_axis = 0;
+  while (!halo_[2 * halo_axis] && !halo_[2 * halo_axis + 1]) ++halo_axis;
+#pragma omp parallel
+  fill_copy_faces(f, 0, 2 * halo_axis, all);
+  halo->exchange(f);
+#pragma omp parallel
+  {
+    fill_copy_faces(f, 2 * halo_axis, kFaces, all);
+    fill_reflect_faces(f);
+  }
+}
 
 OutflowCell::OutflowCell(const double* fb)
     : m(moments(fb)), ux(m.jx / m.rho), uy(m.jy / m.rho), uz(m.jz / m.rho) {}
@@ -170,26 +186,7 @@ double OutflowCell::ghost(int q, const double* fb, double rho_out) const {
 
 template <class T>
 void BoundaryConditions::fill_ghosts(BasicPopulationField<T>& f, HaloExchange* halo) const {
-  if (has_halo()) {
-    if (halo == nullptr) throw std::logic_error("BoundaryConditions::fill_ghosts: a block with halo faces needs its exchange");
-    fill_around_halo(f, *halo, true);
-    return;
-  }
-  // One parallel region; the loops of a face (one per population) run without waiting for
-  // each other, and one barrier after each face keeps the faces in order.
-#pragma omp parallel
-  {
-    for (int face = 0; face < kFaces; ++face)
-      if (is_copy(faces_[face].kind)) {
-        fill_copy_face(f, face);
-#pragma omp barrier
-      }
-    for (int face = 0; face < kFaces; ++face)
-      if (!is_copy(faces_[face].kind)) {
-        fill_reflect_face(f, face);
-#pragma omp barrier
-      }
-  }
+  fill(f, halo, true);
 }
 
 template <class T>
@@ -204,35 +201,13 @@ void BoundaryConditions::fill_static_ghosts(BasicPopulationField<T>& f) const {
 
 template <class T>
 void BoundaryConditions::fill_step_ghosts(BasicPopulationField<T>& f, HaloExchange* halo) const {
-  if (has_halo()) {
-    if (halo == nullptr) throw std::logic_error("BoundaryConditions::fill_step_ghosts: a block with halo faces needs its exchange");
-    fill_around_halo(f, *halo, false);
-    return;
-  }
-#pragma omp parallel
-  {
-    for (int face = 0; face < kFaces; ++face)
-      if (is_copy(faces_[face].kind) && faces_[face].kind != FaceKind::Inlet &&
-          !is_kernel_outflow(faces_[face], face)) {
-        fill_copy_face(f, face);
-#pragma omp barrier
-      }
-    for (int face = 0; face < kFaces; ++face)
-      if (!is_copy(faces_[face].kind)) {
-        fill_reflect_face(f, face);
-#pragma omp barrier
-      }
-  }
+  fill(f, halo, false);
 }
 
 template <class T>
 void BoundaryConditions::fill_reflect_ghosts(BasicPopulationField<T>& f) const {
 #pragma omp parallel
-  for (int face = 0; face < kFaces; ++face)
-    if (!is_copy(faces_[face].kind)) {
-      fill_reflect_face(f, face);
-#pragma omp barrier
-    }
+  fill_reflect_faces(f);
 }
 
 KernelOutflow BoundaryConditions::kernel_outflow() const {

@@ -136,10 +136,16 @@ class BoundaryConditions {
   void fill_copy_face(BasicPopulationField<T>& f, int face) const;
   template <class T>
   void fill_reflect_face(BasicPopulationField<T>& f, int face) const;
-  /// fill_ghosts (static = true) or fill_step_ghosts of a block with halo faces: two parallel
-  /// regions around the exchange.
+  /// fill_ghosts (all = true) or fill_step_ghosts: the faces in order, the halo (if any)
+  /// between two parallel regions.
   template <class T>
-  void fill_around_halo(BasicPopulationField<T>& f, HaloExchange& halo, bool all) const;
+  void fill(BasicPopulationField<T>& f, HaloExchange* halo, bool all) const;
+  /// Inside a parallel region: the copy-type faces from .. to - 1 that fill() fills, and the
+  /// reflecting faces, a barrier after each face.
+  template <class T>
+  void fill_copy_faces(BasicPopulationField<T>& f, int from, int to, bool all) const;
+  template <class T>
+  void fill_reflect_faces(BasicPopulationField<T>& f) const;
   /// A copy-type face that this object fills: in fill_ghosts (all) or in fill_step_ghosts.
   bool fills_copy(int face, bool all) const;
 
