@@ -121,6 +121,15 @@ int main_impl(int argc, char** argv, const World& world) {
   const int rank = world.rank(), ranks = world.size();
   const GridShape& g = scene.params.shape;
   if (rank == 0) {
+    // The machine's load: on shared cores the timings below say as much about it as about
+    // the code.
+    double load[3] = {0, 0, 0};
+    if (std::FILE* f = std::fopen("/proc/loadavg", "r")) {
+      if (std::fscanf(f, "%lf %lf %lf", &load[0], &load[1], &load[2]) != 3) load[0] = -1;
+      std::fclose(f);
+    }
+    std::printf("bench_mpi: load average %.2f %.2f %.2f on %ld cores\n", load[0], load[1], load[2],
+                sysconf(_SC_NPROCESSORS_ONLN));
     std::printf("bench_mpi: %s, %d x %d x %d = %lld cells, %s store; %d ranks x %d OpenMP threads; "
                 "%d steps x %d repeats (medians)\n",
                 scene.name.c_str(), g.nx, g.ny, g.nz, static_cast<long long>(g.cells()),
