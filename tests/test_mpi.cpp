@@ -1,7 +1,8 @@
 // The fluid's grid over MPI ranks (DESIGN 8, fluid/mpi/): a fluid-only scene on 1 to 4 ranks
 // (launch/mpirun-local.sh: loopback only, more ranks than cores allowed) writes the same
 // HDF5 outputs as the serial run, bit for bit; a decomposition that cannot be built is
-// refused in one line; a killed rank stops the run with a reason instead of a hang.
+// refused in one line; a flow that runs away stops as in the serial run; a killed rank stops
+// the run with a reason instead of a hang.
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <unistd.h>
@@ -110,6 +111,37 @@ TEST(Mpi, MpiBlocksThatCannotBeBuiltAreRefusedInOneLine) {
   EXPECT_EQ(x.status, 2);
   EXPECT_TRUE(contains(x.err, "run.blocks = [2, 1, 1]: only slabs along z are built")) << x.err;
   EXPECT_EQ(lines(x.err), 1u) << x.err;
+}
+
+/// The first line of `text` that holds `what` ("" if none).
+std::string line_with(const std::string& text, const std::string& what) {
+  const auto at = text.find(what);
+  if (at == std::string::npos) return {};
+  const auto begin = text.rfind('\n', at), end = text.find('\n', at);
+  return text.substr(begin == std::string::npos ? 0 : begin + 1, end == std::string::npos ? std::string::npos : end - begin - 1);
+}
+
+// A flow that runs away stops on 3 ranks as it stops alone: exit 3, the same line (step,
+// cell, quantity), the same monitor rows; caught by the monitor's summary of the gathered
+// grid (a row every step) and by the watchdog's kernel extrema, reduced over the ranks
+// (rows far apart).
+TEST(Mpi, MpiUnhealthyFlowStopsAsTheSerialRun) {
+  if (!have_mpirun()) GTEST_SKIP() << "mpirun is not installed (launch/bootstrap.sh)";
+  const fs::path dir = scratch("mpi_unhealthy");
+  const fs::path scene = kSource / "tests" / "scenes" / "runaway_force.toml";
+  for (const std::string every : {"1", "1000"}) {
+    SCOPED_TRACE("--monitor-every " + every);
+    const std::string args = quoted(scene.string()) + " --quiet --monitor-every " + every + " --output ";
+    const fs::path a = dir / ("serial_" + every), b = dir / ("ranks3_" + every);
+    const RunResult s = run_command(quoted(kFluid) + " " + args + quoted(a.string()), a / "log");
+    const RunResult m = run_command(mpirun(3) + quoted(kFluid) + " " + args + quoted(b.string()), b / "log");
+    EXPECT_EQ(s.status, 3) << s.err;
+    EXPECT_EQ(m.status, 3) << m.err;
+    const std::string said = line_with(s.err, "fluid: unhealthy flow, run stopped: step ");
+    EXPECT_FALSE(said.empty()) << s.err;
+    EXPECT_EQ(line_with(m.err, "fluid: unhealthy flow"), said) << m.err;
+    EXPECT_EQ(compare_h5(a, b, "monitor.h5"), "");
+  }
 }
 
 /// The fluid ranks of the run whose command line holds `marker`: pid by rank.
