@@ -4,6 +4,7 @@
 // the same calls either way; the leading process prints and writes.
 #pragma once
 
+#include <optional>
 #include <string>
 
 #include "fluid/flow_monitor.hpp"
@@ -23,8 +24,11 @@ class FluidDomain {
   virtual void step() = 0;
   /// kernel_state_problem() of the whole grid: the same text on every process. Collective.
   virtual std::string kernel_problem(const HealthLimits& limits) = 0;
+  /// summarize() of the whole grid at the current state, on the leading process (nothing on
+  /// the others). Collective.
+  virtual std::optional<FlowSummary> summary() = 0;
   /// The whole grid at the current state (step count included), on the leading process;
-  /// nullptr on the others. Collective.
+  /// nullptr on the others: for the snapshots. Collective.
   virtual const FluidSolver* whole() = 0;
   /// The leading process's `text` on every process (a verdict they all act on). Collective.
   virtual std::string from_leader(const std::string& text) = 0;
@@ -42,6 +46,7 @@ class SerialDomain final : public FluidDomain {
   std::string kernel_problem(const HealthLimits& limits) override {
     return kernel_state_problem(solver_, limits);
   }
+  std::optional<FlowSummary> summary() override { return summarize(solver_); }
   const FluidSolver* whole() override { return &solver_; }
   std::string from_leader(const std::string& text) override { return text; }
 

@@ -184,14 +184,12 @@ int run(const FluidScene& s, bool quiet, FluidDomain& domain) {
     std::fprintf(stderr, "fluid: unhealthy flow, run stopped: %s\n", one_line(problem).c_str());
   };
   // Health before every write: an unhealthy state is diagnosed and nothing is written. The
-  // whole grid is on the leading process; its verdict goes to every process.
-  const FluidSolver* whole = nullptr;
+  // summary is on the leading process; its verdict goes to every process.
   const auto healthy_summary = [&]() -> std::optional<FlowSummary> {
-    whole = domain.whole();
     FlowSummary sum;
     std::string problem;
-    if (whole != nullptr) {
-      sum = summarize(*whole);
+    if (const std::optional<FlowSummary> got = domain.summary()) {
+      sum = *got;
       problem = health_problem(sum, limits);
     }
     problem = domain.from_leader(problem);
@@ -214,8 +212,13 @@ int run(const FluidScene& s, bool quiet, FluidDomain& domain) {
     log->append(*first);
     std::printf("%s\n", format_summary(*first, dt_us, mass0).c_str());
     std::fflush(stdout);
-    if (snapshots->due(0, false)) snapshots->write(*whole, false);
   }
+  // The whole grid for the snapshots (gathered on the leading process: collective).
+  const auto write_snapshots = [&](bool last) {
+    const FluidSolver* whole = domain.whole();
+    if (leads) snapshots->write(*whole, last);
+  };
+  if (Snapshots::due(s, 0, false)) write_snapshots(false);
 
   for (std::int64_t step = 1; step <= s.steps; ++step) {
     domain.step();
@@ -237,7 +240,7 @@ int run(const FluidScene& s, bool quiet, FluidDomain& domain) {
         std::printf("%s\n", format_summary(*sum, dt_us, mass0).c_str());
         std::fflush(stdout);
       }
-      if (leads && snapshot) snapshots->write(*whole, last);
+      if (snapshot) write_snapshots(last);
     }
     progress.update(step);
   }

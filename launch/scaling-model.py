@@ -9,8 +9,7 @@ R MLUPS, then exchanges its halo: 5 populations of one plane (with ghosts and ro
 fluid/grid_layout.hpp, double store) to each of its two neighbours, 10 messages of P bytes,
 counted one after another (no overlap with the bulk, no concurrency between messages):
 T_comm = 10 (A + P / B). Efficiency = T_1 / (N T_N) with T_1 = cells / R. The gather of the
-grid to rank 0 for the monitor and the snapshots is printed apart (per gather: 19 values per
-cell through one link at B)."""
+grid to rank 0 for a snapshot is printed apart (19 values per cell through one link at B)."""
 import argparse
 import math
 
@@ -47,7 +46,7 @@ def main():
         half = 10 * plane / budget / 1e9 if budget > 0 else float("inf")
         print(f"{n:>6} {thick:>7} {t_comp * 1e3:>10.3f} {t_comm * 1e3:>10.3f} {e:>11.3f} {e_over:>11.3f} {half:>17.2f}")
     gather = 19 * 8 * cells / (a.beta_gbs * 1e9)
-    print(f"gather to rank 0 (monitor row or snapshot): {19 * 8 * cells / 1e6:.0f} MB, {gather * 1e3:.0f} ms at B")
+    print(f"gather to rank 0 (a snapshot): {19 * 8 * cells / 1e6:.0f} MB, {gather * 1e3:.0f} ms at B")
 
 
 main()

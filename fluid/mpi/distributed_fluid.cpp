@@ -1,5 +1,6 @@
 #include "fluid/mpi/distributed_fluid.hpp"
 
+#include <array>
 #include <stdexcept>
 #include <type_traits>
 #include <vector>
@@ -20,7 +21,9 @@ DistributedFluid::DistributedFluid(const FluidScene& scene, MPI_Comm comm) : com
   const FluidParams params = slab_params(scene.params, slab_, halo);
   halo_ = std::make_unique<SlabHalo>(comm, slab_neighbours(scene.params, slab_));
   block_ = std::make_unique<FluidSolver>(params, halo_.get());
-  if (rank_ == 0) whole_ = std::make_unique<FluidSolver>(scene.params);
+  // Rank 0's whole grid, for the snapshots: made at the first gather (a run without
+  // snapshots never holds it).
+  whole_params_ = scene.params;
 }
 
 void DistributedFluid::initialize(const FluidScene& scene) {
@@ -31,7 +34,7 @@ void DistributedFluid::initialize(const FluidScene& scene) {
 
 std::string DistributedFluid::describe() const {
   return "slabs along z over " + std::to_string(ranks_) + " MPI ranks (blocks [1, 1, " +
-         std::to_string(slab_.count) + "]); the whole grid gathered on rank 0 for the monitor and the snapshots";
+         std::to_string(slab_.count) + "]); rank 0 adds the monitor's row sums and gathers the grid for snapshots";
 }
 
 template <class T>
@@ -74,6 +77,7 @@ void DistributedFluid::gather_field(const BasicPopulationField<T>& from, BasicPo
 }
 
 void DistributedFluid::gather(bool previous) {
+  if (rank_ == 0 && whole_ == nullptr) whole_ = std::make_unique<FluidSolver>(whole_params_);
   const FluidSolver& b = *block_;
   if (b.precision() == Precision::Double) {
     const PopulationField& from = previous ? b.previous_state() : b.state();
@@ -107,10 +111,57 @@ std::string DistributedFluid::kernel_problem(const HealthLimits& limits) {
   all.finite = finite != 0;
   if (!kernel_extrema_suspect(all, limits)) return {};
   // A closer look, as kernel_state_problem: the state the last step read, summarised whole.
-  gather(!block_->mid_step());
-  std::string problem;
-  if (rank_ == 0) problem = health_problem(summarize(*whole_), limits);
-  return broadcast(comm_, problem);
+  const std::optional<FlowSummary> s = summary_of(!block_->mid_step());
+  return broadcast(comm_, s ? health_problem(*s, limits) : std::string());
+}
+
+std::optional<FlowSummary> DistributedFluid::summary_of(bool previous) {
+  const GridShape& block = block_->shape();
+  const std::int64_t first_cell = std::int64_t(slab_.z0) * block.nx * block.ny;
+  FlowPartials mine = flow_partials(*block_, previous, first_cell);
+  // Extrema and first non-finite cell: 11 numbers per rank (indices below 2^53: exact).
+  const auto pack = [](const FlowPartials& p) {
+    return std::array<double, 11>{p.u2_max, double(p.u2_max_cell), p.rho_min, double(p.rho_min_cell),
+                                  p.rho_max, double(p.rho_max_cell), double(p.nan_cell), p.nan_state.rho,
+                                  p.nan_state.ux, p.nan_state.uy, p.nan_state.uz};
+  };
+  const auto index = [](double v) {
+    return v >= 9.2e18 ? FlowPartials::kNone : static_cast<std::int64_t>(v);
+  };
+  const std::array<double, 11> packed = pack(mine);
+  std::vector<double> all_packed(rank_ == 0 ? 11 * std::size_t(ranks_) : 0);
+  check(MPI_Gather(packed.data(), 11, MPI_DOUBLE, all_packed.data(), 11, MPI_DOUBLE, 0, comm_), "MPI_Gather");
+  // Row sums: the slabs' rows in rank order are the grid's rows in order.
+  const int rows = int(mine.row_sums.size());
+  std::vector<int> counts, displs;
+  FlowPartials whole;
+  if (rank_ == 0) {
+    counts.resize(std::size_t(ranks_));
+    displs.resize(std::size_t(ranks_));
+    int at = 0;
+    for (int r = 0; r < ranks_; ++r) {
+      counts[std::size_t(r)] = 4 * slab_of(whole_params_.shape.nz, slab_.count, r).nz * block.ny;
+      displs[std::size_t(r)] = at;
+      at += counts[std::size_t(r)];
+    }
+    whole.row_sums.resize(std::size_t(at / 4));
+  }
+  check(MPI_Gatherv(mine.row_sums.data(), 4 * rows, MPI_DOUBLE, rank_ == 0 ? whole.row_sums.data() : nullptr,
+                    counts.data(), displs.data(), MPI_DOUBLE, 0, comm_),
+        "MPI_Gatherv (row sums)");
+  if (rank_ != 0) return std::nullopt;
+  for (int r = 0; r < ranks_; ++r) {
+    const double* v = all_packed.data() + 11 * r;
+    FlowPartials p;
+    p.u2_max = v[0], p.u2_max_cell = index(v[1]);
+    p.rho_min = v[2], p.rho_min_cell = index(v[3]);
+    p.rho_max = v[4], p.rho_max_cell = index(v[5]);
+    p.nan_cell = index(v[6]);
+    p.nan_state = {v[7], v[8], v[9], v[10]};
+    whole.merge_extrema(p);
+  }
+  const std::int64_t step = previous ? block_->step_count() - 1 : block_->step_count();
+  return flow_summary(whole, whole_params_.shape, step);
 }
 
 }  // namespace cosim::fluid::mpi

@@ -19,9 +19,10 @@ namespace cosim::fluid::mpi {
 
 /// Bit for bit the serial run: a cell's step reads the same populations and runs the same
 /// arithmetic whatever slab holds it (whole rows of x, the ghosts as in the whole grid); the
-/// monitor and the snapshots are computed on rank 0 from the gathered grid, with the code and
-/// in the order of the serial run. The price: rank 0 holds the whole grid's populations too
-/// (twice: FluidSolver's two fields) while the others hold their slab.
+/// monitor adds the slabs' row sums on rank 0 in the serial order; the snapshots are computed
+/// on rank 0 from the gathered grid with the serial code. The price of the latter: in a run
+/// with snapshots rank 0 holds the whole grid's populations too (twice: FluidSolver's two
+/// fields).
 class DistributedFluid final : public FluidDomain {
  public:
   /// @throws std::invalid_argument with a one-line reason when the grid cannot be decomposed
@@ -31,6 +32,7 @@ class DistributedFluid final : public FluidDomain {
   void initialize(const FluidScene& scene) override;
   void step() override { block_->step(); }
   std::string kernel_problem(const HealthLimits& limits) override;
+  std::optional<FlowSummary> summary() override { return summary_of(false); }
   const FluidSolver* whole() override;
   std::string from_leader(const std::string& text) override { return broadcast(comm_, text); }
   std::string describe() const override;
@@ -40,6 +42,10 @@ class DistributedFluid final : public FluidDomain {
   const SlabHalo& halo() const { return *halo_; }
 
  private:
+  /// The whole grid's summary on rank 0 from the slabs' partials (flow_partials): their row
+  /// sums gathered in row order, their extrema merged; of the current state or (previous)
+  /// of the state the last step read, at its step.
+  std::optional<FlowSummary> summary_of(bool previous);
   /// The blocks' current (or, previous = true, last-read) populations into whole_ on rank 0.
   void gather(bool previous);
   template <class T>
@@ -50,7 +56,8 @@ class DistributedFluid final : public FluidDomain {
   Slab slab_;
   std::unique_ptr<SlabHalo> halo_;
   std::unique_ptr<FluidSolver> block_;
-  std::unique_ptr<FluidSolver> whole_;  // rank 0 only
+  FluidParams whole_params_;
+  std::unique_ptr<FluidSolver> whole_;  // rank 0 only, from the first gather on
 };
 
 }  // namespace cosim::fluid::mpi
