@@ -1,6 +1,8 @@
 #include "fluid/decomposition.hpp"
 
+#include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 
 namespace cosim::fluid {
 
@@ -71,6 +73,12 @@ FluidParams slab_params(const FluidParams& whole, const Slab& slab, std::array<b
   halo[ZMin] = n.below >= 0;
   halo[ZMax] = n.above >= 0;
   return p;
+}
+
+int mpirun_world_size() {
+  for (const char* v : {"OMPI_COMM_WORLD_SIZE", "PMIX_SIZE", "PMI_SIZE"})
+    if (const char* n = std::getenv(v)) return std::max(1, std::atoi(n));
+  return 0;
 }
 
 }  // namespace cosim::fluid

@@ -46,4 +46,9 @@ struct SlabNeighbours {
 };
 SlabNeighbours slab_neighbours(const FluidParams& whole, const Slab& slab);
 
+/// The number of processes mpirun started this one among (its environment: OpenMPI's or a
+/// PMI launcher's), 0 when mpirun did not start it. Read by a build without MPI too, to
+/// refuse a run over ranks it cannot join.
+int mpirun_world_size();
+
 }  // namespace cosim::fluid

@@ -30,6 +30,7 @@
 
 #include "protocol/cli_parse.hpp"
 #include "fluid/coupled_fluid.hpp"
+#include "fluid/decomposition.hpp"
 #include "fluid/field_writer.hpp"
 #include "fluid/flow_monitor.hpp"
 #include "fluid/fluid_domain.hpp"
@@ -425,6 +426,16 @@ int main(int argc, char** argv) {
       cosim::fluid::g_held_stderr = dup(2);
       if (cosim::fluid::g_held_stderr >= 0 && std::freopen("/dev/null", "w", stderr) == nullptr) return 1;
     }
+  }
+#else
+  // Started by mpirun on several ranks, a build without MPI would run the whole scene in
+  // each of them into the same folder.
+  if (const int ranks = cosim::fluid::mpirun_world_size(); ranks > 1) {
+    std::fprintf(stderr,
+                 "fluid: started on %d MPI ranks, but this build has no MPI (install libopenmpi-dev "
+                 "and rebuild: cmake -DCOSIM_MPI=ON)\n",
+                 ranks);
+    return cosim::protocol::exit_code::bad_input;
   }
 #endif
   try {

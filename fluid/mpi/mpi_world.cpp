@@ -1,16 +1,14 @@
 #include "fluid/mpi/mpi_world.hpp"
 
+#include "fluid/decomposition.hpp"
+
 #include <cstdlib>
 #include <stdexcept>
 #include <vector>
 
 namespace cosim::fluid::mpi {
 
-bool launched_by_mpirun() {
-  for (const char* v : {"OMPI_COMM_WORLD_SIZE", "PMIX_RANK", "PMI_SIZE"})
-    if (std::getenv(v) != nullptr) return true;
-  return false;
-}
+bool launched_by_mpirun() { return mpirun_world_size() > 0; }
 
 World::World(int& argc, char**& argv) {
   int provided = 0;
