@@ -276,6 +276,13 @@ int mpi_ranks() {
   return 1;
 }
 
+int mpi_rank() {
+#if COSIM_HAVE_MPI
+  if (g_world != nullptr) return g_world->rank();
+#endif
+  return 0;
+}
+
 /// A fluid-only scene in this process, or over the MPI ranks of an mpirun.
 int run_fluid_only(const FluidScene& scene, bool quiet) {
 #if COSIM_HAVE_MPI
@@ -370,10 +377,11 @@ int main_impl(int argc, char** argv) {
   }
   if (scene.coupling) {
     if (mpi_ranks() > 1) {
-      std::fprintf(stderr,
-                   "%s: a coupled scene runs its fluid in one process for now (%d MPI ranks given); "
-                   "run it without --ranks\n",
-                   scene.path.c_str(), mpi_ranks());
+      if (mpi_rank() == 0)  // every rank finds it; one says it
+        std::fprintf(stderr,
+                     "%s: a coupled scene runs its fluid in one process for now (%d MPI ranks given); "
+                     "run it without --ranks\n",
+                     scene.path.c_str(), mpi_ranks());
       return exit_code::bad_input;
     }
     protocol::catch_interrupts();  // before any thread starts (OpenMP, LCM)

@@ -113,6 +113,22 @@ TEST(Mpi, MpiBlocksThatCannotBeBuiltAreRefusedInOneLine) {
   EXPECT_EQ(lines(x.err), 1u) << x.err;
 }
 
+// The fluid of a coupled run stays in one process for now: refused on 2 ranks, once, exit 2,
+// nothing written.
+TEST(Mpi, MpiCoupledSceneIsRefusedOnSeveralRanks) {
+  if (!have_mpirun()) GTEST_SKIP() << "mpirun is not installed (launch/bootstrap.sh)";
+  const fs::path dir = scratch("mpi_coupled");
+  const fs::path scene = kSource / "scenes" / "coupled_small.toml";
+  const RunResult r = run_command(mpirun(2) + quoted(kFluid) + " " + quoted(scene.string()) + " --quiet --output " +
+                                      quoted((dir / "out").string()),
+                                  dir / "log");
+  EXPECT_EQ(r.status, 2) << r.err;
+  const std::string what = "a coupled scene runs its fluid in one process for now (2 MPI ranks given)";
+  EXPECT_TRUE(contains(r.err, what)) << r.err;
+  EXPECT_EQ(r.err.find(what), r.err.rfind(what)) << "said more than once:\n" << r.err;
+  EXPECT_FALSE(fs::exists(dir / "out" / "monitor.h5"));
+}
+
 /// The first line of `text` that holds `what` ("" if none).
 std::string line_with(const std::string& text, const std::string& what) {
   const auto at = text.find(what);
