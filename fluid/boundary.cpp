@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <stdexcept>
+#include <string>
 
 #include "fluid/d3q19.hpp"
 #include "fluid/equilibrium.hpp"
@@ -32,8 +33,10 @@ double inlet_profile(const FaceSpec& face, double y) {
   return face.inlet_speed * (2.0 * e - 2.0 * e * e * e + e * e * e * e);
 }
 
-std::string BoundaryConditions::check(const std::array<FaceSpec, kFaces>& faces) {
+std::string BoundaryConditions::check(const std::array<FaceSpec, kFaces>& faces,
+                                      const std::array<bool, kFaces>& halo) {
   for (int a = 0; a < 3; ++a) {
+    if (halo[2 * a] || halo[2 * a + 1]) continue;  // a block's edge: the neighbour's plane
     const bool p0 = faces[2 * a].kind == FaceKind::Periodic;
     const bool p1 = faces[2 * a + 1].kind == FaceKind::Periodic;
     if (p0 != p1)
@@ -49,13 +52,6 @@ std::string BoundaryConditions::check(const std::array<FaceSpec, kFaces>& faces)
       return std::string("the wall velocity on ") + face_name(f) + " must be tangential";
   }
   return {};
-}
-
-BoundaryConditions::BoundaryConditions(const GridLayout& layout,
-                                       const std::array<FaceSpec, kFaces>& faces)
-    : layout_(layout), faces_(faces) {
-  const std::string err = check(faces);
-  if (!err.empty()) throw std::invalid_argument(err);
 }
 
 namespace {
@@ -107,6 +103,80 @@ bool is_kernel_outflow(const FaceSpec& spec, int face) {
 
 }  // namespace
 
+BoundaryConditions::BoundaryConditions(const GridLayout& layout,
+                                       const std::array<FaceSpec, kFaces>& faces,
+                                       const std::array<bool, kFaces>& halo)
+    : layout_(layout), faces_(faces), halo_(halo) {
+  const std::string err = check(faces, halo);
+  if (!err.empty()) throw std::invalid_argument(err);
+  int axes = 0;
+  for (int a = 0; a < 3; ++a) axes += halo[2 * a] || halo[2 * a + 1];
+  if (axes > 1)
+    throw std::invalid_argument("BoundaryConditions: halo faces on more than one axis (the blocks are slabs)");
+  // A halo face is filled by the exchange only: no fill of its own (kind Periodic is never
+  // a reflecting or an inlet fill, and fills_copy() skips it).
+  for (int f = 0; f < kFaces; ++f)
+    if (halo[f]) faces_[f] = FaceSpec{};
+}
+
+bool BoundaryConditions::has_halo() const {
+  return std::any_of(halo_.begin(), halo_.end(), [](bool h) { return h; });
+}
+
+bool BoundaryConditions::fills_copy(int face, bool all) const {
+  const FaceKind k = faces_[face].kind;
+  if (halo_[face] || !is_copy(k)) return false;
+  return all || (k != FaceKind::Inlet && !is_kernel_outflow(faces_[face], face));
+}
+
+template <class T>
+void BoundaryConditions::fill_copy_faces(BasicPopulationField<T>& f, int from, int to, bool all) const {
+  for (int face = from; face < to; ++face)
+    if (fills_copy(face, all)) {
+      fill_copy_face(f, face);
+#pragma omp barrier
+    }
+}
+
+template <class T>
+void BoundaryConditions::fill_reflect_faces(BasicPopulationField<T>& f) const {
+  for (int face = 0; face < kFaces; ++face)
+    if (!is_copy(faces_[face].kind)) {
+      fill_reflect_face(f, face);
+#pragma omp barrier
+    }
+}
+
+template <class T>
+void BoundaryConditions::fill(BasicPopulationField<T>& f, HaloExchange* halo, bool all) const {
+  if (!has_halo()) {
+    // One parallel region; the loops of a face (one per population) run without waiting for
+    // each other, and one barrier after each face keeps the faces in order.
+#pragma omp parallel
+    {
+      fill_copy_faces(f, 0, kFaces, all);
+      fill_reflect_faces(f);
+    }
+    return;
+  }
+  if (halo == nullptr) throw std::logic_error("BoundaryConditions: a block with halo faces needs its exchange");
+  if (halo->faces() != halo_)
+    throw std::logic_error("BoundaryConditions: the halo exchange fills other faces than the conditions leave to it");
+  // The copy-type faces of the axes before the halo's, the halo (a periodic copy from the
+  // neighbour, in its axis' place), the copy-type faces after it, the reflecting faces:
+  // the order above, in two parallel regions around the exchange.
+  int halo_axis = 0;
+  while (!halo_[2 * halo_axis] && !halo_[2 * halo_axis + 1]) ++halo_axis;
+#pragma omp parallel
+  fill_copy_faces(f, 0, 2 * halo_axis, all);
+  halo->exchange(f);
+#pragma omp parallel
+  {
+    fill_copy_faces(f, 2 * halo_axis, kFaces, all);
+    fill_reflect_faces(f);
+  }
+}
+
 OutflowCell::OutflowCell(const double* fb)
     : m(moments(fb)), ux(m.jx / m.rho), uy(m.jy / m.rho), uz(m.jz / m.rho) {}
 
@@ -115,22 +185,8 @@ double OutflowCell::ghost(int q, const double* fb, double rho_out) const {
 }
 
 template <class T>
-void BoundaryConditions::fill_ghosts(BasicPopulationField<T>& f) const {
-  // One parallel region; the loops of a face (one per population) run without waiting for
-  // each other, and one barrier after each face keeps the faces in order.
-#pragma omp parallel
-  {
-    for (int face = 0; face < kFaces; ++face)
-      if (is_copy(faces_[face].kind)) {
-        fill_copy_face(f, face);
-#pragma omp barrier
-      }
-    for (int face = 0; face < kFaces; ++face)
-      if (!is_copy(faces_[face].kind)) {
-        fill_reflect_face(f, face);
-#pragma omp barrier
-      }
-  }
+void BoundaryConditions::fill_ghosts(BasicPopulationField<T>& f, HaloExchange* halo) const {
+  fill(f, halo, true);
 }
 
 template <class T>
@@ -144,21 +200,14 @@ void BoundaryConditions::fill_static_ghosts(BasicPopulationField<T>& f) const {
 }
 
 template <class T>
-void BoundaryConditions::fill_step_ghosts(BasicPopulationField<T>& f) const {
+void BoundaryConditions::fill_step_ghosts(BasicPopulationField<T>& f, HaloExchange* halo) const {
+  fill(f, halo, false);
+}
+
+template <class T>
+void BoundaryConditions::fill_reflect_ghosts(BasicPopulationField<T>& f) const {
 #pragma omp parallel
-  {
-    for (int face = 0; face < kFaces; ++face)
-      if (is_copy(faces_[face].kind) && faces_[face].kind != FaceKind::Inlet &&
-          !is_kernel_outflow(faces_[face], face)) {
-        fill_copy_face(f, face);
-#pragma omp barrier
-      }
-    for (int face = 0; face < kFaces; ++face)
-      if (!is_copy(faces_[face].kind)) {
-        fill_reflect_face(f, face);
-#pragma omp barrier
-      }
-  }
+  fill_reflect_faces(f);
 }
 
 KernelOutflow BoundaryConditions::kernel_outflow() const {
@@ -284,13 +333,15 @@ void BoundaryConditions::fill_reflect_face(BasicPopulationField<T>& f, int face)
   }
 }
 
-template void BoundaryConditions::fill_ghosts(PopulationField&) const;
+template void BoundaryConditions::fill_ghosts(PopulationField&, HaloExchange*) const;
 template void BoundaryConditions::fill_static_ghosts(PopulationField&) const;
-template void BoundaryConditions::fill_step_ghosts(PopulationField&) const;
+template void BoundaryConditions::fill_step_ghosts(PopulationField&, HaloExchange*) const;
 template void BoundaryConditions::fill_outflow_ghost(PopulationField&, int, int, int) const;
-template void BoundaryConditions::fill_ghosts(PopulationFieldSingle&) const;
+template void BoundaryConditions::fill_reflect_ghosts(PopulationField&) const;
+template void BoundaryConditions::fill_ghosts(PopulationFieldSingle&, HaloExchange*) const;
 template void BoundaryConditions::fill_static_ghosts(PopulationFieldSingle&) const;
-template void BoundaryConditions::fill_step_ghosts(PopulationFieldSingle&) const;
+template void BoundaryConditions::fill_step_ghosts(PopulationFieldSingle&, HaloExchange*) const;
 template void BoundaryConditions::fill_outflow_ghost(PopulationFieldSingle&, int, int, int) const;
+template void BoundaryConditions::fill_reflect_ghosts(PopulationFieldSingle&) const;
 
 }  // namespace cosim::fluid

@@ -6,6 +6,7 @@
 
 #include "fluid/equilibrium.hpp"
 #include "fluid/grid_layout.hpp"
+#include "fluid/halo_exchange.hpp"
 #include "fluid/population_field.hpp"
 #include "fluid/stream_collide.hpp"
 
@@ -16,7 +17,7 @@ enum class InletProfile { Uniform, Blasius };
 
 /// Faces in the order x_min, x_max, y_min, y_max, z_min, z_max.
 enum Face : int { XMin = 0, XMax, YMin, YMax, ZMin, ZMax };
-constexpr int kFaces = 6;
+constexpr int kFaces = kHaloFaces;
 constexpr int face_axis(int f) { return f / 2; }
 constexpr int face_side(int f) { return f % 2; }  ///< 0: min, 1: max
 
@@ -75,17 +76,29 @@ struct OutflowCell {
 /// before it, so edges and corners come out right; reflecting faces go last and read only
 /// what is already valid. Either store precision (T = double or float): values are computed
 /// in double from the stored ones and rounded once when stored.
+///
+/// A block of a decomposed grid (DESIGN 8) has faces that are neither: a neighbour block's
+/// edge plane goes into their ghosts. Those are the faces of a HaloExchange given to the
+/// fills; the fills skip them and call the exchange between the copy-type faces and the
+/// reflecting ones, the place of a periodic copy in the order above (a halo is a periodic
+/// copy from another block), so that every ghost a pull reads gets the bits it has in the
+/// undivided grid (test_mpi: MpiFluidMatchesSerialBitForBit).
 class BoundaryConditions {
  public:
   BoundaryConditions() = default;
-  BoundaryConditions(const GridLayout& layout, const std::array<FaceSpec, kFaces>& faces);
+  /// `halo`: the faces a HaloExchange fills (their FaceSpec is not used; the pairing rule of
+  /// check() does not apply to them).
+  BoundaryConditions(const GridLayout& layout, const std::array<FaceSpec, kFaces>& faces,
+                     const std::array<bool, kFaces>& halo = {});
 
   /// Empty string if the set is consistent, else a sentence naming the problem.
-  static std::string check(const std::array<FaceSpec, kFaces>& faces);
+  static std::string check(const std::array<FaceSpec, kFaces>& faces,
+                           const std::array<bool, kFaces>& halo = {});
 
-  /// Every ghost of `f`, face by face as described above.
+  /// Every ghost of `f`, face by face as described above; the halo faces through `halo`
+  /// (@pre given when the conditions have halo faces, and with those faces).
   template <class T>
-  void fill_ghosts(BasicPopulationField<T>& f) const;
+  void fill_ghosts(BasicPopulationField<T>& f, HaloExchange* halo = nullptr) const;
 
   /// What a step needs, split (fluid_solver.cpp): the inlet ghosts are equilibria at a fixed
   /// density and velocity, the same at every step, so fill_static_ghosts writes them once
@@ -98,8 +111,13 @@ class BoundaryConditions {
   /// @pre fill_static_ghosts(f) (or fill_ghosts(f)) was called once on this field, and the
   ///      kernel that wrote f's interior was given kernel_outflow()
   template <class T>
-  void fill_step_ghosts(BasicPopulationField<T>& f) const;
+  void fill_step_ghosts(BasicPopulationField<T>& f, HaloExchange* halo = nullptr) const;
   KernelOutflow kernel_outflow() const;
+  /// The reflecting faces' ghosts only (walls, free slip), from the interior and the other
+  /// ghosts as they are: for a field put together from blocks (fluid/mpi/distributed_fluid),
+  /// where a wall's ghost next to a block's edge plane was filled by the neighbour block.
+  template <class T>
+  void fill_reflect_ghosts(BasicPopulationField<T>& f) const;
   /// The x-outflow ghost of one boundary cell (x = 0 or nx - 1 next to an outflow face;
   /// nothing elsewhere), after the cell's populations were changed (a collision with an
   /// immersed-boundary force).
@@ -107,6 +125,9 @@ class BoundaryConditions {
   void fill_outflow_ghost(BasicPopulationField<T>& f, int x, int y, int z) const;
 
   const FaceSpec& face(int f) const { return faces_[f]; }
+  /// Whether a neighbour block fills this face's ghosts.
+  bool is_halo(int f) const { return halo_[f]; }
+  bool has_halo() const;
 
  private:
   // Called inside a parallel region: their plane loops are worksharing loops without a
@@ -115,9 +136,22 @@ class BoundaryConditions {
   void fill_copy_face(BasicPopulationField<T>& f, int face) const;
   template <class T>
   void fill_reflect_face(BasicPopulationField<T>& f, int face) const;
+  /// fill_ghosts (all = true) or fill_step_ghosts: the faces in order, the halo (if any)
+  /// between two parallel regions.
+  template <class T>
+  void fill(BasicPopulationField<T>& f, HaloExchange* halo, bool all) const;
+  /// Inside a parallel region: the copy-type faces from .. to - 1 that fill() fills, and the
+  /// reflecting faces, a barrier after each face.
+  template <class T>
+  void fill_copy_faces(BasicPopulationField<T>& f, int from, int to, bool all) const;
+  template <class T>
+  void fill_reflect_faces(BasicPopulationField<T>& f) const;
+  /// A copy-type face that this object fills: in fill_ghosts (all) or in fill_step_ghosts.
+  bool fills_copy(int face, bool all) const;
 
   GridLayout layout_;
   std::array<FaceSpec, kFaces> faces_{};
+  std::array<bool, kFaces> halo_{};
 };
 
 }  // namespace cosim::fluid

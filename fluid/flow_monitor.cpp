@@ -6,6 +6,7 @@
 #include <cstddef>
 #include <cstdio>
 #include <limits>
+#include <utility>
 #include <vector>
 
 #include "fluid/d3q19.hpp"
@@ -36,7 +37,6 @@ struct Extremum {
 
 /// What one thread gathers over its rows.
 struct Partial {
-  double mass = 0, mx = 0, my = 0, mz = 0;
   Extremum u2max{-1.0};
   Extremum rmin{kInf};
   Extremum rmax{-kInf};
@@ -103,9 +103,11 @@ const char* non_finite_name(double v) {
   return v > 0 ? "+inf" : "-inf";
 }
 
-/// The summary of `f`, a state of `solver` at step `step`.
+/// The partials of `f`, a state of `solver` (a block whose first cell is `first_cell` of the
+/// whole grid).
 template <class T>
-FlowSummary summarize_field(const FluidSolver& solver, const BasicPopulationField<T>& f, std::int64_t step) {
+FlowPartials partials_of_field(const FluidSolver& solver, const BasicPopulationField<T>& f,
+                               std::int64_t first_cell) {
   const GridLayout& lay = f.layout();
   const GridShape& shape = solver.shape();
   const int nx = shape.nx, ny = shape.ny;
@@ -131,7 +133,7 @@ FlowSummary summarize_field(const FluidSolver& solver, const BasicPopulationFiel
       const T* s[L::Q];
 #pragma GCC unroll 19
       for (int q = 0; q < L::Q; ++q) s[q] = f.q(q) + base - lay.offset(L::cx[q], L::cy[q], L::cz[q]);
-      const std::int64_t row0 = std::int64_t(r) * nx;
+      const std::int64_t row0 = first_cell + std::int64_t(r) * nx;
       // Fast path, vectorised along x: the row's sums and extrema, and a flag that is NaN
       // when any rho or u of the row is not finite (0 * inf and 0 * NaN are NaN).
       double mass = 0, mx = 0, my = 0, mz = 0, u2max = -1.0, rmin = kInf, rmax = -kInf, bad = 0;
@@ -169,40 +171,76 @@ FlowSummary summarize_field(const FluidSolver& solver, const BasicPopulationFiel
     }
   }
 
-  for (const auto& r : row_sums) {
-    total.mass += r[0];
-    total.mx += r[1];
-    total.my += r[2];
-    total.mz += r[3];
-  }
-
-  FlowSummary out;
-  out.step = step;
-  out.mass = total.mass;
-  out.momentum = {total.mx, total.my, total.mz};
-  const bool any_finite = total.rmin.index != std::numeric_limits<std::int64_t>::max();
-  out.max_mach = any_finite ? std::sqrt(total.u2max.value / L::cs2) : 0.0;
-  out.max_mach_cell = cell_of(total.u2max.index, shape);
-  out.rho_min = any_finite ? total.rmin.value : 0.0;
-  out.rho_min_cell = cell_of(total.rmin.index, shape);
-  out.rho_max = any_finite ? total.rmax.value : 0.0;
-  out.rho_max_cell = cell_of(total.rmax.index, shape);
-  out.has_nan = total.nan_index != std::numeric_limits<std::int64_t>::max();
-  out.nan_cell = cell_of(total.nan_index, shape);
+  FlowPartials out;
+  out.row_sums = std::move(row_sums);
+  out.u2_max = total.u2max.value;
+  out.u2_max_cell = total.u2max.index;
+  out.rho_min = total.rmin.value;
+  out.rho_min_cell = total.rmin.index;
+  out.rho_max = total.rmax.value;
+  out.rho_max_cell = total.rmax.index;
+  out.nan_cell = total.nan_index;
   out.nan_state = total.nan_state;
   return out;
 }
 
-}  // namespace
-
-FlowSummary summarize(const FluidSolver& solver) {
-  const std::int64_t now = solver.step_count();
-  return solver.precision() == Precision::Double ? summarize_field(solver, solver.state(), now)
-                                                 : summarize_field(solver, solver.state_single(), now);
+FlowPartials partials_of(const FluidSolver& solver, bool previous, std::int64_t first_cell) {
+  if (solver.precision() == Precision::Double)
+    return partials_of_field(solver, previous ? solver.previous_state() : solver.state(), first_cell);
+  return partials_of_field(solver, previous ? solver.previous_state_single() : solver.state_single(), first_cell);
 }
 
-std::string kernel_state_problem(const FluidSolver& solver, const HealthLimits& limits) {
-  const KernelExtrema& e = solver.last_step_extrema();
+}  // namespace
+
+void FlowPartials::merge_extrema(const FlowPartials& o) {
+  Extremum u2{u2_max, u2_max_cell}, lo{rho_min, rho_min_cell}, hi{rho_max, rho_max_cell};
+  u2.take_max(o.u2_max, o.u2_max_cell);
+  lo.take_min(o.rho_min, o.rho_min_cell);
+  hi.take_max(o.rho_max, o.rho_max_cell);
+  u2_max = u2.value, u2_max_cell = u2.index;
+  rho_min = lo.value, rho_min_cell = lo.index;
+  rho_max = hi.value, rho_max_cell = hi.index;
+  if (o.nan_cell < nan_cell) {
+    nan_cell = o.nan_cell;
+    nan_state = o.nan_state;
+  }
+}
+
+FlowPartials flow_partials(const FluidSolver& block, bool previous, std::int64_t first_cell) {
+  return partials_of(block, previous, first_cell);
+}
+
+FlowSummary flow_summary(const FlowPartials& p, const GridShape& shape, std::int64_t step) {
+  double mass = 0, mx = 0, my = 0, mz = 0;
+  // The rows in row order (DESIGN 2.3: bit-identical whatever the threads or the ranks).
+  for (const auto& r : p.row_sums) {
+    mass += r[0];
+    mx += r[1];
+    my += r[2];
+    mz += r[3];
+  }
+  FlowSummary out;
+  out.step = step;
+  out.mass = mass;
+  out.momentum = {mx, my, mz};
+  const bool any_finite = p.rho_min_cell != FlowPartials::kNone;
+  out.max_mach = any_finite ? std::sqrt(p.u2_max / L::cs2) : 0.0;
+  out.max_mach_cell = cell_of(p.u2_max_cell, shape);
+  out.rho_min = any_finite ? p.rho_min : 0.0;
+  out.rho_min_cell = cell_of(p.rho_min_cell, shape);
+  out.rho_max = any_finite ? p.rho_max : 0.0;
+  out.rho_max_cell = cell_of(p.rho_max_cell, shape);
+  out.has_nan = p.nan_cell != FlowPartials::kNone;
+  out.nan_cell = cell_of(p.nan_cell, shape);
+  out.nan_state = p.nan_state;
+  return out;
+}
+
+FlowSummary summarize(const FluidSolver& solver) {
+  return flow_summary(partials_of(solver, false, 0), solver.shape(), solver.step_count());
+}
+
+bool kernel_extrema_suspect(const KernelExtrema& e, const HealthLimits& limits) {
   const auto near_or_past = [](double v, double bound, int side) {  // side: +1 above, -1 below
     const double slack = 1e-12 * std::max(1.0, std::abs(bound));
     return side > 0 ? v >= bound - slack : v <= bound + slack;
@@ -212,13 +250,14 @@ std::string kernel_state_problem(const FluidSolver& solver, const HealthLimits& 
                        near_or_past(e.rho_min, limits.rho_min, -1) ||
                        (std::isfinite(limits.rho_max) && near_or_past(e.rho_max, limits.rho_max, +1)) ||
                        near_or_past(e.u2_max, u2_limit, +1);
-  if (!suspect) return {};
+  return suspect;
+}
+
+std::string kernel_state_problem(const FluidSolver& solver, const HealthLimits& limits) {
+  if (!kernel_extrema_suspect(solver.last_step_extrema(), limits)) return {};
   if (solver.mid_step()) return health_problem(summarize(solver), limits);
   const std::int64_t before = solver.step_count() - 1;
-  const FlowSummary s = solver.precision() == Precision::Double
-                            ? summarize_field(solver, solver.previous_state(), before)
-                            : summarize_field(solver, solver.previous_state_single(), before);
-  return health_problem(s, limits);
+  return health_problem(flow_summary(partials_of(solver, true, 0), solver.shape(), before), limits);
 }
 
 std::string health_problem(const FlowSummary& s, const HealthLimits& limits) {

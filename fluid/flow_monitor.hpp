@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <limits>
 #include <string>
+#include <vector>
 
 #include "fluid/fluid_solver.hpp"
 
@@ -38,6 +39,33 @@ struct FlowSummary {
 /// reduced in one OpenMP pass over the populations; no allocation per cell.
 FlowSummary summarize(const FluidSolver& solver);
 
+/// What summarize() gathers before it adds up: the sums of each row of x (mass, rho u_x,
+/// rho u_y, rho u_z) in row order, and the extrema and the first non-finite cell by linear
+/// index in the whole grid. A block of a decomposed grid (fluid/mpi/) gives its rows; the
+/// rows of all blocks in row order and the extrema merged in any order make the whole
+/// grid's summary, bit for bit the one of summarize() (flow_summary()).
+struct FlowPartials {
+  static constexpr std::int64_t kNone = std::numeric_limits<std::int64_t>::max();
+  std::vector<std::array<double, 4>> row_sums;
+  double u2_max = -1.0;
+  std::int64_t u2_max_cell = kNone;
+  double rho_min = std::numeric_limits<double>::infinity();
+  std::int64_t rho_min_cell = kNone;
+  double rho_max = -std::numeric_limits<double>::infinity();
+  std::int64_t rho_max_cell = kNone;
+  std::int64_t nan_cell = kNone;
+  CellState nan_state;
+  /// The extrema and the first non-finite cell of both (ties to the smaller index: exact in
+  /// any order); row_sums untouched.
+  void merge_extrema(const FlowPartials& other);
+};
+/// The partials of a block's current state, or (previous) of the state its last step read
+/// (@pre as FluidSolver::previous_state), `first_cell` the linear index in the whole grid of
+/// the block's cell (0, 0, 0).
+FlowPartials flow_partials(const FluidSolver& block, bool previous, std::int64_t first_cell);
+/// The summary of the whole grid of `shape` at `step` from the partials of all its rows.
+FlowSummary flow_summary(const FlowPartials& all, const GridShape& shape, std::int64_t step);
+
 struct HealthLimits {
   double mach_limit = 0.3;  ///< BGK loses accuracy and stability as Mach approaches 1
   double rho_floor = 0.0;   ///< rho <= rho_floor is unphysical
@@ -63,5 +91,10 @@ std::string health_problem(const FlowSummary& s, const HealthLimits& limits);
 /// send the state to that pass, whose verdict counts. @pre a kernel ran since the state was
 /// last set
 std::string kernel_state_problem(const FluidSolver& solver, const HealthLimits& limits);
+
+/// Whether kernel extrema are within a relative 1e-12 of a limit or past it (or not finite):
+/// the test kernel_state_problem() applies before it looks closer. The extrema of several
+/// blocks combine exactly (min, max, and), so a decomposed grid asks the same of the whole.
+bool kernel_extrema_suspect(const KernelExtrema& e, const HealthLimits& limits);
 
 }  // namespace cosim::fluid

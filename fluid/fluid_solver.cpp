@@ -22,10 +22,11 @@ namespace {
 
 }  // namespace
 
-FluidSolver::FluidSolver(const FluidParams& params)
+FluidSolver::FluidSolver(const FluidParams& params, HaloExchange* halo)
     : params_(params),
       layout_(layout_of(params.shape, params.precision)),
-      bc_(layout_, params.faces) {
+      halo_(halo),
+      bc_(layout_, params.faces, halo != nullptr ? halo->faces() : std::array<bool, kFaces>{}) {
   if (params.precision == Precision::Double) {
     f_ = PopulationField(layout_);
     g_ = PopulationField(layout_);
@@ -73,9 +74,9 @@ const PopulationFieldSingle& FluidSolver::previous_state_single() const {
 
 void FluidSolver::refresh_ghosts() {
   if (params_.precision == Precision::Double)
-    bc_.fill_ghosts(f_);
+    bc_.fill_ghosts(f_, halo_);
   else
-    bc_.fill_ghosts(fs_);
+    bc_.fill_ghosts(fs_, halo_);
 }
 
 void FluidSolver::initialize(const InitialState& state) {
@@ -98,10 +99,10 @@ void FluidSolver::initialize(const InitialState& state) {
         }
       }
   if (dbl) {
-    bc_.fill_ghosts(f_);
+    bc_.fill_ghosts(f_, halo_);
     bc_.fill_static_ghosts(g_);
   } else {
-    bc_.fill_ghosts(fs_);
+    bc_.fill_ghosts(fs_, halo_);
     bc_.fill_static_ghosts(gs_);
   }
 }
@@ -187,7 +188,7 @@ template <class T>
 void FluidSolver::finish_fields(BasicPopulationField<T>& f, BasicPopulationField<T>& g) {
   apply_local_forces(f, g);
   std::swap(f, g);
-  bc_.fill_step_ghosts(f);
+  bc_.fill_step_ghosts(f, halo_);
   have_previous_ = true;
 }
 

@@ -42,7 +42,11 @@ struct MacroscopicFields {
 
 class FluidSolver {
  public:
-  explicit FluidSolver(const FluidParams& params);
+  /// `halo`: for a block of a decomposed grid (DESIGN 8), the exchange that fills the ghost
+  /// planes of its faces from the neighbour blocks (fluid/halo_exchange.hpp); not owned, it
+  /// outlives the solver. Every ghost fill (the constructor's, initialize(), each step,
+  /// refresh_ghosts()) then calls it: collective among the blocks.
+  explicit FluidSolver(const FluidParams& params, HaloExchange* halo = nullptr);
 
   /// Every interior cell to the equilibrium (Eq. 11) of rho and u given per cell. `state` is
   /// called from one thread, once per cell in x-fastest order (it may keep state).
@@ -137,6 +141,7 @@ class FluidSolver {
 
   FluidParams params_;
   GridLayout layout_;
+  HaloExchange* halo_ = nullptr;
   BoundaryConditions bc_;
   // Current (post-collision, ghosts valid) and scratch; only the pair of the precision is
   // allocated.

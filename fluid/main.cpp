@@ -21,6 +21,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <memory>
 #include <optional>
 #include <string>
 
@@ -29,8 +30,10 @@
 
 #include "protocol/cli_parse.hpp"
 #include "fluid/coupled_fluid.hpp"
+#include "fluid/decomposition.hpp"
 #include "fluid/field_writer.hpp"
 #include "fluid/flow_monitor.hpp"
+#include "fluid/fluid_domain.hpp"
 #include "fluid/fluid_solver.hpp"
 #include "fluid/kernel_dispatch.hpp"
 #include "fluid/monitor_log.hpp"
@@ -43,6 +46,10 @@
 #include "protocol/session/interrupt.hpp"
 #include "protocol/text.hpp"
 #include "protocol/units.hpp"
+#if COSIM_HAVE_MPI
+#include "fluid/mpi/distributed_fluid.hpp"
+#include "fluid/mpi/mpi_world.hpp"
+#endif
 
 namespace cosim::fluid {
 namespace {
@@ -156,27 +163,43 @@ class Progress {
   std::int64_t cells_;
 };
 
-int run(const FluidScene& s, bool quiet) {
+/// The run loop of a fluid-only scene over `domain` (one process, or blocks over MPI ranks:
+/// every rank runs this loop; the leading one prints and writes).
+int run(const FluidScene& s, bool quiet, FluidDomain& domain) {
   protocol::UnitInputs in;
   in.dx_m = s.dx_um * 1e-6;
   const protocol::UnitConverter units(in);
   const double dt_us = units.dt_lb_s() * 1e6;
+  const bool leads = domain.leads();
   if (s.threads > 0) omp_set_num_threads(s.threads);
-  print_header(s, units);
+  if (leads) {
+    print_header(s, units);
+    if (const std::string d = domain.describe(); !d.empty()) std::printf("  blocks   %s\n", d.c_str());
+    std::fflush(stdout);
+  }
 
-  FluidSolver solver(s.params);
-  initialize_flow(solver, s);
+  domain.initialize(s);
 
   const HealthLimits limits{s.mach_limit, 0.0, s.watchdog.rho_min, s.watchdog.rho_max};
-  Progress progress(!quiet, s.steps, dt_us, s.params.shape.cells());
-  // Health before every write: an unhealthy state is diagnosed and nothing is written.
-  const auto healthy_summary = [&]() -> std::optional<FlowSummary> {
-    FlowSummary sum = summarize(solver);
-    const std::string problem = health_problem(sum, limits);
-    if (problem.empty()) return sum;
+  Progress progress(!quiet && leads, s.steps, dt_us, s.params.shape.cells());
+  const auto stop = [&](const std::string& problem) {
+    if (!leads) return;
     progress.clear();
     std::fflush(stdout);
     std::fprintf(stderr, "fluid: unhealthy flow, run stopped: %s\n", one_line(problem).c_str());
+  };
+  // Health before every write: an unhealthy state is diagnosed and nothing is written. The
+  // summary is on the leading process; its verdict goes to every process.
+  const auto healthy_summary = [&]() -> std::optional<FlowSummary> {
+    FlowSummary sum;
+    std::string problem;
+    if (const std::optional<FlowSummary> got = domain.summary()) {
+      sum = *got;
+      problem = health_problem(sum, limits);
+    }
+    problem = domain.from_leader(problem);
+    if (problem.empty()) return sum;
+    stop(problem);
     return std::nullopt;
   };
 
@@ -184,49 +207,102 @@ int run(const FluidScene& s, bool quiet) {
   if (!first) return exit_code::unhealthy;
   const double mass0 = first->mass;
 
-  std::filesystem::create_directories(s.output_dir);
-  protocol::write_provenance_files(s.output_dir);  // OUTPUT/scene.toml, provenance_fluid.toml
-  MonitorLog log((std::filesystem::path(s.output_dir) / "monitor.h5").string(), dt_us);
-  Snapshots snapshots(s, dt_us);
-
-  log.append(*first);
-  std::printf("%s\n", format_summary(*first, dt_us, mass0).c_str());
-  std::fflush(stdout);
-  if (snapshots.due(0, false)) snapshots.write(solver, false);
+  std::optional<MonitorLog> log;
+  std::optional<Snapshots> snapshots;
+  if (leads) {
+    std::filesystem::create_directories(s.output_dir);
+    protocol::write_provenance_files(s.output_dir);  // OUTPUT/scene.toml, provenance_fluid.toml
+    log.emplace((std::filesystem::path(s.output_dir) / "monitor.h5").string(), dt_us);
+    snapshots.emplace(s, dt_us);
+    log->append(*first);
+    std::printf("%s\n", format_summary(*first, dt_us, mass0).c_str());
+    std::fflush(stdout);
+  }
+  // The whole grid for the snapshots (gathered on the leading process: collective).
+  const auto write_snapshots = [&](bool last) {
+    const FluidSolver* whole = domain.whole();
+    if (leads) snapshots->write(*whole, last);
+  };
+  if (Snapshots::due(s, 0, false)) write_snapshots(false);
 
   for (std::int64_t step = 1; step <= s.steps; ++step) {
-    solver.step();
+    domain.step();
     // The watchdog's cadence: the state the step read (step - 1), from the kernel's extrema.
     if ((step - 1) % s.watchdog.health_every == 0)
-      if (const std::string problem = kernel_state_problem(solver, limits); !problem.empty()) {
-        progress.clear();
-        std::fflush(stdout);
-        std::fprintf(stderr, "fluid: unhealthy flow, run stopped: %s\n", one_line(problem).c_str());
+      if (const std::string problem = domain.kernel_problem(limits); !problem.empty()) {
+        stop(problem);
         return exit_code::unhealthy;
       }
     const bool last = step == s.steps;
     const bool monitor = step % s.monitor_every == 0 || last;
-    const bool snapshot = snapshots.due(step, last);
+    const bool snapshot = Snapshots::due(s, step, last);
     if (monitor || snapshot) {
       const std::optional<FlowSummary> sum = healthy_summary();
       if (!sum) return exit_code::unhealthy;
-      if (monitor) {
-        log.append(*sum);
+      if (leads && monitor) {
+        log->append(*sum);
         progress.clear();
         std::printf("%s\n", format_summary(*sum, dt_us, mass0).c_str());
         std::fflush(stdout);
       }
-      if (snapshot) snapshots.write(solver, last);
+      if (snapshot) write_snapshots(last);
     }
     progress.update(step);
   }
   progress.clear();
   const double wall = progress.elapsed_s();
-  std::printf("fluid: done, %lld steps (%.4g us) in %.1f s, %.1f MLUPS; output in %s\n",
-              static_cast<long long>(s.steps), double(s.steps) * dt_us, wall,
-              wall > 0 ? double(s.params.shape.cells()) * double(s.steps) / wall * 1e-6 : 0.0,
-              s.output_dir.c_str());
+  if (leads)
+    std::printf("fluid: done, %lld steps (%.4g us) in %.1f s, %.1f MLUPS; output in %s\n",
+                static_cast<long long>(s.steps), double(s.steps) * dt_us, wall,
+                wall > 0 ? double(s.params.shape.cells()) * double(s.steps) / wall * 1e-6 : 0.0,
+                s.output_dir.c_str());
   return exit_code::ok;
+}
+
+#if COSIM_HAVE_MPI
+mpi::World* g_world = nullptr;  // set by main() when mpirun started the process
+#endif
+// The standard error of a rank other than 0 while the command line and the scene are read
+// (every rank finds the same problems; rank 0 says them once): -1 when not held back.
+int g_held_stderr = -1;
+void release_stderr() {
+  if (g_held_stderr < 0) return;
+  std::fflush(stderr);
+  dup2(g_held_stderr, 2);
+  close(g_held_stderr);
+  g_held_stderr = -1;
+}
+
+int mpi_ranks() {
+#if COSIM_HAVE_MPI
+  if (g_world != nullptr) return g_world->size();
+#endif
+  return 1;
+}
+
+int mpi_rank() {
+#if COSIM_HAVE_MPI
+  if (g_world != nullptr) return g_world->rank();
+#endif
+  return 0;
+}
+
+/// A fluid-only scene in this process, or over the MPI ranks of an mpirun.
+int run_fluid_only(const FluidScene& scene, bool quiet) {
+#if COSIM_HAVE_MPI
+  if (mpi_ranks() > 1) {
+    std::unique_ptr<FluidDomain> domain;
+    try {
+      domain = std::make_unique<mpi::DistributedFluid>(scene, g_world->comm());
+    } catch (const std::invalid_argument& e) {
+      if (g_world->rank() == 0) std::fprintf(stderr, "%s: %s\n", scene.path.c_str(), one_line(e.what()).c_str());
+      return exit_code::bad_input;
+    }
+    return run(scene, quiet, *domain);
+  }
+#endif
+  SerialDomain domain(scene.params);
+  return run(scene, quiet, domain);
 }
 
 int main_impl(int argc, char** argv) {
@@ -294,6 +370,7 @@ int main_impl(int argc, char** argv) {
     std::fprintf(stderr, "%s\n", e.what());
     return exit_code::bad_input;
   }
+  release_stderr();  // from here on a rank's problems are its own
   protocol::record_scene(scene.path);
   try {
     active_kernel();  // COSIM_KERNEL_LEVEL, if set, names a level this binary and CPU have
@@ -309,6 +386,14 @@ int main_impl(int argc, char** argv) {
     return exit_code::ok;
   }
   if (scene.coupling) {
+    if (mpi_ranks() > 1) {
+      if (mpi_rank() == 0)  // every rank finds it; one says it
+        std::fprintf(stderr,
+                     "%s: a coupled scene runs its fluid in one process for now (%d MPI ranks given); "
+                     "run it without --ranks\n",
+                     scene.path.c_str(), mpi_ranks());
+      return exit_code::bad_input;
+    }
     protocol::catch_interrupts();  // before any thread starts (OpenMP, LCM)
     if (token.empty())
       if (const char* env = std::getenv("COSIM_RUN_TOKEN")) token = env;
@@ -339,18 +424,48 @@ int main_impl(int argc, char** argv) {
     }
     return run_coupled_fluid(scene, co, std::cout, std::cerr);
   }
-  return run(scene, quiet);
+  return run_fluid_only(scene, quiet);
 }
 
 }  // namespace
 }  // namespace cosim::fluid
 
 int main(int argc, char** argv) {
+#if COSIM_HAVE_MPI
+  // MPI only under mpirun: alone, the fluid runs as a build without MPI does.
+  std::optional<cosim::fluid::mpi::World> world;
+  if (cosim::fluid::mpi::launched_by_mpirun()) {
+    world.emplace(argc, argv);
+    cosim::fluid::g_world = &*world;
+    // One process prints: the others' standard output would repeat the leader's lines.
+    if (world->rank() != 0) {
+      if (std::freopen("/dev/null", "w", stdout) == nullptr) return 1;
+      std::fflush(stderr);
+      cosim::fluid::g_held_stderr = dup(2);
+      if (cosim::fluid::g_held_stderr >= 0 && std::freopen("/dev/null", "w", stderr) == nullptr) return 1;
+    }
+  }
+#else
+  // Started by mpirun on several ranks, a build without MPI would run the whole scene in
+  // each of them into the same folder.
+  if (const int ranks = cosim::fluid::mpirun_world_size(); ranks > 1) {
+    std::fprintf(stderr,
+                 "fluid: started on %d MPI ranks, but this build has no MPI (install libopenmpi-dev "
+                 "and rebuild: cmake -DCOSIM_MPI=ON)\n",
+                 ranks);
+    return cosim::protocol::exit_code::bad_input;
+  }
+#endif
   try {
     return cosim::fluid::main_impl(argc, argv);
   } catch (const std::exception& e) {
     std::fflush(stdout);
+    cosim::fluid::release_stderr();
     std::fprintf(stderr, "fluid: %s\n", cosim::fluid::one_line(e.what()).c_str());
+#if COSIM_HAVE_MPI
+    // The other ranks may wait in a collective for this one: end them all.
+    if (world && world->size() > 1) cosim::fluid::mpi::World::abort(cosim::protocol::exit_code::system);
+#endif
     return cosim::protocol::exit_code::system;
   }
 }

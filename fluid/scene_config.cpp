@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "fluid/d3q19.hpp"
+#include "fluid/decomposition.hpp"
 #include "fluid/grid_layout.hpp"
 #include "protocol/config/scene_reader.hpp"
 #include "protocol/config/shared_sections.hpp"
@@ -66,7 +67,7 @@ const std::vector<SectionSchema>& schema() {
       {"boundaries", {"x_min", "x_max", "y_min", "y_max", "z_min", "z_max"}},
       {"wall_velocity", {"x_min", "x_max", "y_min", "y_max", "z_min", "z_max"}},
       {"body_force", {"x", "y", "z"}},
-      {"run", {"steps", "duration_us", "monitor_every", "mach_limit", "threads", "initial", "precision"}},
+      {"run", {"steps", "duration_us", "monitor_every", "mach_limit", "threads", "initial", "precision", "blocks"}},
       {"output"},
       {"coupling", protocol::config::coupling_keys()},
       // The stability watchdog (protocol/watchdog.hpp): the same table in both servers.
@@ -183,6 +184,15 @@ void load_run(const SceneReader& r, FluidScene& s) {
     if (*t < 0 || *t > SceneLimits::threads_max)
       run.bad("threads", "must be in [0, 1024]; 0 leaves the choice to OpenMP (OMP_NUM_THREADS)");
     s.threads = int(*t);
+  }
+  // The blocks of an MPI run (fluid/decomposition.hpp): slabs along z, [1, 1, N].
+  if (const auto b = run.numbers("blocks", 3, 3, "three block counts along x, y and z, e.g. [1, 1, 2]")) {
+    for (const double n : *b)
+      if (!(n >= 1.0 && n <= 4096.0 && n == std::floor(n)))
+        run.bad("blocks", "each count must be an integer in [1, 4096]");
+    const std::array<int, 3> blocks = {int((*b)[0]), int((*b)[1]), int((*b)[2])};
+    if (const std::string why = blocks_problem(s.params.shape, blocks); !why.empty()) run.bad("blocks", why);
+    s.blocks = blocks;
   }
   // How the populations are stored; the arithmetic is double either way.
   if (const auto p = run.choice("precision", {"double", "single"}))

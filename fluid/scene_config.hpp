@@ -3,6 +3,7 @@
 // physics). The schema is documented in scenes/README.md and at load_scene below.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <optional>
 #include <stdexcept>
@@ -77,6 +78,9 @@ struct FluidScene {
   std::string output_dir;         ///< relative paths are relative to the working directory
   double mach_limit = SceneLimits::default_mach_limit;
   int threads = 0;  ///< 0: OpenMP's default (OMP_NUM_THREADS or all cores)
+  /// [run] blocks: the blocks of an MPI run along x, y, z (fluid/decomposition.hpp); empty:
+  /// chosen from the number of ranks. A run of one process takes the grid whole.
+  std::optional<std::array<int, 3>> blocks;
   /// Present in a coupled scene: the fluid then runs with a solid process over LCM.
   std::optional<CouplingSettings> coupling;
   /// [watchdog] (protocol/watchdog.hpp; defaults when absent): a fluid-only run uses

@@ -19,11 +19,11 @@ Snapshots::Snapshots(const FluidScene& scene, double dt_us)
   }
 }
 
-bool Snapshots::due(std::int64_t step, bool last) const {
+bool Snapshots::due(std::int64_t fields_every, std::int64_t planes_every, std::int64_t step, bool last) {
   const auto on = [&](std::int64_t every) {
     return every > 0 && (step % every == 0 || last);
   };
-  return on(fields_every_) || on(planes_every_);
+  return on(fields_every) || on(planes_every);
 }
 
 void Snapshots::adopt_up_to(std::int64_t step) {

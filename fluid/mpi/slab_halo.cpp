@@ -1,0 +1,62 @@
+#include "fluid/mpi/slab_halo.hpp"
+
+#include <type_traits>
+#include <vector>
+
+#include "fluid/d3q19.hpp"
+#include "fluid/mpi/mpi_world.hpp"
+
+namespace cosim::fluid::mpi {
+
+std::array<bool, kHaloFaces> SlabHalo::faces() const {
+  std::array<bool, kHaloFaces> h{};
+  h[ZMin] = n_.below >= 0;
+  h[ZMax] = n_.above >= 0;
+  return h;
+}
+
+template <class T>
+void SlabHalo::run(BasicPopulationField<T>& f) {
+  const double t0 = MPI_Wtime();
+  const GridLayout& lay = f.layout();
+  const std::ptrdiff_t plane = lay.plane_stride();
+  const int nz = lay.nz();
+  const MPI_Datatype type = std::is_same_v<T, double> ? MPI_DOUBLE : MPI_FLOAT;
+  // Offset of the first value of plane z (its x and y ghosts included).
+  const auto at = [&](int z) { return std::ptrdiff_t(z + 1) * plane; };
+  constexpr int kUp = 100, kDown = 200;  // tags: + q
+  std::vector<MPI_Request> req;
+  req.reserve(4 * 5);
+  for (int q = 0; q < D3Q19::Q; ++q) {
+    T* fq = f.q(q);
+    if (D3Q19::cz[q] == 1) {  // travels up: from the slab below into z = -1, to the one above
+      if (n_.below >= 0) {
+        req.emplace_back();
+        check(MPI_Irecv(fq + at(-1), int(plane), type, n_.below, kUp + q, comm_, &req.back()), "MPI_Irecv");
+      }
+      if (n_.above >= 0) {
+        req.emplace_back();
+        check(MPI_Isend(fq + at(nz - 1), int(plane), type, n_.above, kUp + q, comm_, &req.back()), "MPI_Isend");
+        bytes_sent_ += plane * std::int64_t(sizeof(T));
+      }
+    } else if (D3Q19::cz[q] == -1) {  // travels down
+      if (n_.above >= 0) {
+        req.emplace_back();
+        check(MPI_Irecv(fq + at(nz), int(plane), type, n_.above, kDown + q, comm_, &req.back()), "MPI_Irecv");
+      }
+      if (n_.below >= 0) {
+        req.emplace_back();
+        check(MPI_Isend(fq + at(0), int(plane), type, n_.below, kDown + q, comm_, &req.back()), "MPI_Isend");
+        bytes_sent_ += plane * std::int64_t(sizeof(T));
+      }
+    }
+  }
+  check(MPI_Waitall(int(req.size()), req.data(), MPI_STATUSES_IGNORE), "MPI_Waitall (halo exchange)");
+  ++exchanges_;
+  seconds_ += MPI_Wtime() - t0;
+}
+
+template void SlabHalo::run(PopulationField&);
+template void SlabHalo::run(PopulationFieldSingle&);
+
+}  // namespace cosim::fluid::mpi

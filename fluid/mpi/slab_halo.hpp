@@ -1,0 +1,43 @@
+// The halo exchange between slabs along z over MPI (fluid/halo_exchange.hpp): a slab's edge
+// planes to the slabs below and above, each step.
+#pragma once
+
+#include <mpi.h>
+
+#include <array>
+#include <cstdint>
+
+#include "fluid/decomposition.hpp"
+#include "fluid/halo_exchange.hpp"
+
+namespace cosim::fluid::mpi {
+
+/// Sends the plane z = nz - 1 (the populations with c_z = +1, the ones the slab above pulls
+/// from its z = -1 ghosts) up and the plane z = 0 (c_z = -1) down, and receives the
+/// neighbours' planes into the ghost planes z = -1 and z = nz: 5 of the 19 populations, each
+/// a whole plane with its x and y ghosts (GridLayout::plane_stride values), straight from and
+/// into the field (no packing). Nonblocking sends and receives, all posted before the first
+/// wait.
+class SlabHalo final : public HaloExchange {
+ public:
+  SlabHalo(MPI_Comm comm, const SlabNeighbours& n) : comm_(comm), n_(n) {}
+  void exchange(PopulationField& f) override { run(f); }
+  void exchange(PopulationFieldSingle& f) override { run(f); }
+  std::array<bool, kHaloFaces> faces() const override;
+  /// Bytes this slab sent in its exchanges so far.
+  std::int64_t bytes_sent() const { return bytes_sent_; }
+  std::int64_t exchanges() const { return exchanges_; }
+  /// Wall-clock seconds spent in the exchanges so far (posting, waiting: what a step spends
+  /// on its halo).
+  double seconds() const { return seconds_; }
+
+ private:
+  template <class T>
+  void run(BasicPopulationField<T>& f);
+  MPI_Comm comm_;
+  SlabNeighbours n_;
+  std::int64_t bytes_sent_ = 0, exchanges_ = 0;
+  double seconds_ = 0.0;
+};
+
+}  // namespace cosim::fluid::mpi
