@@ -313,6 +313,86 @@ TEST(ElasticSheets, StaticTipDeflection) {
   }
 }
 
+// [[sheet]] leading_edge = "pinned": the held row is a hinge. A rigid rotation of the sheet
+// about it costs no energy (the linear model, small angle), where the clamped sheet resists
+// it; the flexural modes are a beam's hinged at one end and free at the other: a zero mode
+// (the rotation) and then (beta_n L)^2 / (2 pi L^2) sqrt(D / rho_2D) with tan(beta L) =
+// tanh(beta L), beta_n L = 3.926602, 7.068583.
+TEST(ElasticSheets, PinnedLeadingEdgeIsAHinge) {
+  for (SolidConfig config : paper_sheets()) {
+    SheetSpec& spec = config.sheets[0];
+    const auto rotated = [&](const ElasticSheetModel& m) {
+      const Eigen::Vector3d n = sheet_normal(spec);
+      Eigen::Matrix3Xd x = m.positions();
+      for (Eigen::Index l = 0; l < x.cols(); ++l)
+        x.col(l) += 1e-3 * double(l / spec.nx_cg) * spec.height_spacing_bohr * n;
+      return x;
+    };
+    ElasticSheetModel clamped(config, SheetKinematics::Linear);
+    Eigen::Matrix3Xd f(3, clamped.num_cgps());
+    const double e_clamped = clamped.internal_forces(rotated(clamped), f);
+    spec.pinned = true;
+    ElasticSheetModel pinned(config, SheetKinematics::Linear);
+    const double e_pinned = pinned.internal_forces(rotated(pinned), f);
+    double free_force = 0.0;
+    for (Eigen::Index l = spec.nx_cg; l < f.cols(); ++l) free_force = std::max(free_force, f.col(l).norm());
+    EXPECT_GT(e_clamped, 0.0);
+    EXPECT_LT(std::abs(e_pinned), 1e-10 * e_clamped);  // round-off of the stiff in-plane terms
+    EXPECT_LT(free_force, 1e-9 * force_scale(pinned, 1e-3 * spec.height_spacing_bohr));
+
+    const FlexuralProblem p = flexural_problem(pinned, spec);
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(p.k / spec.cgp_mass_me);
+    const double d = pinned.plate_constants().d22;
+    const double rho = spec.cgp_mass_me / spec.cell_area_bohr2();
+    const double len = free_length(spec);
+    const double to_hz = 1.0 / (2.0 * std::numbers::pi * PhysicalConstants::time_au_s);
+    std::vector<double> bending;  // modes uniform across the width
+    for (Eigen::Index k = 0; k < es.eigenvalues().size() && bending.size() < 3; ++k) {
+      const Eigen::VectorXd v = es.eigenvectors().col(k);
+      double across = 0.0;
+      for (std::size_t a = 0; a + 1 < p.free.size(); ++a)
+        if (p.free[a] / spec.nx_cg == p.free[a + 1] / spec.nx_cg)
+          across = std::max(across, std::abs(v[Eigen::Index(a) + 1] - v[Eigen::Index(a)]));
+      if (across < 1e-6 * v.cwiseAbs().maxCoeff()) bending.push_back(std::sqrt(std::max(es.eigenvalues()[k], 0.0)) * to_hz);
+    }
+    ASSERT_EQ(bending.size(), 3u);
+    const double scale = std::sqrt(d / rho) / PhysicalConstants::time_au_s / (2.0 * std::numbers::pi * len * len);
+    std::printf("pinned sheet: rotation mode %.3g Hz; bending %.6g, %.6g Hz, hinged-free beam %.6g, %.6g Hz\n",
+                bending[0], bending[1], bending[2], 3.926602 * 3.926602 * scale, 7.068583 * 7.068583 * scale);
+    EXPECT_LT(bending[0], 1e-4 * bending[1]);  // zero up to the solver's round-off (eigenvalue 1e-8 of it)
+    EXPECT_NEAR(bending[1] / (3.926602 * 3.926602 * scale), 1.0, 0.02);
+    EXPECT_NEAR(bending[2] / (7.068583 * 7.068583 * scale), 1.0, 0.02);
+  }
+}
+
+// [solid] gravity_m_s2: every CGP feels m g, and the potential energy gains -sum m g . (x - x_flat),
+// so that force and energy stay consistent (ForceIsMinusEnergyGradient's check, here with g).
+TEST(ElasticSheets, GravityIsABodyForce) {
+  for (const SheetKinematics kin : kAll) {
+    SolidConfig config = one_sheet(5, 8, 37.0);
+    ElasticSheetModel plain(config, kin);
+    config.body.gravity_m_s2 = {1e9, -3e9, 2e9};
+    ElasticSheetModel heavy(config, kin);
+    const Eigen::Vector3d g_au = config.body.gravity_m_s2 * (PhysicalConstants::time_au_s *
+                                                             PhysicalConstants::time_au_s / PhysicalConstants::bohr_m);
+    std::mt19937 rng(5);
+    std::normal_distribution<double> n(0.0, 20.0);
+    Eigen::Matrix3Xd x = plain.positions();
+    for (Eigen::Index l = 0; l < x.cols(); ++l) x.col(l) += Eigen::Vector3d(n(rng), n(rng), n(rng));
+    Eigen::Matrix3Xd f0(3, x.cols()), f1(3, x.cols());
+    const double e0 = plain.internal_forces(x, f0), e1 = heavy.internal_forces(x, f1);
+    double work = 0.0, worst = 0.0;
+    for (Eigen::Index l = 0; l < x.cols(); ++l) {
+      const double m = plain.masses()[l];
+      worst = std::max(worst, (f1.col(l) - f0.col(l) - m * g_au).norm() / (m * g_au.norm()));
+      work += m * g_au.dot(x.col(l) - plain.positions().col(l));
+    }
+    EXPECT_LT(worst, 1e-12) << label(kin);
+    EXPECT_NEAR(e1 - e0, -work, 1e-9 * std::abs(work)) << label(kin);
+    EXPECT_NEAR(heavy.potential_energy(x), e1, 1e-12 * std::abs(e1)) << label(kin);
+  }
+}
+
 // Velocity Verlet is symplectic: the energy error stays bounded (no drift). Drift is the
 // change of the mean energy between the first and the last 1000 of 1e4 substeps; for the
 // linear model even the largest deviation is below 1e-6. The corotational model's geometric
