@@ -19,8 +19,8 @@ table per family with what the paper's section 3 states about it:
     cut-off (the sheets' CGP spacing unless [contact] cutoff_um says otherwise).
 
 The displacement used is the component of the marked CGP's displacement that moves most in
-the second half of the free phase: x (stream-wise) or z (span-wise); "rest" when neither
-moves by 1 nm peak to peak there (no frequency is read from round-off).
+the free phase: x (stream-wise) or z (span-wise); "late: rest" when it moves by less than
+1 nm peak to peak in the second half of the free phase.
 
   /usr/bin/python3 launch/paper_readings.py [--out out/sweep] [--families re,angle,pair]
       [--laws momentum_exchange,per_substep_over_time_ratio] [--table-only]
@@ -99,20 +99,18 @@ def measure(run_dir, f_vac):
     for s in range(run.sheets):
         comps = {"x": run.disp[k, s, 0], "z": run.disp[k, s, 2]}
         half = t >= t[0] + 0.5 * T
-        name = max(comps, key=lambda c: float(np.std(comps[c][half])))
+        name = max(comps, key=lambda c: float(np.std(comps[c])))
         x = comps[name]
-        if float(np.ptp(x[half])) < REST_UM:     # settled: what crossings remain are round-off
-            crossings, f, n, name = [], math.nan, 0, "rest"
-        else:
-            crossings = plot.crossing_times(t, x)
-            f, n = plot.crossing_frequency(t, x)
+        crossings = plot.crossing_times(t, x)
+        f, n = plot.crossing_frequency(t, x)
+        late = "rest" if float(np.ptp(x[half])) < REST_UM else "moving"
         a1 = peak_to_peak(t, x, t[0] + 0.25 * T, t[0] + 0.5 * T)
         a2 = peak_to_peak(t, x, t[0] + 0.75 * T, t[-1])
-        rows.append(dict(sheet=f"G{s + 1}", comp=name, x_end=float(run.disp[k, s, 0][-1]),
+        rows.append(dict(sheet=f"G{s + 1}", comp=name, late=late, x_end=float(run.disp[k, s, 0][-1]),
                          z_end=float(run.disp[k, s, 2][-1]), f=f, n=n,
                          ratio=f / (f_vac * 1e-6) if math.isfinite(f) else math.nan,
                          a1=a1, a2=a2, growth=a2 / a1 if a1 > 0 else math.nan,
-                         cv=half_period_cv(t, crossings), t_free=T))
+                         cv=half_period_cv(t, crossings) if late == "moving" else math.nan, t_free=T))
     return run, rows
 
 
@@ -145,23 +143,23 @@ def fmt(v, spec=".3g"):
 
 def table(out, family, laws):
     lines = [f"### {family}", "",
-             "| scene | law | sheet | exit | moves | x_end, z_end (um) | f (MHz) | crossings | f / f_vac | "
-             "A1, A2 (um) | A2 / A1 | cv | gap (um) / cut-off |",
-             "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+             "| scene | law | sheet | exit | x_end, z_end (um) | moves | f (MHz) | crossings | f / f_vac | "
+             "A1, A2 (um) | A2 / A1 | late | cv | gap (um) / cut-off |",
+             "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
     for name in FAMILIES[family]:
         for law in laws:
             base = os.path.join(out, f"{family}-{law}")
             run_dir = os.path.join(base, f"{name}_reduced")
             scene = os.path.join(base, "scenes", f"{name}_reduced.toml")
             if not os.path.isfile(os.path.join(run_dir, "solid.h5")) or not os.path.isfile(scene):
-                lines.append(f"| {name} | {law} | - | - | not run | | | | | | | | |")
+                lines.append(f"| {name} | {law} | - | - | not run | | | | | | | | | |")
                 continue
             exit_status = sweep_exit(base, f"{name}_reduced")
             f_vac = sader.vacuum_frequency(scene)
             try:
                 run, rows = measure(run_dir, f_vac)
             except plot.RunError as e:
-                lines.append(f"| {name} | {law} | - | - | unreadable: {e} | | | | | | | | |")
+                lines.append(f"| {name} | {law} | - | - | unreadable: {e} | | | | | | | | | |")
                 continue
             gap = ""
             if run.sheets >= 2:
@@ -171,9 +169,10 @@ def table(out, family, laws):
                 gap = f"{fmt(g)} / {fmt(contact_cutoff(scene))}"
             for r in rows:
                 lines.append(
-                    f"| {name} | {law} | {r['sheet']} | {exit_status} | {r['comp']} | {fmt(r['x_end'])}, "
-                    f"{fmt(r['z_end'])} | {fmt(r['f'], '.4g')} | {r['n']} | {fmt(r['ratio'])} | "
-                    f"{fmt(r['a1'])}, {fmt(r['a2'])} | {fmt(r['growth'])} | {fmt(r['cv'], '.2f')} | {gap} |")
+                    f"| {name} | {law} | {r['sheet']} | {exit_status} | {fmt(r['x_end'])}, {fmt(r['z_end'])} | "
+                    f"{r['comp']} | {fmt(r['f'], '.4g')} | {r['n']} | {fmt(r['ratio'])} | "
+                    f"{fmt(r['a1'])}, {fmt(r['a2'])} | {fmt(r['growth'])} | {r['late']} | {fmt(r['cv'], '.2f')} | "
+                    f"{gap} |")
     lines.append("")
     return lines
 
@@ -206,10 +205,13 @@ def main():
     lines = ["Made by `/usr/bin/python3 launch/paper_readings.py " +
              f"--out {a.out} --families {','.join(families)} --laws {','.join(laws)}" +
              (" --table-only" if a.table_only else "") + "`.", "",
-             "moves: the component of the marked CGP's displacement that moves most late in the free phase; "
-             "f: from its crossings of the late mean; A1, A2: its peak-to-peak excursion in the second and "
-             "last quarter of the free phase; cv: variation of the half periods in the second half; gap: "
-             "smallest G1-G2 CGP distance after the release.", ""]
+             "moves: the component of the marked CGP's displacement that moves most in the free phase (x "
+             "stream-wise, z span-wise); f: from its crossings of its late mean over the free phase "
+             "(launch/plot.py, as sweep.sh's table); f_vac: the first vacuum eigenfrequency (solid --check); "
+             "A1, A2: its peak-to-peak excursion in the second and last quarter of the free phase; late: "
+             "rest when it moves less than 1 nm peak to peak in the second half; cv: variation of the half "
+             "periods in the second half (moving only); gap: smallest G1-G2 CGP distance after the "
+             "release, against the LJ cut-off.", ""]
     for f in families:
         lines += table(out, f, laws)
     text = "\n".join(lines)
