@@ -20,7 +20,12 @@ um, large: 20.5 x 15.4 x 15.4 um around the 8.8 um sheet).
 
   python3 launch/free_decay_study.py [--out out/free_decay] [--cases heavy,paper]
       [--resolutions 0.5122,0.2561] [--boxes small,large] [--law momentum_exchange]
-      [--t-end-us T] [--tolerance KEY=REL,...] [--scene-only] [--table-only]
+      [--t-end-us T] [--tolerance KEY=REL,...] [--sheet-refine K] [--scene-only] [--table-only]
+
+--sheet-refine K discretizes the same sheet with K times more CGPs each way (5K x 40K CGPs of
+spacing 0.24/K x 0.22/K um and 2e6/K^2 atoms, 9 RCGP stages kept): the same plate (D, areal
+density, W, H) whose CGPs, the immersed boundary's markers, stay within a cell of each other on
+a K times finer grid (5 x 40 CGPs on dx = 0.128 um would be 1.9 dx apart: a leaky boundary).
 
 --table-only makes the table and the plot from the runs already in OUT (none is run).
 
@@ -56,7 +61,7 @@ def tau_for(nu, dx_m):
     return 0.5 + 3.0 * nu * dt / (dx_m * dx_m)
 
 
-def scene_text(name, case, dx_um, box, law="momentum_exchange", out_dir=None, t_end_us=None):
+def scene_text(name, case, dx_um, box, law="momentum_exchange", out_dir=None, t_end_us=None, refine=1):
     mass, nu, t_us = CASES[case]
     t_us = t_end_us or t_us
     dx = dx_um * 1e-6
@@ -67,6 +72,9 @@ def scene_text(name, case, dx_um, box, law="momentum_exchange", out_dir=None, t_
     # dt_CG of the paper (A_T 150 at dx = 0.2561 um) for the paper's mass; a 100 times heavier
     # CGP has a 10 times larger stable step.
     a_t = int(round(150 * dx_um / 0.2561 / math.sqrt(mass)))
+    # K times finer CGPs, K^2 times lighter: the highest (in-plane) frequency grows about K-fold
+    # (solid --check at K = 2, dx 0.128 um: dt_CG 0.32 of the stable step).
+    a_t *= refine
     law_line = "" if law == "momentum_exchange" else f'\n[reaction]\nlaw = "{law}"\n'
     return f'''# Free decay in still air (launch/free_decay_study.py, issue 16); generated, do not edit.
 [scene]
@@ -109,10 +117,10 @@ flexural_scaling = "paper"
 stages = 9
 
 [[sheet]]
-nx_cg = 5
-ny_cg = 40
-spacing_um = [0.24, 0.22]
-atoms_per_cgp = {2e6 * mass:g}
+nx_cg = {5 * refine}
+ny_cg = {40 * refine}
+spacing_um = [{0.24 / refine:g}, {0.22 / refine:g}]
+atoms_per_cgp = {2e6 * mass / refine ** 2:g}
 base_um = [{n[0] * dx_um / 2:.4f}, 0.0, {n[2] * dx_um / 2:.4f}]
 theta_deg = 90
 
@@ -150,12 +158,16 @@ def main():
     ap.add_argument("--law", default="momentum_exchange")
     ap.add_argument("--scene-only", action="store_true")
     ap.add_argument("--table-only", action="store_true")
+    ap.add_argument("--sheet-refine", type=int, default=1,
+                    help="K: the sheet as 5K x 40K CGPs (the same plate, markers K times closer)")
     ap.add_argument("--t-end-us", type=float,
                     help="run this long after the release instead of the case's default")
     ap.add_argument("--tolerance", default="",
                     help="KEY=REL,... (KEY of t_cross1, t_cross2, undershoot, freq, zeta): exit 1 "
                          "when a run differs from Sader by more than REL (relative) in KEY")
     a = ap.parse_args()
+    if not 1 <= a.sheet_refine <= 4:
+        ap.error(f"--sheet-refine {a.sheet_refine}: allowed 1 to 4")
     tolerances = {}
     for item in filter(None, a.tolerance.split(",")):
         k, _, v = item.partition("=")
@@ -168,13 +180,15 @@ def main():
         for dx in [float(v) for v in a.resolutions.split(",")]:
             for box in a.boxes.split(","):
                 name = f"free_decay_{case}_dx{str(dx).replace('.', 'p')}_{box}" + (
-                    "" if a.law == "momentum_exchange" else "_" + a.law)
+                    "" if a.law == "momentum_exchange" else "_" + a.law) + (
+                    "" if a.sheet_refine == 1 else f"_sheet{5 * a.sheet_refine}x{40 * a.sheet_refine}")
                 d = os.path.abspath(os.path.join(a.out, name))
                 os.makedirs(d, exist_ok=True)
                 scene = os.path.join(d, "scene.toml")
                 if not (a.table_only and os.path.exists(scene)):  # else: the scene the run was made with
                     with open(scene, "w") as f:
-                        f.write(scene_text(name, case, dx, box, a.law, os.path.join(d, "run"), a.t_end_us))
+                        f.write(scene_text(name, case, dx, box, a.law, os.path.join(d, "run"), a.t_end_us,
+                                           a.sheet_refine))
                 if a.scene_only:
                     print(scene)
                     continue
@@ -193,7 +207,8 @@ def main():
                 tr = np.linspace(0.0, t[-1], 600)
                 xr = beam.free_decay(tr)
                 m, r = sader.decay_measures(t, x), sader.decay_measures(tr, xr)
-                rows.append((case, dx, box, m, r, beam))
+                rows.append((case, dx, box if a.sheet_refine == 1 else
+                             f"{box}, {5 * a.sheet_refine} x {40 * a.sheet_refine} CGPs", m, r, beam))
                 curves.append((name, t, x, tr, xr))
                 print(f"{name}: sim {m}; sader {r}", flush=True)
     if a.scene_only or not rows:

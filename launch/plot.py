@@ -742,21 +742,21 @@ def vorticity_figure(run, out, written, fraction, name, asked_us):
 # ----------------------------------------------------------------------------------------
 # Statistics for the sweep's table
 
-def crossing_frequency(t_us, x):
-    """(frequency in MHz, number of crossings) of x about its last-half mean: the zero
-    crossings of x - mean after the first one (the end of the initial approach), with a
-    hysteresis of 5% of the largest excursion from there on, so that round-off and the
-    creeping tail of a settled sheet are not counted; (nan, crossings) with fewer than two."""
+def crossing_times(t_us, x):
+    """The times (us) at which x crosses its last-half mean: the zero crossings of x - mean
+    after the first one (the end of the initial approach), with a hysteresis of 5% of the
+    largest excursion from there on, so that round-off and the creeping tail of a settled
+    sheet are not counted. An empty list when x does not move."""
     n = x.size
     if n < 4 or not np.isfinite(x).all():
-        return float("nan"), 0
+        return []
     d = x - np.mean(x[n // 2:])
     changes = np.nonzero(d[:-1] * d[1:] < 0)[0]
     if changes.size == 0:
-        return float("nan"), 0
+        return []
     amp = np.max(np.abs(d[changes[0]:]))
     if not amp > 1e-9:       # um: no motion to speak of
-        return float("nan"), 0
+        return []
     h = 0.05 * amp
     state, last_zero, crossings = 0, None, []
     for i in range(1, n):
@@ -773,6 +773,13 @@ def crossing_frequency(t_us, x):
         # the first crossing ends the approach from the rest position: it counts too
         a, b = d[changes[0]], d[changes[0] + 1]
         crossings.insert(0, t_us[changes[0]] + (t_us[changes[0] + 1] - t_us[changes[0]]) * (a / (a - b)))
+    return crossings
+
+
+def crossing_frequency(t_us, x):
+    """(frequency in MHz, number of crossings) from crossing_times: (nan, crossings) with
+    fewer than two."""
+    crossings = crossing_times(t_us, x)
     if len(crossings) < 2 or crossings[-1] <= crossings[0]:
         return float("nan"), len(crossings)
     return (len(crossings) - 1) / (2.0 * (crossings[-1] - crossings[0])), len(crossings)   # 1/us = MHz

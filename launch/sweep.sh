@@ -2,7 +2,7 @@
 # Runs a family of the paper's scenes (scenes/paper/, launch/paper-scenes.py), plots them
 # together and prints a summary table.
 #
-#   bash launch/sweep.sh re|angle|pair [--full] [--no-build]
+#   bash launch/sweep.sh re|angle|pair [--full] [--no-build] [--law LAW]
 #
 #   re     single_theta90_re01, _re10, _re20, _re40      (Figs. 5, 6)
 #   angle  single_theta00, 30, 45, 60, 90 at Re 40        (Figs. 7-9)
@@ -10,7 +10,11 @@
 #
 # The reduced presets (*_reduced.toml: half the resolution, a minute or more each) by default;
 # --full runs the paper's size (much longer). --no-build skips launch/bootstrap.sh and
-# launch/build.sh (done once for the whole sweep otherwise).
+# launch/build.sh (done once for the whole sweep otherwise). --law LAW runs each scene under
+# that reaction law (docs/reproduction.md, "The paper's readings"): a copy of the scene with
+# `[reaction] law = "LAW"` added is written to OUT/<family>-LAW/scenes/ and run from there,
+# the family's output going to OUT/<family>-LAW/ (momentum_exchange, omit_boundary_velocity,
+# per_substep_over_time_ratio, eq18_literal; a scene that has its own [reaction] section is refused).
 #
 # Each scene goes through launch/run-coupled.sh into OUT/<family>/<scene>/ (the folder is
 # emptied first; the launcher's own lines go to launcher.log there; on a terminal its one
@@ -39,14 +43,16 @@ set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 py=/usr/bin/python3
 
-usage() { echo "usage: bash launch/sweep.sh re|angle|pair [--full] [--no-build]" >&2; exit 2; }
+usage() { echo "usage: bash launch/sweep.sh re|angle|pair [--full] [--no-build] [--law LAW]" >&2; exit 2; }
 [ $# -ge 1 ] || usage
 family=$1; shift
-full=0; build=1
+full=0; build=1; law=""
 while [ $# -gt 0 ]; do
   case "$1" in
     --full) full=1; shift ;;
     --no-build) build=0; shift ;;
+    --law) [ $# -ge 2 ] || { echo "sweep: --law needs a value (momentum_exchange, omit_boundary_velocity, per_substep_over_time_ratio, eq18_literal)" >&2; exit 2; }
+           law=$2; shift 2 ;;
     *) echo "sweep: unknown option $1" >&2; usage ;;
   esac
 done
@@ -80,9 +86,29 @@ for s in "${scenes[@]}"; do
 done
 [ -x "$py" ] || { echo "sweep: $py not found (launch/bootstrap.sh installs it)" >&2; exit 1; }
 
-base=${COSIM_SWEEP_OUT:-$root/out/sweep}/$family
+case "$law" in
+  ""|momentum_exchange|omit_boundary_velocity|per_substep_over_time_ratio|eq18_literal) ;;
+  *) echo "sweep: --law '$law' is not a reaction law (momentum_exchange, omit_boundary_velocity, per_substep_over_time_ratio, eq18_literal)" >&2; exit 2 ;;
+esac
+for s in "${scenes[@]}"; do
+  if [ -n "$law" ] && grep -q '^[[:space:]]*\[reaction\]' "$s"; then
+    echo "sweep: $s has its own [reaction] section; --law $law would give it a second one" >&2; exit 2
+  fi
+done
+
+base=${COSIM_SWEEP_OUT:-$root/out/sweep}/$family${law:+-$law}
 mkdir -p "$base"
 base=$(cd "$base" && pwd)
+
+# Under --law, each scene runs from a copy with the law's [reaction] section appended.
+if [ -n "$law" ]; then
+  mkdir -p "$base/scenes"
+  for i in "${!scenes[@]}"; do
+    copy=$base/scenes/$(basename "${scenes[$i]}")
+    { cat "${scenes[$i]}"; printf '\n# Added by launch/sweep.sh --law %s\n[reaction]\nlaw = "%s"\n' "$law" "$law"; } >"$copy"
+    scenes[$i]=$copy
+  done
+fi
 
 if [ $build -eq 1 ]; then
   bash "$root/launch/bootstrap.sh"
@@ -97,7 +123,7 @@ for s in "${scenes[@]}"; do
   used[$d]=1; dirs+=("$d")
 done
 
-echo "sweep: family $family, ${#scenes[@]} scene(s)$([ $full -eq 1 ] && echo ', full size' || echo ', reduced presets'), output $base"
+echo "sweep: family $family, ${#scenes[@]} scene(s)$([ $full -eq 1 ] && echo ', full size' || echo ', reduced presets')${law:+, reaction law $law}, output $base"
 statuses=(); first_failure=0
 for i in "${!scenes[@]}"; do
   scene=${scenes[$i]}; out=$base/${dirs[$i]}

@@ -118,6 +118,9 @@ ElasticSheetModel::ElasticSheetModel(const SolidConfig& config, SheetKinematics 
     frequencies_hz_.push_back(omegas[k] / (2.0 * std::numbers::pi * PhysicalConstants::time_au_s));
   stable_dt_ = omega_max > 0.0 ? 2.0 / omega_max : std::numeric_limits<double>::infinity();
 
+  // g in atomic units (bohr / t_AU^2).
+  gravity_au_ = config_.body.gravity_m_s2 * (PhysicalConstants::time_au_s * PhysicalConstants::time_au_s /
+                                             PhysicalConstants::bohr_m);
   v_ = Eigen::Matrix3Xd::Zero(3, n);
   f_ext_ = Eigen::Matrix3Xd::Zero(3, n);
   f_int_.resize(3, n);
@@ -130,17 +133,29 @@ std::string_view ElasticSheetModel::name() const {
   return kinematics_ == SheetKinematics::Linear ? kRcgpName : kCorotationalName;
 }
 
+double ElasticSheetModel::add_body_forces(const Eigen::Matrix3Xd& x, Eigen::Matrix3Xd& f) const {
+  if (gravity_au_.isZero(0.0)) return 0.0;
+  double e = 0.0;
+  for (const SheetBlock& b : sheets_)
+    for (Eigen::Index l = 0; l < b.count; ++l) {
+      const Eigen::Index k = b.first + l;
+      f.col(k) += mass_[k] * gravity_au_;
+      e -= mass_[k] * gravity_au_.dot(x.col(k) - b.reference_bohr.col(l));
+    }
+  return e;
+}
+
 double ElasticSheetModel::internal_forces(const Eigen::Matrix3Xd& x, Eigen::Matrix3Xd& f) {
   double e = force_->evaluate(x, f);
   if (contact_) e += contact_->add_forces(x, f);
-  return e;
+  return e + add_body_forces(x, f);
 }
 
 double ElasticSheetModel::potential_energy(const Eigen::Matrix3Xd& x) {
   Eigen::Matrix3Xd f(3, x.cols());
   double e = force_->evaluate(x, f);
   if (contact_) e += contact_->energy(x);
-  return e;
+  return e + add_body_forces(x, f);
 }
 
 void ElasticSheetModel::substep(double dt, const Eigen::Matrix3Xd& external_forces) {
@@ -220,6 +235,15 @@ std::string ElasticSheetModel::startup_report() const {
   std::snprintf(buf, sizeof buf, "\nstable dt_CG (2 / omega_max, velocity Verlet): %.5g s\n",
                 stable_dt_ * PhysicalConstants::time_au_s);
   r += buf;
+  if (!config_.body.gravity_m_s2.isZero(0.0)) {
+    const Eigen::Vector3d& g = config_.body.gravity_m_s2;
+    std::snprintf(buf, sizeof buf, "body force: gravity [%.5g, %.5g, %.5g] m/s^2 on every CGP (m g)\n", g[0], g[1],
+                  g[2]);
+    r += buf;
+  }
+  bool pinned = false;
+  for (const SheetSpec& s : config_.sheets) pinned = pinned || s.pinned;
+  if (pinned) r += "leading edge: pinned (held, free to rotate: no bending moment across the held row)\n";
   return r;
 }
 

@@ -53,8 +53,10 @@ class ElasticSheetModel final : public SolidModel {
   void restore(const SolidState& state) override;
 
   // --- for validation -----------------------------------------------------------------
-  /// Internal forces (elastic and contact) at x, written into f (3 x N); returns the
-  /// potential energy, E_h. Clamped CGPs get their (reaction) forces too.
+  /// Internal forces (elastic, contact and the body force m g of [solid] gravity_m_s2) at
+  /// x, written into f (3 x N); returns the potential energy, E_h, the body force's
+  /// -sum m g . (x - x_flat) included (zero at the flat sheet). Clamped CGPs get their
+  /// (reaction) forces too.
   double internal_forces(const Eigen::Matrix3Xd& x, Eigen::Matrix3Xd& f);
   double potential_energy(const Eigen::Matrix3Xd& x);
   const RcgpConstruction& construction() const { return rcgp_; }
@@ -77,6 +79,9 @@ class ElasticSheetModel final : public SolidModel {
   Eigen::Matrix3Xd x_, v_, f_int_, f_ext_;
   Eigen::VectorXd mass_, inv_mass_;
   double potential_energy_ = 0.0;  ///< at x_
+  Eigen::Vector3d gravity_au_ = Eigen::Vector3d::Zero();  ///< g, bohr / t_AU^2
+  /// Adds m_l g to every column of f; returns -sum_l m_l g . (x_l - x_l,flat).
+  double add_body_forces(const Eigen::Matrix3Xd& x, Eigen::Matrix3Xd& f) const;
   double stable_dt_ = 0.0;
   std::vector<double> frequencies_hz_;
 };

@@ -1,5 +1,7 @@
 #include "solid/elastic_sheet_options.hpp"
 
+#include <cmath>
+
 #include "protocol/config/scene_reader.hpp"
 #include "protocol/units.hpp"
 
@@ -12,6 +14,10 @@
 //    graphene's bending Poisson ratio is small and positive, and a negative one has no use
 //    in these scenes. 0.5 is the incompressible limit.
 //  - cutoff_um: a length within Table::length_um's range, like every length of a scene.
+//  - gravity_m_s2: finite, each component at most 1e15 m/s^2 in magnitude. A micrometre flag
+//    at the lattice's speeds needs a large g for a Froude number of order one (L = 0.44 um,
+//    U = 60 m/s, Fr = 0.5: g = Fr U^2 / L = 4e9 m/s^2); 1e15 leaves room and keeps m g far
+//    from overflowing in atomic units.
 
 namespace cosim::solid {
 
@@ -20,6 +26,7 @@ namespace {
 using protocol::config::Table;
 
 constexpr int kStagesMin = 1, kStagesMax = 16;
+constexpr double kGravityMax = 1e15;  ///< m/s^2, per component
 constexpr double kBendingPoissonMax = 0.5;  ///< exclusive
 
 void read_rcgp(const Table& sec, SolidConfig& config) {
@@ -52,14 +59,27 @@ void read_contact(const Table& sec, SolidConfig& config) {
     config.contact.cutoff_bohr = *v * 1e-6 / PhysicalConstants::bohr_m;
 }
 
+void read_body_force(const Table& sec, SolidConfig& config) {
+  const char* shape = "must be an array of three finite numbers [gx, gy, gz] in m/s^2, each at most 1e15 "
+                      "in magnitude (the body force m g on every CGP)";
+  if (const auto g = sec.numbers("gravity_m_s2", 3, 3, shape))
+    for (int c = 0; c < 3; ++c) {
+      const double v = (*g)[std::size_t(c)];
+      if (!(std::abs(v) <= kGravityMax)) sec.bad("gravity_m_s2", shape);
+      config.body.gravity_m_s2[c] = v;
+    }
+}
+
 constexpr std::string_view kRcgpKeys[] = {"stages",          "flexural_scaling",
                                           "truncation_range", "moment_matching",
                                           "bending_poisson", "cache_dir"};
 constexpr std::string_view kContactKeys[] = {"epsilon_eV", "cutoff_um"};
+constexpr std::string_view kBodyForceKeys[] = {"gravity_m_s2"};
 
 }  // namespace
 
 const ModelOptions kRcgpOptions{"solid", kRcgpKeys, &read_rcgp};
 const ModelOptions kContactOptions{"contact", kContactKeys, &read_contact};
+const ModelOptions kBodyForceOptions{"solid", kBodyForceKeys, &read_body_force};
 
 }  // namespace cosim::solid

@@ -15,4 +15,7 @@ extern const ModelOptions kRcgpOptions;
 /// [contact] epsilon_eV, cutoff_um -> SolidConfig::contact (used with two or more sheets).
 extern const ModelOptions kContactOptions;
 
+/// [solid] gravity_m_s2 -> SolidConfig::body.
+extern const ModelOptions kBodyForceOptions;
+
 }  // namespace cosim::solid

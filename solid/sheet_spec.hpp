@@ -33,6 +33,11 @@ struct SheetSpec {
   Eigen::Vector3d base_bohr = Eigen::Vector3d::Zero();
   double theta_deg = 90.0;  ///< angle of attack, a rotation about the y axis
   int clamped_rows = 1;     ///< bottom rows j < clamped_rows are held to the plate
+  /// [[sheet]] leading_edge = "pinned": the last held row is a hinge, its position held and
+  /// the sheet free to rotate about it (no bending moment across it: w_bb = 0 there, a
+  /// simply supported edge); false ("clamped"): the held rows also fix the slope (the
+  /// mirror ghost row of sheet_stiffness.cpp, w' = 0).
+  bool pinned = false;
   /// Lumped mass of one CGP, electron masses (default: 2e6 carbon atoms, 3.99e-20 kg).
   double cgp_mass_me = kPaperAtomsPerCgp * protocol::PhysicalConstants::carbon_mass_kg /
                        protocol::PhysicalConstants::electron_mass_kg;

@@ -121,7 +121,8 @@ std::vector<StiffnessTerm> sheet_stiffness_terms(const SheetSpec& spec, const Pl
     for (int i = 0; i < nx; ++i) {
       const bool clamped_row = j == clamp;
       const bool has_aa = !clamped_row && i >= 1 && i + 1 < nx;  // w = 0 along the clamp
-      const bool has_bb = (clamped_row || j >= 1) && j + 1 < ny;
+      // A pinned row carries no bending moment along the height (a hinge): no w_bb there.
+      const bool has_bb = (clamped_row ? !spec.pinned : j >= 1) && j + 1 < ny;
       if (!has_aa && !has_bb) continue;
       StiffnessTerm t;
       t.frame = neighbourhood(i, j);

@@ -56,12 +56,20 @@ struct ContactOptions {
   double cutoff_bohr = 0.0;
 };
 
+/// A uniform body force on every CGP, m g (the gravity of a flag in a vertical stream, e.g.
+/// the Froude number Fr = g L / U^2 of Huang, Shin & Sung's filament; the elastic models).
+struct BodyForceOptions {
+  /// g, m/s^2, scene axes (x stream-wise in the paper's scenes, y up from the plate).
+  Eigen::Vector3d gravity_m_s2 = Eigen::Vector3d::Zero();
+};
+
 /// The CGPs of all sheets form one array: sheet 0's CGPs first (in SheetSpec index order),
 /// then sheet 1's, and so on.
 struct SolidConfig {
   std::vector<SheetSpec> sheets;
   RcgpOptions rcgp;
   ContactOptions contact;
+  BodyForceOptions body;
 };
 
 /// Total number of CGPs of all sheets.

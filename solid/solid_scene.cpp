@@ -62,7 +62,8 @@ std::vector<SectionSchema> schema() {
       {"solid", {"model"}},
       {"contact"},
       {"sheet",
-       {"nx_cg", "ny_cg", "spacing_um", "base_um", "theta_deg", "clamped_rows", "atoms_per_cgp"},
+       {"nx_cg", "ny_cg", "spacing_um", "base_um", "theta_deg", "clamped_rows", "leading_edge",
+        "atoms_per_cgp"},
        true},
       {"run", {"mode", "substeps", "dt_s", "record_every"}, false, Use::Standalone},
       {"perturbation", {"tip_displacement_um"}},
@@ -206,6 +207,7 @@ void load_sheets(const SceneReader& r, SolidScene& s) {
                                     " (at least one row on the plate, at least one free)");
       spec.clamped_rows = int(*v);
     }
+    if (const auto v = sec.choice("leading_edge", {"clamped", "pinned"})) spec.pinned = *v == 1;
     if (const auto v = sec.positive("atoms_per_cgp", "carbon atoms lumped into one CGP")) {
       if (*v > SolidSceneLimits::atoms_per_cgp_max)
         sec.bad("atoms_per_cgp", "must be a number of carbon atoms lumped into one CGP from above 0 to 1e15");

@@ -235,36 +235,52 @@ std::vector<SolidConfig> paper_sheets() {
 
 // Beam limit of a clamped-free strip: f_n = (beta_n L)^2 / (2 pi L^2) sqrt(D / rho_2D);
 // with bending_poisson = 0 the narrow- and wide-strip rigidities coincide (D (1 - nu^2) = D).
+/// The flexural modes of a sheet (the normal DOFs of its free CGPs), split by their symmetry
+/// across the width into bending (symmetric) and torsion (antisymmetric) frequencies, Hz,
+/// ascending, up to n_bending bending ones; and the beam frequency of a root beta L of the
+/// beam's characteristic equation, (beta L)^2 / (2 pi L^2) sqrt(D / rho_2D).
+struct FlexuralModes {
+  std::vector<double> bending, torsion;
+  double rho = 0.0, len = 0.0, beam_scale_hz = 0.0;
+  double beam_hz(double beta_l) const { return beta_l * beta_l * beam_scale_hz; }
+};
+
+FlexuralModes flexural_modes(const ElasticSheetModel& m, const SheetSpec& spec, std::size_t n_bending) {
+  const FlexuralProblem p = flexural_problem(m, spec);
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(p.k / spec.cgp_mass_me);
+  FlexuralModes r;
+  r.rho = spec.cgp_mass_me / spec.cell_area_bohr2();
+  r.len = free_length(spec);
+  r.beam_scale_hz = std::sqrt(m.plate_constants().d22 / r.rho) / (2.0 * std::numbers::pi * r.len * r.len) /
+                    PhysicalConstants::time_au_s;
+  const double to_hz = 1.0 / (2.0 * std::numbers::pi * PhysicalConstants::time_au_s);
+  for (Eigen::Index k = 0; k < es.eigenvalues().size() && r.bending.size() < n_bending; ++k) {
+    const Eigen::VectorXd v = es.eigenvectors().col(k);
+    double sym = 0.0, anti = 0.0;  // across the width: w(i) against w(nx - 1 - i)
+    for (std::size_t a = 0; a < p.free.size(); ++a) {
+      const int i = static_cast<int>(p.free[a] % spec.nx_cg);
+      const double mirror = v[static_cast<Eigen::Index>(a) + (spec.nx_cg - 1 - 2 * i)];
+      sym += (v[static_cast<Eigen::Index>(a)] + mirror) * (v[static_cast<Eigen::Index>(a)] + mirror);
+      anti += (v[static_cast<Eigen::Index>(a)] - mirror) * (v[static_cast<Eigen::Index>(a)] - mirror);
+    }
+    const double f = std::sqrt(std::max(es.eigenvalues()[k], 0.0)) * to_hz;
+    (sym > anti ? r.bending : r.torsion).push_back(f);
+  }
+  return r;
+}
+
 TEST(ElasticSheets, CantileverEigenfrequencies) {
   for (const SolidConfig& config : paper_sheets()) {
     ElasticSheetModel m(config, SheetKinematics::Linear);
     const SheetSpec& spec = config.sheets[0];
-    const FlexuralProblem p = flexural_problem(m, spec);
-    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(p.k / spec.cgp_mass_me);
-    const double d = m.plate_constants().d22;
-    const double rho = spec.cgp_mass_me / spec.cell_area_bohr2();
-    const double len = free_length(spec);
-    const double to_hz = 1.0 / (2.0 * std::numbers::pi * PhysicalConstants::time_au_s);
+    const FlexuralModes modes = flexural_modes(m, spec, 3);
+    const std::vector<double>& bending = modes.bending;
+    const std::vector<double>& torsion = modes.torsion;
+    const double rho = modes.rho, len = modes.len;
     const std::vector<double> beta_l{1.875104, 4.694091, 7.854757};
-    std::vector<double> bending, torsion;
-    for (Eigen::Index k = 0; k < es.eigenvalues().size() && bending.size() < 3; ++k) {
-      const Eigen::VectorXd v = es.eigenvectors().col(k);
-      double sym = 0.0, anti = 0.0;  // across the width: w(i) against w(nx - 1 - i)
-      for (std::size_t a = 0; a < p.free.size(); ++a) {
-        const Eigen::Index l = p.free[a];
-        const int i = static_cast<int>(l % spec.nx_cg), j = static_cast<int>(l / spec.nx_cg);
-        const double mirror = v[static_cast<Eigen::Index>(a) + (spec.nx_cg - 1 - 2 * i)];
-        (void)j;
-        sym += (v[static_cast<Eigen::Index>(a)] + mirror) * (v[static_cast<Eigen::Index>(a)] + mirror);
-        anti += (v[static_cast<Eigen::Index>(a)] - mirror) * (v[static_cast<Eigen::Index>(a)] - mirror);
-      }
-      const double f = std::sqrt(es.eigenvalues()[k]) * to_hz;
-      (sym > anti ? bending : torsion).push_back(f);
-    }
     ASSERT_EQ(bending.size(), 3u);
     for (std::size_t n = 0; n < 3; ++n) {
-      const double theory = beta_l[n] * beta_l[n] / (2.0 * std::numbers::pi * len * len) *
-                            std::sqrt(d / rho) / PhysicalConstants::time_au_s;
+      const double theory = modes.beam_hz(beta_l[n]);
       std::printf("bending mode %zu: %.6g Hz, beam theory %.6g Hz (%+.3f %%)\n", n + 1, bending[n],
                   theory, 100.0 * (bending[n] / theory - 1.0));
       EXPECT_NEAR(bending[n] / theory, 1.0, 0.02) << "mode " << n + 1;
@@ -310,6 +326,72 @@ TEST(ElasticSheets, StaticTipDeflection) {
     std::printf("beam theory at the top CGP %.6g bohr (%+.3f %%)\n", at_cgp,
                 100.0 * (w[tip] / at_cgp - 1.0));
     EXPECT_NEAR(w[tip] / at_cgp, 1.0, 0.002);
+  }
+}
+
+// [[sheet]] leading_edge = "pinned": the held row is a hinge. A rigid rotation of the sheet
+// about it costs no energy (the linear model, small angle), where the clamped sheet resists
+// it; the flexural modes are a beam's hinged at one end and free at the other: a zero mode
+// (the rotation) and then (beta_n L)^2 / (2 pi L^2) sqrt(D / rho_2D) with tan(beta L) =
+// tanh(beta L), beta_n L = 3.926602, 7.068583.
+TEST(ElasticSheets, PinnedLeadingEdgeIsAHinge) {
+  for (SolidConfig config : paper_sheets()) {
+    SheetSpec& spec = config.sheets[0];
+    const auto rotated = [&](const ElasticSheetModel& m) {
+      const Eigen::Vector3d n = sheet_normal(spec);
+      Eigen::Matrix3Xd x = m.positions();
+      for (Eigen::Index l = 0; l < x.cols(); ++l)
+        x.col(l) += 1e-3 * double(l / spec.nx_cg) * spec.height_spacing_bohr * n;
+      return x;
+    };
+    ElasticSheetModel clamped(config, SheetKinematics::Linear);
+    Eigen::Matrix3Xd f(3, clamped.num_cgps());
+    const double e_clamped = clamped.internal_forces(rotated(clamped), f);
+    spec.pinned = true;
+    ElasticSheetModel pinned(config, SheetKinematics::Linear);
+    const double e_pinned = pinned.internal_forces(rotated(pinned), f);
+    double free_force = 0.0;
+    for (Eigen::Index l = spec.nx_cg; l < f.cols(); ++l) free_force = std::max(free_force, f.col(l).norm());
+    EXPECT_GT(e_clamped, 0.0);
+    EXPECT_LT(std::abs(e_pinned), 1e-10 * e_clamped);  // round-off of the stiff in-plane terms
+    EXPECT_LT(free_force, 1e-9 * force_scale(pinned, 1e-3 * spec.height_spacing_bohr));
+
+    const FlexuralModes modes = flexural_modes(pinned, spec, 3);
+    const std::vector<double>& bending = modes.bending;
+    ASSERT_EQ(bending.size(), 3u);
+    std::printf("pinned sheet: rotation mode %.3g Hz; bending %.6g, %.6g Hz, hinged-free beam %.6g, %.6g Hz\n",
+                bending[0], bending[1], bending[2], modes.beam_hz(3.926602), modes.beam_hz(7.068583));
+    EXPECT_LT(bending[0], 1e-4 * bending[1]);  // zero up to the solver's round-off (eigenvalue 1e-8 of it)
+    EXPECT_NEAR(bending[1] / modes.beam_hz(3.926602), 1.0, 0.02);
+    EXPECT_NEAR(bending[2] / modes.beam_hz(7.068583), 1.0, 0.02);
+  }
+}
+
+// [solid] gravity_m_s2: every CGP feels m g, and the potential energy gains -sum m g . (x - x_flat),
+// so that force and energy stay consistent (ForceIsMinusEnergyGradient's check, here with g).
+TEST(ElasticSheets, GravityIsABodyForce) {
+  for (const SheetKinematics kin : kAll) {
+    SolidConfig config = one_sheet(5, 8, 37.0);
+    ElasticSheetModel plain(config, kin);
+    config.body.gravity_m_s2 = {1e9, -3e9, 2e9};
+    ElasticSheetModel heavy(config, kin);
+    const Eigen::Vector3d g_au = config.body.gravity_m_s2 * (PhysicalConstants::time_au_s *
+                                                             PhysicalConstants::time_au_s / PhysicalConstants::bohr_m);
+    std::mt19937 rng(5);
+    std::normal_distribution<double> n(0.0, 20.0);
+    Eigen::Matrix3Xd x = plain.positions();
+    for (Eigen::Index l = 0; l < x.cols(); ++l) x.col(l) += Eigen::Vector3d(n(rng), n(rng), n(rng));
+    Eigen::Matrix3Xd f0(3, x.cols()), f1(3, x.cols());
+    const double e0 = plain.internal_forces(x, f0), e1 = heavy.internal_forces(x, f1);
+    double work = 0.0, worst = 0.0;
+    for (Eigen::Index l = 0; l < x.cols(); ++l) {
+      const double m = plain.masses()[l];
+      worst = std::max(worst, (f1.col(l) - f0.col(l) - m * g_au).norm() / (m * g_au.norm()));
+      work += m * g_au.dot(x.col(l) - plain.positions().col(l));
+    }
+    EXPECT_LT(worst, 1e-12) << label(kin);
+    EXPECT_NEAR(e1 - e0, -work, 1e-9 * std::abs(work)) << label(kin);
+    EXPECT_NEAR(heavy.potential_energy(x), e1, 1e-12 * std::abs(e1)) << label(kin);
   }
 }
 

@@ -98,6 +98,14 @@ const std::vector<BadCase>& bad_cases() {
       {"no_sheet.toml", {"[[sheet]]: missing; at least one [[sheet]] is required"}},
       {"dt_negative.toml", {":10: run.dt_s = -3e-12: must be > 0"}},
       {"epsilon_zero.toml", {":6: contact.epsilon_eV = 0: must be > 0"}},
+      {"gravity_not_finite.toml",
+       {":4: solid.gravity_m_s2 = [0, 1e+99, 0]: must be an array of three finite numbers [gx, gy, gz] in "
+        "m/s^2, each at most 1e15"}},
+      {"gravity_rigid.toml",
+       {":4: solid.gravity_m_s2 = [0, -9.81, 0]: not used by solid.model = \"rigid\" (only by rcgp, "
+        "corotational)"}},
+      {"leading_edge_unknown.toml",
+       {":6: sheet[0].leading_edge = \"hinged\": must be one of \"clamped\", \"pinned\""}},
       {"syntax_error.toml", {"syntax_error.toml:6:11: TOML syntax error"}},
       // Coupled scenes (with [coupling]): the keys both servers read.
       {"coupling_ttl_missing.toml",
