@@ -4,6 +4,9 @@
 # precision and reproducibility tests again with the fluid kernel forced to x86-64-v3
 # (AVX2; COSIM_KERNEL_LEVEL, fluid/kernel_dispatch.hpp) where the CPU has a higher level:
 # the portable binary runs that kernel on an AVX2 CPU, and only the kernel is built per level.
+# Two tests run at a time (COSIM_TEST_JOBS, default 2): on CI's 2 cores both are shared, the
+# busy machine every test is sized for (each well inside its timeout there), and the suite
+# takes about half the time of one test at a time. A later -j in the arguments wins.
 #
 #   bash launch/run-tests.sh [CTEST_OPTIONS...]
 set -euo pipefail
@@ -13,13 +16,18 @@ bash "$root/launch/bootstrap.sh"
 bash "$root/launch/build.sh" -DCOSIM_WERROR=ON
 cd "$root/build"
 status=0
-ctest --output-on-failure --timeout 900 "$@" || status=$?
+jobs=${COSIM_TEST_JOBS:-2}
+if ! [[ $jobs =~ ^[1-9][0-9]{0,2}$ ]]; then
+  echo "run-tests.sh: COSIM_TEST_JOBS = '$jobs': the number of tests at a time must be an integer from 1 to 999" >&2
+  exit 2
+fi
+ctest --output-on-failure --timeout 900 -j "$jobs" "$@" || status=$?
 # The level the bench picks by itself (its first line: "CPU: ...; kernel level L (...)").
 best=$(COSIM_KERNEL_LEVEL= ./fluid/bench --grids box --box 8 --threads 1 --steps 1 --repeat 1 --no-ib \
        2>/dev/null | sed -n 's/^CPU: .*; kernel level \([^ ]*\) .*/\1/p')
 if [ "$best" = "x86-64-v4" ]; then
   echo "== again with COSIM_KERNEL_LEVEL=x86-64-v3 (this CPU's own level: $best)"
-  COSIM_KERNEL_LEVEL=x86-64-v3 ctest --output-on-failure --timeout 900 \
+  COSIM_KERNEL_LEVEL=x86-64-v3 ctest --output-on-failure --timeout 900 -j "$jobs" \
     -R '^(Kernel|Lattice|Precision|Reproducibility)\.' "$@" || status=$?
 else
   echo "== the kernel level of this CPU is ${best:-unknown}: no second pass with x86-64-v3"
