@@ -89,11 +89,11 @@ void fill_outflow(BasicPopulationField<T>& f, const GridLayout& layout, int face
     for (int y = r.lo[1]; y <= r.hi[1]; ++y)
       for (int x = r.lo[0]; x <= r.hi[0]; ++x) {
         const std::ptrdiff_t g = layout.index(x, y, z), b = g + src_off;
-        double fb[D3Q19::Q];
-        for (int q = 0; q < D3Q19::Q; ++q) fb[q] = f.q(q)[b];
-        const OutflowCell cell(fb);
+        T stored[D3Q19::Q], ghost[D3Q19::Q];
+        for (int q = 0; q < D3Q19::Q; ++q) stored[q] = f.q(q)[b];
+        outflow_ghost(stored, axis, inward, rho_out, ghost);
         for (int q = 0; q < D3Q19::Q; ++q)
-          if (D3Q19::c(q, axis) == inward) f.q(q)[g] = static_cast<T>(cell.ghost(q, fb, rho_out));
+          if (D3Q19::c(q, axis) == inward) f.q(q)[g] = ghost[q];
       }
 }
 
@@ -177,12 +177,20 @@ void BoundaryConditions::fill(BasicPopulationField<T>& f, HaloExchange* halo, bo
   }
 }
 
-OutflowCell::OutflowCell(const double* fb)
-    : m(moments(fb)), ux(m.jx / m.rho), uy(m.jy / m.rho), uz(m.jz / m.rho) {}
-
-double OutflowCell::ghost(int q, const double* fb, double rho_out) const {
-  return equilibrium(q, rho_out, ux, uy, uz) + fb[q] - equilibrium(q, m.rho, ux, uy, uz);
+template <class T>
+void outflow_ghost(const T* stored, int axis, int inward, double rho_out, T* ghost) {
+  double fb[D3Q19::Q];
+  for (int q = 0; q < D3Q19::Q; ++q) fb[q] = static_cast<double>(stored[q]);
+  const Moments m = moments(fb);
+  const double ux = m.jx / m.rho, uy = m.jy / m.rho, uz = m.jz / m.rho;
+  for (int q = 0; q < D3Q19::Q; ++q)
+    if (D3Q19::c(q, axis) == inward)
+      ghost[q] = static_cast<T>(equilibrium(q, rho_out, ux, uy, uz) + fb[q] -
+                                equilibrium(q, m.rho, ux, uy, uz));
 }
+
+template void outflow_ghost(const double*, int, int, double, double*);
+template void outflow_ghost(const float*, int, int, double, float*);
 
 template <class T>
 void BoundaryConditions::fill_ghosts(BasicPopulationField<T>& f, HaloExchange* halo) const {
@@ -227,12 +235,11 @@ void BoundaryConditions::fill_outflow_ghost(BasicPopulationField<T>& f, int x, i
     const int side = face_side(face), inward = side == 0 ? 1 : -1;
     if (x != (side == 0 ? 0 : layout_.nx() - 1)) continue;
     const std::ptrdiff_t b = layout_.index(x, y, z), g = b - inward;
-    double fb[D3Q19::Q];
-    for (int q = 0; q < D3Q19::Q; ++q) fb[q] = f.q(q)[b];
-    const OutflowCell cell(fb);
+    T stored[D3Q19::Q], ghost[D3Q19::Q];
+    for (int q = 0; q < D3Q19::Q; ++q) stored[q] = f.q(q)[b];
+    outflow_ghost(stored, 0, inward, faces_[face].outflow_density, ghost);
     for (int q = 0; q < D3Q19::Q; ++q)
-      if (D3Q19::cx[q] == inward)
-        f.q(q)[g] = static_cast<T>(cell.ghost(q, fb, faces_[face].outflow_density));
+      if (D3Q19::cx[q] == inward) f.q(q)[g] = ghost[q];
   }
 }
 

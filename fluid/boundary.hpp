@@ -47,17 +47,19 @@ double inlet_profile(const FaceSpec& face, double y);
 /// The outflow ghost of one boundary cell b by non-equilibrium extrapolation at a reference
 /// density (Guo, Zheng and Shi 2002): from the 19 post-collision populations f*(b), whose
 /// moments are the cell's own (the collision conserves rho and j, Eqs. 7-8),
-///   ghost_q = f_eq_q(rho_out, u_b) + f*_q(b) - f_eq_q(rho_b, u_b)     (f_eq: Eq. 11).
+///   ghost_q = f_eq_q(rho_out, u_b) + f*_q(b) - f_eq_q(rho_b, u_b)     (f_eq: Eq. 11),
+/// for the populations that enter through the face (c_axis = inward); `ghost` gets those
+/// (rounded once to T), the others are left alone.
 /// One function for the ghost-fill pass and the kernel that writes x outflows on the fly
-/// (stream_collide), so that both give the same bits.
-/// Out of line (fluid/boundary.cpp), like BgkGuo::collide: the kernel and the ghost fill
-/// call the same compiled code, so they store the same bits.
-struct OutflowCell {
-  Moments m;
-  double ux, uy, uz;
-  explicit OutflowCell(const double* fb);
-  double ghost(int q, const double* fb, double rho_out) const;
-};
+/// (stream_collide), so that both store the same bits. Both give it the cell's populations
+/// as stored (`stored`, T): the ghost fill reads them back from the field, the kernel rounds
+/// its registers with the store's own conversion first. The widening to double happens here,
+/// out of line, and not in the kernel: GCC 12 at -march=x86-64-v3 drops the round trip
+/// double -> float -> double for two of the 19 values when it vectorises it (fb[16], fb[17]
+/// stayed unrounded), so a kernel-side (double)(float)x gave ghosts one float ulp off the
+/// ghost fill's now and then (test_lbm_invariants: FusedStepMatchesGhostFillStepSingleStore).
+template <class T>
+void outflow_ghost(const T* stored, int axis, int inward, double rho_out, T* ghost);
 
 /// Fills the ghost layer of a field of post-collision populations so that a pull
 /// (f_q(x) = f*_q(x - c_q)) at every interior cell realises the boundary conditions:

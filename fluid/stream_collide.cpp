@@ -217,18 +217,25 @@ template <bool kForce>
   relax_pairs<kForce>(f, v, k, pairs);
 }
 
-/// The outflow ghost (fluid/boundary.hpp, OutflowCell) of the cell in lane `lane` of the
+/// The outflow ghost (fluid/boundary.hpp, outflow_ghost) of the cell in lane `lane` of the
 /// post-collision group f: populations entering through the face (c_x = inward) stored at
 /// g + q stride, g the ghost cell in population 0 of dst. From the values as stored (T), as
-/// the ghost fill reads them back.
+/// the ghost fill reads them back: a float store's values go through the vector conversion
+/// of the store itself (to_single), and outflow_ghost widens them out of line (see there:
+/// a (double)(float)x here was miscompiled).
 template <class T>
 inline void store_outflow_ghost(const Lanes (&f)[L::Q], int lane, T* g, std::ptrdiff_t stride,
                                 int inward, double rho_out) {
-  double fb[L::Q];
-  for (int q = 0; q < L::Q; ++q) fb[q] = static_cast<double>(static_cast<T>(f[q][lane]));
-  const OutflowCell cell(fb);
+  T stored[L::Q], ghost[L::Q];
+  for (int q = 0; q < L::Q; ++q) {
+    if constexpr (std::is_same_v<T, float>)
+      stored[q] = to_single(f[q])[lane];
+    else
+      stored[q] = f[q][lane];
+  }
+  outflow_ghost(stored, 0, inward, rho_out, ghost);
   for (int q = 0; q < L::Q; ++q)
-    if (L::cx[q] == inward) g[q * stride] = static_cast<T>(cell.ghost(q, fb, rho_out));
+    if (L::cx[q] == inward) g[q * stride] = ghost[q];
 }
 
 /// The interior of the block row by row (OpenMP), kLanes cells of x at a time; the last,

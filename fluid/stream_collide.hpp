@@ -24,7 +24,7 @@ enum class Stores {
 
 /// Outflow faces normal to x whose ghosts the kernel writes itself: when it stores a row's
 /// boundary cell (x = 0 or nx - 1) it also stores the outflow ghost of that row (x = -1 or
-/// nx) from the post-collision populations still in registers (OutflowCell in
+/// nx) from the post-collision populations still in registers (outflow_ghost in
 /// fluid/boundary.hpp, the arithmetic of the ghost fill), instead of a separate pass that
 /// reads the boundary cells back from memory. BoundaryConditions::kernel_outflow() says
 /// which faces; default: none.

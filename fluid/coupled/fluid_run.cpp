@@ -304,9 +304,10 @@ std::int64_t FluidRun::restore(std::optional<cosimlcm::fluid_state_t>& in_flight
     std::copy(pop.begin(), pop.end(), solver_.mutable_state_single().q(0));
   }
   // The checkpoint holds the whole store, ghost planes included, as the step left them: no
-  // ghost fill here. The kernel writes the x-outflow ghosts from the collided values before
-  // the single store rounds them to floats, so a fill from the stored floats would give other
-  // ghosts than the run had (SinglePrecisionCoupledRestartIsBitIdentical).
+  // ghost fill here, the restarted step reads the very ghosts the run's next step would have
+  // read (SinglePrecisionCoupledRestartIsBitIdentical). A fill from the stored values gives
+  // the same bits (the kernel's x-outflow ghosts are computed from the values as stored,
+  // FusedStepMatchesGhostFillStepSingleStore), but a restart does not depend on that.
   solver_.set_step_count(step);
   coord_.set_fluid_seq(r.int64_attr("fluid_seq"));
   bulk_u_ = r.double_attr("bulk_velocity_lb");

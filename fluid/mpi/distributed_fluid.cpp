@@ -43,9 +43,9 @@ void DistributedFluid::gather_field(const BasicPopulationField<T>& from, BasicPo
   // nx and ny: the same rows and planes), at the slab's z0. Each slab sends its planes
   // z = 0 .. nz - 1 with their x and y ghosts, the first slab its z = -1 ghost plane too and
   // the last its z = nz one: every ghost a pull of the whole grid reads, with the bits the
-  // slabs' own fills gave them, which are the undivided grid's (refilling them on rank 0
-  // would not do: the x-outflow ghosts that the kernel writes as it goes and those of a
-  // ghost fill differ in the last bit of the single-precision store now and then). Except
+  // slabs' own fills gave them, which are the undivided grid's (a refill on rank 0 would give
+  // the same bits since the kernel's x-outflow ghosts come from the values as stored,
+  // FusedStepMatchesGhostFillStepSingleStore, but the gathered ones need no such link). Except
   // the reflecting faces' ghosts next to a slab's edge: a wall's ghost lies in the plane of
   // its neighbour cell's neighbour, which the other slab filled; gather() redoes those.
   const MPI_Datatype type = std::is_same_v<T, double> ? MPI_DOUBLE : MPI_FLOAT;
