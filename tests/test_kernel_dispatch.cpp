@@ -15,6 +15,7 @@
 #include "fluid/fluid_solver.hpp"
 #include "fluid/kernel_dispatch.hpp"
 #include "fluid/stream_collide.hpp"
+#include "support/boundary_grids.hpp"
 
 namespace {
 
@@ -45,46 +46,6 @@ struct Result {
   }
 };
 
-/// The grids: every boundary kind (inlet with Blasius profile, outflow on either x face,
-/// moving wall, free slip, periodic), row lengths that are and are not multiples of the
-/// widest group (8 doubles) and of a single-store line (16 floats; 31 = 16 - 1 mod 16).
-std::vector<FluidParams> grids() {
-  std::vector<FluidParams> out;
-  {
-    FluidParams p;
-    p.shape = {21, 10, 7};
-    p.faces[XMin].kind = FaceKind::Inlet;
-    p.faces[XMin].inlet_speed = 0.05;
-    p.faces[XMin].profile = InletProfile::Blasius;
-    p.faces[XMin].boundary_layer = 3.0;
-    p.faces[XMax].kind = FaceKind::Outflow;
-    p.faces[YMin].kind = FaceKind::Wall;
-    p.faces[YMin].wall_velocity = {0.01, 0.0, 0.005};
-    p.faces[YMax].kind = FaceKind::FreeSlip;
-    out.push_back(p);
-  }
-  {
-    FluidParams p;
-    p.shape = {31, 6, 8};
-    p.faces[XMin].kind = FaceKind::Outflow;
-    p.faces[XMin].outflow_density = 1.01;
-    p.faces[XMax].kind = FaceKind::Inlet;
-    p.faces[XMax].inlet_speed = 0.04;
-    p.faces[ZMin].kind = FaceKind::Wall;
-    p.faces[ZMax].kind = FaceKind::FreeSlip;
-    out.push_back(p);
-  }
-  {
-    FluidParams p;  // periodic box
-    p.shape = {16, 8, 6};
-    out.push_back(p);
-  }
-  for (FluidParams& p : out) {
-    p.tau = 0.65;
-    p.body_force = {2e-6, 0.0, -1e-6};
-  }
-  return out;
-}
 
 template <class T>
 const BasicPopulationField<T>& state_of(const FluidSolver& s) {
@@ -135,7 +96,7 @@ void run(const FluidParams& base, Precision precision, Result& r) {
 
 Result run_all() {
   Result r;
-  for (const FluidParams& p : grids()) {
+  for (const FluidParams& p : cosim::test::every_boundary_grids()) {
     run<double>(p, Precision::Double, r);
     run<float>(p, Precision::Single, r);
   }

@@ -15,6 +15,7 @@
 #include "fluid/equilibrium.hpp"
 #include "fluid/fluid_solver.hpp"
 #include "fluid/stream_collide.hpp"
+#include "support/boundary_grids.hpp"
 
 namespace {
 
@@ -204,39 +205,7 @@ TEST(Lattice, SplitStepEqualsStep) {
 // two agree bit for bit in either store.
 template <class T>
 void expect_fused_step_matches_ghost_fill_step(Precision precision) {
-  struct Config {
-    GridShape shape;
-    std::array<FaceSpec, kFaces> faces;
-  };
-  std::vector<Config> configs;
-  {
-    Config c{{21, 10, 7}, {}};  // the paper's channel; nx not a multiple of the lanes
-    c.faces[XMin].kind = FaceKind::Inlet;
-    c.faces[XMin].inlet_speed = 0.05;
-    c.faces[XMin].profile = InletProfile::Blasius;
-    c.faces[XMin].boundary_layer = 3.0;
-    c.faces[XMax].kind = FaceKind::Outflow;
-    c.faces[YMin].kind = FaceKind::Wall;
-    c.faces[YMin].wall_velocity = {0.01, 0.0, 0.005};
-    c.faces[YMax].kind = FaceKind::FreeSlip;
-    configs.push_back(c);
-  }
-  {
-    Config c{{16, 9, 8}, {}};  // outflow at x_min, walls in z
-    c.faces[XMin].kind = FaceKind::Outflow;
-    c.faces[XMin].outflow_density = 1.01;
-    c.faces[XMax].kind = FaceKind::Inlet;
-    c.faces[XMax].inlet_speed = 0.04;
-    c.faces[ZMin].kind = FaceKind::Wall;
-    c.faces[ZMax].kind = FaceKind::FreeSlip;
-    configs.push_back(c);
-  }
-  for (const Config& c : configs) {
-    FluidParams p;
-    p.shape = c.shape;
-    p.faces = c.faces;
-    p.tau = 0.65;
-    p.body_force = {2e-6, 0.0, -1e-6};
+  for (FluidParams p : cosim::test::every_boundary_grids()) {
     p.precision = precision;
     FluidSolver s(p);
     std::mt19937 rng(9);
