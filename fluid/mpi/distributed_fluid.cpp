@@ -10,7 +10,7 @@
 
 namespace cosim::fluid::mpi {
 
-DistributedFluid::DistributedFluid(const FluidScene& scene, MPI_Comm comm) : comm_(comm) {
+DistributedFluid::DistributedFluid(const FluidScene& scene, MPI_Comm comm) : comm_(comm), ib_(scene.params) {
   MPI_Comm_rank(comm, &rank_);
   MPI_Comm_size(comm, &ranks_);
   const BlockChoice c =
@@ -24,6 +24,11 @@ DistributedFluid::DistributedFluid(const FluidScene& scene, MPI_Comm comm) : com
   // Rank 0's whole grid, for the snapshots: made at the first gather (a run without
   // snapshots never holds it).
   whole_params_ = scene.params;
+  owner_.resize(std::size_t(scene.params.shape.nz));
+  for (int r = 0; r < slab_.count; ++r) {
+    const Slab s = slab_of(scene.params.shape.nz, slab_.count, r);
+    for (int z = s.z0; z < s.z0 + s.nz; ++z) owner_[std::size_t(z)] = r;
+  }
 }
 
 void DistributedFluid::initialize(const FluidScene& scene) {
@@ -76,19 +81,140 @@ void DistributedFluid::gather_field(const BasicPopulationField<T>& from, BasicPo
           "MPI_Gatherv (fields to rank 0)");
 }
 
-void DistributedFluid::gather(bool previous) {
+template <class T>
+void DistributedFluid::gather_into_whole(const BasicPopulationField<T>& from) {
   if (rank_ == 0 && whole_ == nullptr) whole_ = std::make_unique<FluidSolver>(whole_params_);
-  const FluidSolver& b = *block_;
-  if (b.precision() == Precision::Double) {
-    const PopulationField& from = previous ? b.previous_state() : b.state();
+  if constexpr (std::is_same_v<T, double>) {
     gather_field(from, rank_ == 0 ? &whole_->mutable_state() : nullptr);
     if (rank_ == 0) whole_->boundaries().fill_reflect_ghosts(whole_->mutable_state());
   } else {
-    const PopulationFieldSingle& from = previous ? b.previous_state_single() : b.state_single();
     gather_field(from, rank_ == 0 ? &whole_->mutable_state_single() : nullptr);
     if (rank_ == 0) whole_->boundaries().fill_reflect_ghosts(whole_->mutable_state_single());
   }
+}
+
+void DistributedFluid::gather(bool previous) {
+  const FluidSolver& b = *block_;
+  if (b.precision() == Precision::Double)
+    gather_into_whole(previous ? b.previous_state() : b.state());
+  else
+    gather_into_whole(previous ? b.previous_state_single() : b.state_single());
   if (rank_ == 0) whole_->set_step_count(previous ? b.step_count() - 1 : b.step_count());
+}
+
+StoreView DistributedFluid::whole_store(bool kept) {
+  const FluidSolver& b = *block_;
+  if (b.precision() == Precision::Double)
+    gather_into_whole(kept ? kept_.field() : b.state());
+  else
+    gather_into_whole(kept ? kept_.field_single() : b.state_single());
+  if (rank_ != 0) return {};
+  return b.precision() == Precision::Double ? store_view(whole_->state()) : store_view(whole_->state_single());
+}
+
+template <class T>
+void DistributedFluid::scatter_field(const T* from, BasicPopulationField<T>& into) {
+  // gather_field's planes, the other way: each slab's planes z = 0 .. nz - 1, the first
+  // slab's z = -1 and the last's z = nz too (no value is sent twice). The halo planes then
+  // come from the neighbours' edge planes as in a step: the store's values there too.
+  const MPI_Datatype type = std::is_same_v<T, double> ? MPI_DOUBLE : MPI_FLOAT;
+  const std::ptrdiff_t plane = into.layout().plane_stride();
+  const std::ptrdiff_t whole_q = std::ptrdiff_t(whole_params_.shape.nz + 2) * plane;  // one population's values
+  const auto span = [&](const Slab& s, int& first, int& planes) {
+    first = s.z0 + 1 - (s.index == 0 ? 1 : 0);
+    planes = s.nz + (s.index == 0 ? 1 : 0) + (s.index + 1 == s.count ? 1 : 0);
+  };
+  int first = 0, planes = 0;
+  span(slab_, first, planes);
+  const std::ptrdiff_t local_first = slab_.index == 0 ? 0 : plane;
+  std::vector<int> counts, displs;
+  if (rank_ == 0) {
+    counts.resize(std::size_t(ranks_));
+    displs.resize(std::size_t(ranks_));
+    for (int r = 0; r < ranks_; ++r) {
+      int f = 0, n = 0;
+      span(slab_of(whole_params_.shape.nz, slab_.count, r), f, n);
+      counts[std::size_t(r)] = int(std::ptrdiff_t(n) * plane);
+      displs[std::size_t(r)] = int(std::ptrdiff_t(f) * plane);
+    }
+  }
+  for (int q = 0; q < D3Q19::Q; ++q)
+    check(MPI_Scatterv(rank_ == 0 ? from + q * whole_q : nullptr, counts.data(), displs.data(), type,
+                       into.q(q) + local_first, int(std::ptrdiff_t(planes) * plane), type, 0, comm_),
+          "MPI_Scatterv (a checkpoint to the ranks)");
+  halo_->exchange(into);
+}
+
+void DistributedFluid::load_store(const StoreView& from, std::int64_t step) {
+  FluidSolver& b = *block_;
+  const bool dbl = b.precision() == Precision::Double;
+  if (rank_ == 0) {
+    const std::size_t size = std::size_t(D3Q19::Q) * layout_of(whole_params_.shape, whole_params_.precision).stride();
+    if (from.size != size || (dbl ? from.d == nullptr : from.s == nullptr))
+      throw std::invalid_argument("DistributedFluid::load_store: " + std::to_string(from.size) +
+                                  " values of the other precision or size; " + std::to_string(size) + " expected");
+  }
+  if (dbl)
+    scatter_field(from.d, b.mutable_state());
+  else
+    scatter_field(from.s, b.mutable_state_single());
+  b.set_step_count(step);
+}
+
+std::vector<Vec3> DistributedFluid::from_leader(std::span<const Vec3> values) {
+  long long n = rank_ == 0 ? static_cast<long long>(values.size()) : 0;
+  check(MPI_Bcast(&n, 1, MPI_LONG_LONG, 0, comm_), "MPI_Bcast");
+  std::vector<Vec3> out(std::size_t(n), Vec3{});
+  if (rank_ == 0) std::copy(values.begin(), values.end(), out.begin());
+  if (n > 0) check(MPI_Bcast(out.data(), int(3 * n), MPI_DOUBLE, 0, comm_), "MPI_Bcast (markers)");
+  return out;
+}
+
+void DistributedFluid::sample(std::span<const Vec3> X, std::span<MarkerSample> out) {
+  const std::vector<Vec3> x = from_leader(X);
+  if (rank_ == 0 && out.size() != x.size())
+    throw std::invalid_argument("DistributedFluid::sample: " + std::to_string(out.size()) + " outputs for " +
+                                std::to_string(x.size()) + " markers");
+  // The nodes every marker reaches, listed on every rank as the serial sample() lists them.
+  const MarkerNodes nodes = ib_.marker_nodes(x);
+  std::vector<std::size_t> mine;
+  for (std::size_t i = 0; i < nodes.cells.size(); ++i)
+    if (owner(nodes.cells[i][2]) == rank_) mine.push_back(i);
+  std::vector<NodeMoments> values(mine.size());
+  const std::ptrdiff_t m = std::ptrdiff_t(mine.size());
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t t = 0; t < m; ++t) {
+    const std::array<int, 3>& c = nodes.cells[mine[std::size_t(t)]];
+    values[std::size_t(t)] = node_moments(*block_, c[0], c[1], c[2] - slab_.z0);
+  }
+  // Rank 0: every rank's moments in its order of the list, back into the list's order.
+  std::vector<int> counts, displs;
+  std::vector<NodeMoments> all;
+  if (rank_ == 0) {
+    counts.assign(std::size_t(ranks_), 0);
+    displs.assign(std::size_t(ranks_), 0);
+    for (const std::array<int, 3>& c : nodes.cells) counts[std::size_t(owner(c[2]))] += 4;
+    for (int r = 1; r < ranks_; ++r) displs[std::size_t(r)] = displs[std::size_t(r - 1)] + counts[std::size_t(r - 1)];
+    all.resize(nodes.cells.size());
+  }
+  check(MPI_Gatherv(values.data(), int(4 * values.size()), MPI_DOUBLE, rank_ == 0 ? all.data() : nullptr,
+                    counts.data(), displs.data(), MPI_DOUBLE, 0, comm_),
+        "MPI_Gatherv (node moments)");
+  if (rank_ != 0) return;
+  std::vector<NodeMoments> ordered(nodes.cells.size());
+  std::vector<std::size_t> next(static_cast<std::size_t>(ranks_));
+  for (int r = 0; r < ranks_; ++r) next[std::size_t(r)] = std::size_t(displs[std::size_t(r)] / 4);
+  for (std::size_t i = 0; i < nodes.cells.size(); ++i) ordered[i] = all[next[std::size_t(owner(nodes.cells[i][2]))]++];
+  ib_.sum_samples(nodes, ordered, out);
+}
+
+void DistributedFluid::spread(std::span<const Vec3> X, std::span<const Vec3> J) {
+  const std::vector<Vec3> x = from_leader(X), j = from_leader(J);
+  FluidSolver& b = *block_;
+  const int z0 = slab_.z0;
+  ib_.spread(std::span<const Vec3>(x), std::span<const Vec3>(j), [&](int cx, int cy, int cz, const Vec3& F) {
+    if (owner(cz) == rank_) b.add_force(cx, cy, cz - z0, F[0], F[1], F[2]);
+  });
 }
 
 const FluidSolver* DistributedFluid::whole() {
