@@ -48,6 +48,7 @@
 #include "protocol/units.hpp"
 #if COSIM_HAVE_MPI
 #include "fluid/mpi/distributed_fluid.hpp"
+#include "fluid/mpi/led_domain.hpp"
 #include "fluid/mpi/mpi_world.hpp"
 #endif
 
@@ -280,13 +281,6 @@ int mpi_ranks() {
   return 1;
 }
 
-int mpi_rank() {
-#if COSIM_HAVE_MPI
-  if (g_world != nullptr) return g_world->rank();
-#endif
-  return 0;
-}
-
 /// A fluid-only scene in this process, or over the MPI ranks of an mpirun.
 int run_fluid_only(const FluidScene& scene, bool quiet) {
 #if COSIM_HAVE_MPI
@@ -303,6 +297,33 @@ int run_fluid_only(const FluidScene& scene, bool quiet) {
 #endif
   SerialDomain domain(scene.params);
   return run(scene, quiet, domain);
+}
+
+/// A coupled scene: the coordinator, the session and the scheme in this process, the grid
+/// here or, under mpirun on several ranks, in slabs over the ranks, led from rank 0 (the
+/// other ranks follow its calls; fluid/mpi/led_domain.hpp).
+int run_coupled_scene(const FluidScene& scene, const CoupledFluidOptions& co) {
+#if COSIM_HAVE_MPI
+  if (mpi_ranks() > 1) {
+    std::unique_ptr<mpi::DistributedFluid> grid;
+    try {
+      grid = std::make_unique<mpi::DistributedFluid>(scene, g_world->comm());
+    } catch (const std::invalid_argument& e) {
+      if (g_world->rank() == 0) std::fprintf(stderr, "%s: %s\n", scene.path.c_str(), one_line(e.what()).c_str());
+      return exit_code::bad_input;
+    }
+    MPI_Comm orders = MPI_COMM_NULL;
+    mpi::check(MPI_Comm_dup(g_world->comm(), &orders), "MPI_Comm_dup");
+    if (g_world->rank() != 0) return mpi::follow(*grid, scene, orders);
+    std::printf("  blocks   %s\n", grid->describe().c_str());
+    std::fflush(stdout);
+    mpi::LedDomain led(*grid, orders);
+    const int code = run_coupled_fluid(scene, co, std::cout, std::cerr, led);
+    led.end(code);
+    return code;
+  }
+#endif
+  return run_coupled_fluid(scene, co, std::cout, std::cerr);
 }
 
 int main_impl(int argc, char** argv) {
@@ -386,14 +407,6 @@ int main_impl(int argc, char** argv) {
     return exit_code::ok;
   }
   if (scene.coupling) {
-    if (mpi_ranks() > 1) {
-      if (mpi_rank() == 0)  // every rank finds it; one says it
-        std::fprintf(stderr,
-                     "%s: a coupled scene runs its fluid in one process for now (%d MPI ranks given); "
-                     "run it without --ranks\n",
-                     scene.path.c_str(), mpi_ranks());
-      return exit_code::bad_input;
-    }
     protocol::catch_interrupts();  // before any thread starts (OpenMP, LCM)
     if (token.empty())
       if (const char* env = std::getenv("COSIM_RUN_TOKEN")) token = env;
@@ -422,7 +435,7 @@ int main_impl(int argc, char** argv) {
       std::fprintf(stderr, "fluid: %s\n", e.what());
       return exit_code::bad_input;
     }
-    return run_coupled_fluid(scene, co, std::cout, std::cerr);
+    return run_coupled_scene(scene, co);
   }
   return run_fluid_only(scene, quiet);
 }

@@ -65,7 +65,13 @@ else
   : >"$output/fluid.log"; : >"$output/solid.log"
 fi
 fluid_from=$(stat -c %s "$output/fluid.log"); solid_from=$(stat -c %s "$output/solid.log")
-setsid "$root/build/fluid/fluid" "$scene" --output "$output" --channel-prefix "$prefix" $quiet \
+# The fluid alone, or its grid over COSIM_FLUID_RANKS MPI ranks (run-coupled.sh --ranks)
+# in this network namespace.
+fluid_cmd=("$root/build/fluid/fluid")
+if [ -n "${COSIM_FLUID_RANKS:-}" ]; then
+  fluid_cmd=(env COSIM_NETNS_PRIVATE=1 bash "$root/launch/mpirun-local.sh" "$COSIM_FLUID_RANKS" "${fluid_cmd[@]}")
+fi
+setsid "${fluid_cmd[@]}" "$scene" --output "$output" --channel-prefix "$prefix" $quiet \
   ${COSIM_FLUID_RESTART:+--restart "$COSIM_FLUID_RESTART"} ${COSIM_TIME_RATIO:+--time-ratio "$COSIM_TIME_RATIO"} \
   >>"$output/fluid.log" 2>&1 &
 fluid=$!
