@@ -1,0 +1,159 @@
+// Coupled scenes over MPI ranks (DESIGN 8, fluid/mpi/led_domain.hpp): the fluid's grid in
+// slabs along z over 1 to 4 ranks (launch/run-coupled.sh --ranks N: launch/mpirun-local.sh
+// in the run's private network namespace, more ranks than cores allowed), the coordinator
+// and the session on rank 0, the solid as always. Every HDF5 output of the fluid and of the
+// solid equals the serial run's bit for bit, in each coupling scheme, with a sheet whose
+// markers' kernels straddle the slab edges; a checkpoint gathered from the ranks restarts on
+// the same or another number of ranks (or in one process) bit for bit.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "fluid/decomposition.hpp"
+#include "support/run_command.hpp"
+#include "support/run_compare.hpp"
+
+namespace cosim::test {
+namespace {
+
+const fs::path kSource = COSIM_SOURCE_DIR;
+constexpr int kNz = 30;             // scenes/coupled_small.toml's nz
+constexpr double kDxUm = 0.2561;    // and dx
+const std::string kOneThread = "OMP_NUM_THREADS=1";
+
+bool have_mpirun() { return std::system("command -v mpirun >/dev/null 2>&1") == 0; }
+
+/// scenes/coupled_small.toml shortened to 60 LB steps (20 rigid), with plane snapshots, the
+/// sheet moved 1.5 cells up along z (its markers at z = 14.5 .. 18.5 cells: kernels over the
+/// planes 13 .. 20, across the slab edges at 15 of 2 slabs, 20 of 3 and 16 of 4), in
+/// `scheme`, with `extra` added to [coupling].
+fs::path write_scene(const fs::path& dir, const std::string& scheme, const std::string& extra = "") {
+  std::string s = slurp(kSource / "scenes" / "coupled_small.toml");
+  const auto set = [&s](const std::string& from, const std::string& to) {
+    const std::size_t at = s.find(from);
+    if (at == std::string::npos) throw std::runtime_error("scene template lacks " + from);
+    s.replace(at, from.size(), to);
+  };
+  set("steps = 200", "steps = 60");
+  set("monitor_every = 50", "monitor_every = 20");
+  set("fields_every = 50", "fields_every = 30\nplanes_every = 20\nplanes_y = [0.5]");
+  set("sheets_every = 50", "sheets_every = 30");
+  set("resend_after_s = 0.5", "resend_after_s = 0.05");
+  set("rigid_steps = 50", "rigid_steps = 20\nscheme = \"" + scheme + "\"" + (extra.empty() ? "" : "\n" + extra));
+  set("base_um = [3.0734, 0.0, 3.8415]", "base_um = [3.0734, 0.0, 4.22565]");
+  fs::create_directories(dir);
+  const fs::path scene = dir / ("small_" + scheme + ".toml");
+  std::ofstream(scene) << s;
+  return scene;
+}
+
+void expect_done(const fs::path& out, int launcher_status) {
+  ASSERT_EQ(launcher_status, 0) << logs(out);
+  ASSERT_EQ(slurp(out / "fluid.exit"), "0\n") << logs(out);
+  ASSERT_EQ(slurp(out / "solid.exit"), "0\n") << logs(out);
+}
+
+/// How many markers of the run's first sheet snapshot have a kernel (4 nodes along z from
+/// floor(z) - 1, periodic) that reaches nodes of two slabs of `slabs`.
+int straddling(const fs::path& run, int slabs) {
+  const auto d = read_datasets(run / "sheets_000000.h5");
+  const auto it = d.find("position_um");
+  if (it == d.end()) return -1;
+  std::vector<int> owner(kNz);
+  for (int r = 0; r < slabs; ++r) {
+    const fluid::Slab s = fluid::slab_of(kNz, slabs, r);
+    for (int z = s.z0; z < s.z0 + s.nz; ++z) owner[std::size_t(z)] = r;
+  }
+  int n = 0;
+  for (std::size_t k = 2; k < it->second.values.size(); k += 3) {
+    const int first = int(std::floor(it->second.values[k] / kDxUm)) - 1;
+    std::set<int> ranks;
+    for (int i = 0; i < 4; ++i) ranks.insert(owner[std::size_t(((first + i) % kNz + kNz) % kNz)]);
+    n += ranks.size() > 1;
+  }
+  return n;
+}
+
+TEST(MpiCoupled, MpiCoupledMatchesSerialBitForBit) {
+  if (!have_mpirun()) GTEST_SKIP() << "mpirun is not installed (launch/bootstrap.sh)";
+  const fs::path dir = scratch("mpi_coupled");
+  for (const std::string scheme : {"serial", "parallel", "implicit"}) {
+    SCOPED_TRACE(scheme + " scheme");
+    const fs::path scene = write_scene(dir / scheme, scheme);
+    const fs::path serial = dir / scheme / "serial";
+    expect_done(serial, run_launcher(kSource, scene, serial, "", kOneThread));
+    for (int slabs = 2; slabs <= 4; ++slabs)
+      EXPECT_GT(straddling(serial, slabs), 0) << "no marker's kernel crosses an edge of " << slabs << " slabs";
+    for (int ranks = 1; ranks <= 4; ++ranks) {
+      const fs::path out = dir / scheme / ("ranks" + std::to_string(ranks));
+      expect_done(out, run_launcher(kSource, scene, out, "--ranks " + std::to_string(ranks), kOneThread));
+      if (ranks > 1) {
+        EXPECT_TRUE(contains(slurp(out / "fluid.log"), "slabs along z over " + std::to_string(ranks) + " MPI ranks"))
+            << logs(out);
+      }
+      std::size_t files = 0;
+      EXPECT_EQ(compare_outputs(serial, out, &files), "") << ranks << " ranks";
+      // monitor.h5, solid.h5, 3 field, 4 plane and 3 sheet snapshots.
+      EXPECT_EQ(files, 12u) << ranks << " ranks";
+    }
+  }
+  if (!HasFailure()) fs::remove_all(dir);
+}
+
+/// The populations of a fluid checkpoint (the whole grid's store, ghosts included).
+std::vector<unsigned char> populations(const fs::path& file) {
+  const auto d = read_datasets(file);
+  const auto it = d.find("populations");
+  return it == d.end() ? std::vector<unsigned char>{} : it->second.bytes;
+}
+
+/// `from`'s checkpoints of `step` alone in a folder of their own.
+fs::path pair_of(const fs::path& from, const std::string& step, const fs::path& into) {
+  fs::create_directories(into);
+  for (const char* side : {"fluid", "solid"})
+    fs::copy_file(from / "checkpoints" / (std::string(side) + "_" + step + ".h5"),
+                  into / (std::string(side) + "_" + step + ".h5"));
+  return into;
+}
+
+// A run over 2 ranks with checkpoints every 20 LB steps, restarted from step 40 on 2 ranks,
+// on 3 and in one process, ends with the outputs of the run straight through, bit for bit;
+// the gathered checkpoint holds the serial run's store. The implicit scheme's checkpoint of
+// step 40 is written while step 40 is iterated: the kept (committed) state, gathered.
+TEST(MpiCoupled, MpiCheckpointRestartIsBitIdentical) {
+  if (!have_mpirun()) GTEST_SKIP() << "mpirun is not installed (launch/bootstrap.sh)";
+  const fs::path dir = scratch("mpi_restart");
+  for (const std::string scheme : {"serial", "implicit"}) {
+    SCOPED_TRACE(scheme + " scheme");
+    const fs::path scene = write_scene(dir / scheme, scheme, "checkpoint_every = 20");
+    const fs::path straight = dir / scheme / "straight", serial = dir / scheme / "serial";
+    expect_done(straight, run_launcher(kSource, scene, straight, "--ranks 2", kOneThread));
+    expect_done(serial, run_launcher(kSource, scene, serial, "", kOneThread));
+    const std::string step = "00000040";
+    const std::vector<unsigned char> gathered = populations(straight / "checkpoints" / ("fluid_" + step + ".h5"));
+    EXPECT_FALSE(gathered.empty());
+    EXPECT_TRUE(gathered == populations(serial / "checkpoints" / ("fluid_" + step + ".h5")))
+        << "the checkpoint gathered from 2 ranks is not the serial run's store";
+    const fs::path from = pair_of(straight, step, dir / scheme / "from40");
+    for (const int ranks : {2, 3, 0}) {
+      const fs::path out = dir / scheme / ("restarted_on_" + std::to_string(ranks));
+      const std::string args =
+          "--restart " + quoted(from.string()) + (ranks > 0 ? " --ranks " + std::to_string(ranks) : "");
+      expect_done(out, run_launcher(kSource, scene, out, args, kOneThread));
+      EXPECT_TRUE(contains(slurp(out / "fluid.log"), "restarted from")) << logs(out);
+      const std::vector<std::string> files = h5_files(out);
+      EXPECT_GE(files.size(), 5u) << logs(out);
+      for (const std::string& f : files) EXPECT_EQ(compare_h5(straight, out, f), "") << f << ", restarted on " << ranks;
+    }
+  }
+  if (!HasFailure()) fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace cosim::test
