@@ -1,7 +1,8 @@
 // The fluid's grid over MPI ranks (DESIGN 8, fluid/mpi/): a fluid-only scene on 1 to 4 ranks
 // (launch/mpirun-local.sh: loopback only, more ranks than cores allowed) writes the same
 // HDF5 outputs as the serial run, bit for bit; a decomposition that cannot be built is
-// refused in one line; a flow that runs away stops as in the serial run; a killed rank stops
+// refused in one line, for a fluid-only or a coupled scene (coupled scenes over ranks:
+// test_mpi_coupled.cpp); a flow that runs away stops as in the serial run; a killed rank stops
 // the run with a reason instead of a hang.
 #include <gtest/gtest.h>
 #include <signal.h>
@@ -111,22 +112,18 @@ TEST(Mpi, MpiBlocksThatCannotBeBuiltAreRefusedInOneLine) {
   EXPECT_EQ(x.status, 2);
   EXPECT_TRUE(contains(x.err, "run.blocks = [2, 1, 1]: only slabs along z are built")) << x.err;
   EXPECT_EQ(lines(x.err), 1u) << x.err;
-}
-
-// The fluid of a coupled run stays in one process for now: refused on 2 ranks, once, exit 2,
-// nothing written.
-TEST(Mpi, MpiCoupledSceneIsRefusedOnSeveralRanks) {
-  if (!have_mpirun()) GTEST_SKIP() << "mpirun is not installed (launch/bootstrap.sh)";
-  const fs::path dir = scratch("mpi_coupled");
-  const fs::path scene = kSource / "scenes" / "coupled_small.toml";
-  const RunResult r = run_command(mpirun(2) + quoted(kFluid) + " " + quoted(scene.string()) + " --quiet --output " +
-                                      quoted((dir / "out").string()),
-                                  dir / "log");
-  EXPECT_EQ(r.status, 2) << r.err;
-  const std::string what = "a coupled scene runs its fluid in one process for now (2 MPI ranks given)";
-  EXPECT_TRUE(contains(r.err, what)) << r.err;
-  EXPECT_EQ(r.err.find(what), r.err.rfind(what)) << "said more than once:\n" << r.err;
-  EXPECT_FALSE(fs::exists(dir / "out" / "monitor.h5"));
+  // A coupled scene's grid the same (its fluid ends before it waits for a solid).
+  fs::create_directories(dir / "coupled");
+  const fs::path coupled =
+      variant(kSource / "scenes" / "coupled_small.toml", dir / "coupled", {{"[run]\n", "[run]\nblocks = [1, 1, 3]\n"}});
+  const RunResult c = run_command(mpirun(2) + quoted(kFluid) + " " + quoted(coupled.string()) + " --quiet --output " +
+                                      quoted((dir / "coupled_out").string()),
+                                  dir / "log_coupled");
+  EXPECT_EQ(c.status, 2) << c.err;
+  const std::string what = "run.blocks = [1, 1, 3]: 3 blocks for 2 MPI ranks";
+  EXPECT_TRUE(contains(c.err, what)) << c.err;
+  EXPECT_EQ(c.err.find(what), c.err.rfind(what)) << "said more than once:\n" << c.err;
+  EXPECT_FALSE(fs::exists(dir / "coupled_out" / "monitor.h5"));
 }
 
 /// The first line of `text` that holds `what` ("" if none).

@@ -1,5 +1,6 @@
 #include "fluid/mpi/distributed_fluid.hpp"
 
+#include <algorithm>
 #include <array>
 #include <stdexcept>
 #include <type_traits>
@@ -53,31 +54,43 @@ void DistributedFluid::gather_field(const BasicPopulationField<T>& from, BasicPo
   // FusedStepMatchesGhostFillStepSingleStore, but the gathered ones need no such link). Except
   // the reflecting faces' ghosts next to a slab's edge: a wall's ghost lies in the plane of
   // its neighbour cell's neighbour, which the other slab filled; gather() redoes those.
+  // In values: a plane's last row may end one value into the next plane (the single store's
+  // compact rows: x = nx of row y = ny at the next plane's offset 0, never a value of that
+  // plane's own), so each slab's range begins one value into its first plane and ends one
+  // value into the plane after its last; the last slab's runs to the end of the store.
   const MPI_Datatype type = std::is_same_v<T, double> ? MPI_DOUBLE : MPI_FLOAT;
   const std::ptrdiff_t plane = from.layout().plane_stride();
-  const int nz_whole = into != nullptr ? into->layout().nz() : 0;
-  // Planes of slab r in the whole grid's offsets (ghost plane z = -1 at offset 0).
-  const auto span = [&](const Slab& s, int& first, int& planes) {
-    first = s.z0 + 1 - (s.index == 0 ? 1 : 0);
-    planes = s.nz + (s.index == 0 ? 1 : 0) + (s.index + 1 == s.count ? 1 : 0);
+  const int nz_whole = whole_params_.shape.nz;
+  const std::ptrdiff_t whole_stride = std::ptrdiff_t(layout_of(whole_params_.shape, whole_params_.precision).stride());
+  // Slab r's range [begin, end) in the whole store (ghost plane z = -1 at offset 0).
+  const auto range = [&](int r, std::ptrdiff_t& begin, std::ptrdiff_t& end) {
+    const Slab s = slab_of(nz_whole, slab_.count, r);
+    begin = r == 0 ? 0 : std::ptrdiff_t(s.z0 + 1) * plane + 1;
+    if (r + 1 < slab_.count) {
+      end = std::ptrdiff_t(s.z0 + s.nz + 1) * plane + 1;
+    } else {
+      const GridShape shape{whole_params_.shape.nx, whole_params_.shape.ny, s.nz};
+      end = std::min(whole_stride, std::ptrdiff_t(s.z0) * plane +
+                                       std::ptrdiff_t(layout_of(shape, whole_params_.precision).stride()));
+    }
   };
-  int first = 0, planes = 0;
-  span(slab_, first, planes);
-  const std::ptrdiff_t local_first = slab_.index == 0 ? 0 : plane;  // the slab's z = -1 or z = 0
+  std::ptrdiff_t begin = 0, end = 0;
+  range(rank_, begin, end);
+  const std::ptrdiff_t local_begin = begin - std::ptrdiff_t(slab_.z0) * plane;  // the slab's plane z = -1 at 0
   std::vector<int> counts, displs;
   if (rank_ == 0) {
     counts.resize(std::size_t(ranks_));
     displs.resize(std::size_t(ranks_));
     for (int r = 0; r < ranks_; ++r) {
-      int f = 0, n = 0;
-      span(slab_of(nz_whole, slab_.count, r), f, n);
-      counts[std::size_t(r)] = int(std::ptrdiff_t(n) * plane);
-      displs[std::size_t(r)] = int(std::ptrdiff_t(f) * plane);
+      std::ptrdiff_t b = 0, e = 0;
+      range(r, b, e);
+      counts[std::size_t(r)] = int(e - b);
+      displs[std::size_t(r)] = int(b);
     }
   }
   for (int q = 0; q < D3Q19::Q; ++q)
-    check(MPI_Gatherv(from.q(q) + local_first, int(std::ptrdiff_t(planes) * plane), type,
-                      rank_ == 0 ? into->q(q) : nullptr, counts.data(), displs.data(), type, 0, comm_),
+    check(MPI_Gatherv(from.q(q) + local_begin, int(end - begin), type, rank_ == 0 ? into->q(q) : nullptr,
+                      counts.data(), displs.data(), type, 0, comm_),
           "MPI_Gatherv (fields to rank 0)");
 }
 
@@ -114,35 +127,42 @@ StoreView DistributedFluid::whole_store(bool kept) {
 
 template <class T>
 void DistributedFluid::scatter_field(const T* from, BasicPopulationField<T>& into) {
-  // gather_field's planes, the other way: each slab's planes z = 0 .. nz - 1, the first
-  // slab's z = -1 and the last's z = nz too (no value is sent twice). The halo planes then
-  // come from the neighbours' edge planes as in a step: the store's values there too.
+  // Each block's whole store, ghost and halo planes included, is the whole grid's store
+  // from the block's plane z = -1 on (and the values after its plane z = nz that its rows
+  // reach): every value a block's step reads is the one the undivided grid's step reads
+  // there. Sent from rank 0 point to point (the blocks' ranges overlap).
   const MPI_Datatype type = std::is_same_v<T, double> ? MPI_DOUBLE : MPI_FLOAT;
   const std::ptrdiff_t plane = into.layout().plane_stride();
-  const std::ptrdiff_t whole_q = std::ptrdiff_t(whole_params_.shape.nz + 2) * plane;  // one population's values
-  const auto span = [&](const Slab& s, int& first, int& planes) {
-    first = s.z0 + 1 - (s.index == 0 ? 1 : 0);
-    planes = s.nz + (s.index == 0 ? 1 : 0) + (s.index + 1 == s.count ? 1 : 0);
+  const std::ptrdiff_t whole_stride = std::ptrdiff_t(layout_of(whole_params_.shape, whole_params_.precision).stride());
+  const auto range = [&](int rank, std::ptrdiff_t local_stride, std::ptrdiff_t& begin, std::ptrdiff_t& count) {
+    begin = std::ptrdiff_t(slab_of(whole_params_.shape.nz, slab_.count, rank).z0) * plane;
+    count = std::min(local_stride, whole_stride - begin);
   };
-  int first = 0, planes = 0;
-  span(slab_, first, planes);
-  const std::ptrdiff_t local_first = slab_.index == 0 ? 0 : plane;
-  std::vector<int> counts, displs;
+  constexpr int kTag = 300;  // + q
   if (rank_ == 0) {
-    counts.resize(std::size_t(ranks_));
-    displs.resize(std::size_t(ranks_));
-    for (int r = 0; r < ranks_; ++r) {
-      int f = 0, n = 0;
-      span(slab_of(whole_params_.shape.nz, slab_.count, r), f, n);
-      counts[std::size_t(r)] = int(std::ptrdiff_t(n) * plane);
-      displs[std::size_t(r)] = int(std::ptrdiff_t(f) * plane);
+    std::vector<MPI_Request> req;
+    for (int r = 1; r < ranks_; ++r) {
+      const Slab s = slab_of(whole_params_.shape.nz, slab_.count, r);
+      const GridShape shape{whole_params_.shape.nx, whole_params_.shape.ny, s.nz};
+      std::ptrdiff_t begin = 0, count = 0;
+      range(r, std::ptrdiff_t(layout_of(shape, whole_params_.precision).stride()), begin, count);
+      for (int q = 0; q < D3Q19::Q; ++q) {
+        req.emplace_back();
+        check(MPI_Isend(from + q * whole_stride + begin, int(count), type, r, kTag + q, comm_, &req.back()),
+              "MPI_Isend (a checkpoint to the ranks)");
+      }
     }
+    std::ptrdiff_t begin = 0, count = 0;
+    range(0, std::ptrdiff_t(into.layout().stride()), begin, count);
+    for (int q = 0; q < D3Q19::Q; ++q) std::copy(from + q * whole_stride + begin, from + q * whole_stride + begin + count, into.q(q));
+    check(MPI_Waitall(int(req.size()), req.data(), MPI_STATUSES_IGNORE), "MPI_Waitall (a checkpoint to the ranks)");
+  } else {
+    std::ptrdiff_t begin = 0, count = 0;
+    range(rank_, std::ptrdiff_t(into.layout().stride()), begin, count);
+    for (int q = 0; q < D3Q19::Q; ++q)
+      check(MPI_Recv(into.q(q), int(count), type, 0, kTag + q, comm_, MPI_STATUS_IGNORE),
+            "MPI_Recv (a checkpoint from rank 0)");
   }
-  for (int q = 0; q < D3Q19::Q; ++q)
-    check(MPI_Scatterv(rank_ == 0 ? from + q * whole_q : nullptr, counts.data(), displs.data(), type,
-                       into.q(q) + local_first, int(std::ptrdiff_t(planes) * plane), type, 0, comm_),
-          "MPI_Scatterv (a checkpoint to the ranks)");
-  halo_->exchange(into);
 }
 
 void DistributedFluid::load_store(const StoreView& from, std::int64_t step) {

@@ -74,8 +74,8 @@ class DistributedFluid final : public FluidDomain {
   void gather_into_whole(const BasicPopulationField<T>& from);
   template <class T>
   void gather_field(const BasicPopulationField<T>& from, BasicPopulationField<T>* into);
-  /// The inverse of gather_field: rank 0's store of the whole grid into the blocks' `into`
-  /// (the planes gather_field takes from each), then the halo planes from the neighbours.
+  /// Rank 0's store of the whole grid into the blocks' `into`: each block's whole store
+  /// (its ghost and halo planes included) from the whole store's values there.
   template <class T>
   void scatter_field(const T* from, BasicPopulationField<T>& into);
   /// Rank 0's markers (and impulses) on every rank.
