@@ -35,11 +35,7 @@ bool have_mpirun() { return std::system("command -v mpirun >/dev/null 2>&1") == 
 /// `scheme`, with `extra` added to [coupling].
 fs::path write_scene(const fs::path& dir, const std::string& scheme, const std::string& extra = "") {
   std::string s = slurp(kSource / "scenes" / "coupled_small.toml");
-  const auto set = [&s](const std::string& from, const std::string& to) {
-    const std::size_t at = s.find(from);
-    if (at == std::string::npos) throw std::runtime_error("scene template lacks " + from);
-    s.replace(at, from.size(), to);
-  };
+  const auto set = [&s](const std::string& from, const std::string& to) { replace_in(s, from, to); };
   set("steps = 200", "steps = 60");
   set("monitor_every = 50", "monitor_every = 20");
   set("fields_every = 50", "fields_every = 30\nplanes_every = 20\nplanes_y = [0.5]");
@@ -51,12 +47,6 @@ fs::path write_scene(const fs::path& dir, const std::string& scheme, const std::
   const fs::path scene = dir / ("small_" + scheme + ".toml");
   std::ofstream(scene) << s;
   return scene;
-}
-
-void expect_done(const fs::path& out, int launcher_status) {
-  ASSERT_EQ(launcher_status, 0) << logs(out);
-  ASSERT_EQ(slurp(out / "fluid.exit"), "0\n") << logs(out);
-  ASSERT_EQ(slurp(out / "solid.exit"), "0\n") << logs(out);
 }
 
 /// How many markers of the run's first sheet snapshot have a kernel (4 nodes along z from
@@ -87,12 +77,12 @@ TEST(MpiCoupled, MpiCoupledMatchesSerialBitForBit) {
     SCOPED_TRACE(scheme + " scheme");
     const fs::path scene = write_scene(dir / scheme, scheme);
     const fs::path serial = dir / scheme / "serial";
-    expect_done(serial, run_launcher(kSource, scene, serial, "", kOneThread));
+    expect_run_done(serial, run_launcher(kSource, scene, serial, "", kOneThread));
     for (int slabs = 2; slabs <= 4; ++slabs)
       EXPECT_GT(straddling(serial, slabs), 0) << "no marker's kernel crosses an edge of " << slabs << " slabs";
     for (int ranks = 1; ranks <= 4; ++ranks) {
       const fs::path out = dir / scheme / ("ranks" + std::to_string(ranks));
-      expect_done(out, run_launcher(kSource, scene, out, "--ranks " + std::to_string(ranks), kOneThread));
+      expect_run_done(out, run_launcher(kSource, scene, out, "--ranks " + std::to_string(ranks), kOneThread));
       if (ranks > 1) {
         EXPECT_TRUE(contains(slurp(out / "fluid.log"), "slabs along z over " + std::to_string(ranks) + " MPI ranks"))
             << logs(out);
@@ -133,8 +123,8 @@ TEST(MpiCoupled, MpiCheckpointRestartIsBitIdentical) {
     SCOPED_TRACE(scheme + " scheme");
     const fs::path scene = write_scene(dir / scheme, scheme, "checkpoint_every = 20");
     const fs::path straight = dir / scheme / "straight", serial = dir / scheme / "serial";
-    expect_done(straight, run_launcher(kSource, scene, straight, "--ranks 2", kOneThread));
-    expect_done(serial, run_launcher(kSource, scene, serial, "", kOneThread));
+    expect_run_done(straight, run_launcher(kSource, scene, straight, "--ranks 2", kOneThread));
+    expect_run_done(serial, run_launcher(kSource, scene, serial, "", kOneThread));
     const std::string step = "00000040";
     const std::vector<unsigned char> gathered = populations(straight / "checkpoints" / ("fluid_" + step + ".h5"));
     EXPECT_FALSE(gathered.empty());
@@ -145,7 +135,7 @@ TEST(MpiCoupled, MpiCheckpointRestartIsBitIdentical) {
       const fs::path out = dir / scheme / ("restarted_on_" + std::to_string(ranks));
       const std::string args =
           "--restart " + quoted(from.string()) + (ranks > 0 ? " --ranks " + std::to_string(ranks) : "");
-      expect_done(out, run_launcher(kSource, scene, out, args, kOneThread));
+      expect_run_done(out, run_launcher(kSource, scene, out, args, kOneThread));
       EXPECT_TRUE(contains(slurp(out / "fluid.log"), "restarted from")) << logs(out);
       const std::vector<std::string> files = h5_files(out);
       EXPECT_GE(files.size(), 5u) << logs(out);
