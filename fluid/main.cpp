@@ -14,7 +14,10 @@
 // "inlet", the default when a face is an inlet): the flow that would enter anyway, so the
 // start is not an impulsive one from rest against the inlet.
 #include <omp.h>
+#include <pthread.h>
 #include <unistd.h>
+
+#include <csignal>
 
 #include <CLI/CLI.hpp>
 #include <chrono>
@@ -263,6 +266,9 @@ int run(const FluidScene& s, bool quiet, FluidDomain& domain) {
 #if COSIM_HAVE_MPI
 mpi::World* g_world = nullptr;  // set by main() when mpirun started the process
 #endif
+// The signal mask before main() blocked SIGINT and SIGTERM for MPI's threads.
+sigset_t g_mask_before_mpi;
+bool g_interrupts_blocked = false;
 // The standard error of a rank other than 0 while the command line and the scene are read
 // (every rank finds the same problems; rank 0 says them once): -1 when not held back.
 int g_held_stderr = -1;
@@ -437,6 +443,7 @@ int main_impl(int argc, char** argv) {
     }
     return run_coupled_scene(scene, co);
   }
+  if (g_interrupts_blocked) pthread_sigmask(SIG_SETMASK, &g_mask_before_mpi, nullptr);
   return run_fluid_only(scene, quiet);
 }
 
@@ -448,6 +455,16 @@ int main(int argc, char** argv) {
   // MPI only under mpirun: alone, the fluid runs as a build without MPI does.
   std::optional<cosim::fluid::mpi::World> world;
   if (cosim::fluid::mpi::launched_by_mpirun()) {
+    // SIGINT and SIGTERM blocked before MPI starts threads of its own, which would otherwise
+    // take them and end the process: a coupled run takes them in the thread of
+    // protocol::catch_interrupts (rank 0 then stops the run at its next step); a fluid-only
+    // run unblocks them again.
+    sigset_t interrupts;
+    sigemptyset(&interrupts);
+    sigaddset(&interrupts, SIGINT);
+    sigaddset(&interrupts, SIGTERM);
+    pthread_sigmask(SIG_BLOCK, &interrupts, &cosim::fluid::g_mask_before_mpi);
+    cosim::fluid::g_interrupts_blocked = true;
     world.emplace(argc, argv);
     cosim::fluid::g_world = &*world;
     // One process prints: the others' standard output would repeat the leader's lines.
