@@ -148,10 +148,14 @@ wait $watcher 2>/dev/null
 # The documented codes 0-4 only: a server killed by a signal (128 + N), or any other
 # status, counts as 1 (a system error).
 documented() { if [ "$1" -ge 0 ] && [ "$1" -le 4 ]; then echo "$1"; else echo 1; fi; }
-# The last line of a server's log; under mpirun (--ranks) the fluid's own last line, not
-# mpirun's closing notes.
+# The last line of a server's log; under mpirun (--ranks) mpirun's note of a rank that died
+# (which rank, which signal), else the fluid's own last line, not mpirun's closing notes.
 last_line() {
-  if [ "$1" = fluid ] && [ -n "${COSIM_FLUID_RANKS:-}" ] && grep -q '^fluid: ' "$output/fluid.log"; then
+  local died
+  died=$(grep -m1 'mpirun noticed that process rank' "$output/$1.log" 2>/dev/null)
+  if [ "$1" = fluid ] && [ -n "${COSIM_FLUID_RANKS:-}" ] && [ -n "$died" ]; then
+    echo "$died"
+  elif [ "$1" = fluid ] && [ -n "${COSIM_FLUID_RANKS:-}" ] && grep -q '^fluid: ' "$output/fluid.log"; then
     grep '^fluid: ' "$output/fluid.log" | tail -1
   else
     grep -v '^\s*$' "$output/$1.log" | tail -1

@@ -4,14 +4,19 @@
 // and the session on rank 0, the solid as always. Every HDF5 output of the fluid and of the
 // solid equals the serial run's bit for bit, in each coupling scheme, with a sheet whose
 // markers' kernels straddle the slab edges; a checkpoint gathered from the ranks restarts on
-// the same or another number of ranks (or in one process) bit for bit.
+// the same or another number of ranks (or in one process) bit for bit; a killed rank ends
+// the run.
 #include <gtest/gtest.h>
+#include <signal.h>
 
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <set>
+#include <sstream>
 #include <string>
+#include <thread>
 #include <utility>
 #include <vector>
 
@@ -142,6 +147,66 @@ TEST(MpiCoupled, MpiCheckpointRestartIsBitIdentical) {
       for (const std::string& f : files) EXPECT_EQ(compare_h5(straight, out, f), "") << f << ", restarted on " << ranks;
     }
   }
+  if (!HasFailure()) fs::remove_all(dir);
+}
+
+/// The fluid rank `rank` among the children of mpirun (`mpirun_pid`): its pid, or 0.
+pid_t rank_of(pid_t mpirun_pid, int rank) {
+  const std::string key = "OMPI_COMM_WORLD_RANK=" + std::to_string(rank) + '\0';
+  for (const auto& e : fs::directory_iterator("/proc")) {
+    const std::string name = e.path().filename().string();
+    if (name.find_first_not_of("0123456789") != std::string::npos) continue;
+    const std::string stat = slurp(e.path() / "stat");
+    const auto close = stat.rfind(')');
+    if (close == std::string::npos) continue;
+    std::istringstream rest(stat.substr(close + 2));
+    std::string state;
+    long ppid = 0;
+    rest >> state >> ppid;
+    if (ppid == mpirun_pid && contains(slurp(e.path() / "environ"), key)) return pid_t(std::stol(name));
+  }
+  return 0;
+}
+
+// One fluid rank killed in a coupled run over 2 ranks: mpirun ends the fluid, the solid
+// notices the silent fluid within its peer timeout and writes its checkpoint, and the
+// launcher ends with an error that names the rank and the signal: no hang.
+TEST(MpiCoupled, MpiKilledRankStopsTheCoupledRun) {
+  if (!have_mpirun()) GTEST_SKIP() << "mpirun is not installed (launch/bootstrap.sh)";
+  const fs::path dir = scratch("mpi_coupled_killed");
+  const fs::path scene = write_scene(dir, "serial");
+  std::string text = slurp(scene);
+  replace_in(text, "steps = 60", "steps = 1000000");
+  replace_in(text, "fields_every = 30", "fields_every = 0");
+  replace_in(text, "planes_every = 20", "planes_every = 0");
+  replace_in(text, "sheets_every = 30", "sheets_every = 0");
+  replace_in(text, "monitor_every = 20", "monitor_every = 1000");
+  replace_in(text, "peer_timeout_s = 10", "peer_timeout_s = 3");
+  std::ofstream(scene) << text;
+  const fs::path out = dir / "out";
+  int status = -1;
+  std::thread launcher([&] { status = run_launcher(kSource, scene, out, "--ranks 2", kOneThread); });
+  const auto start = std::chrono::steady_clock::now();
+  const auto since = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
+  pid_t victim = 0;
+  // Running: past the rigid steps (the release line), rank 1 found under mpirun.
+  while (since() < 60 && (victim == 0 || !contains(slurp(out / "fluid.log"), "sheet released"))) {
+    const std::string pid = slurp(out / "fluid.pid");
+    if (!pid.empty()) victim = rank_of(pid_t(std::stol(pid)), 1);
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  ASSERT_NE(victim, 0) << logs(out);
+  const double killed_at = since();
+  ASSERT_EQ(kill(victim, SIGKILL), 0);
+  launcher.join();
+  const double took = since() - killed_at;
+  EXPECT_NE(status, 0) << logs(out);
+  EXPECT_LT(took, 60.0) << "the run took " << took << " s to end after the kill";
+  const std::string said = slurp(out / "launcher.log");
+  EXPECT_TRUE(contains(said, "rank 1") && contains(said, "signal 9")) << said;
+  EXPECT_EQ(slurp(out / "solid.exit"), "4\n") << logs(out);
+  EXPECT_TRUE(fs::exists(out / "checkpoints")) << logs(out);
+  RecordProperty("seconds_from_kill_to_end", std::to_string(took));
   if (!HasFailure()) fs::remove_all(dir);
 }
 
