@@ -37,8 +37,10 @@ bool have_mpirun() { return std::system("command -v mpirun >/dev/null 2>&1") == 
 /// scenes/coupled_small.toml shortened to 60 LB steps (20 rigid), with plane snapshots, the
 /// sheet moved 1.5 cells up along z (its markers at z = 14.5 .. 18.5 cells: kernels over the
 /// planes 13 .. 20, across the slab edges at 15 of 2 slabs, 20 of 3 and 16 of 4), in
-/// `scheme`, with `extra` added to [coupling].
-fs::path write_scene(const fs::path& dir, const std::string& scheme, const std::string& extra = "") {
+/// `scheme`, with `extra` added to [coupling]; `single`: the single-precision store on a grid
+/// 48 cells long (rows of 48 floats end one value into the next row: the store's compact rows).
+fs::path write_scene(const fs::path& dir, const std::string& scheme, const std::string& extra = "",
+                     bool single = false) {
   std::string s = slurp(kSource / "scenes" / "coupled_small.toml");
   const auto set = [&s](const std::string& from, const std::string& to) { replace_in(s, from, to); };
   set("steps = 200", "steps = 60");
@@ -48,8 +50,12 @@ fs::path write_scene(const fs::path& dir, const std::string& scheme, const std::
   set("resend_after_s = 0.5", "resend_after_s = 0.05");
   set("rigid_steps = 50", "rigid_steps = 20\nscheme = \"" + scheme + "\"" + (extra.empty() ? "" : "\n" + extra));
   set("base_um = [3.0734, 0.0, 3.8415]", "base_um = [3.0734, 0.0, 4.22565]");
+  if (single) {
+    set("nx = 40", "nx = 48");
+    set("steps = 60", "steps = 60\nprecision = \"single\"");
+  }
   fs::create_directories(dir);
-  const fs::path scene = dir / ("small_" + scheme + ".toml");
+  const fs::path scene = dir / ("small_" + scheme + (single ? "_single" : "") + ".toml");
   std::ofstream(scene) << s;
   return scene;
 }
@@ -120,14 +126,16 @@ fs::path pair_of(const fs::path& from, const std::string& step, const fs::path& 
 // A run over 2 ranks with checkpoints every 20 LB steps, restarted from step 40 on 2 ranks,
 // on 3 and in one process, ends with the outputs of the run straight through, bit for bit;
 // the gathered checkpoint holds the serial run's store. The implicit scheme's checkpoint of
-// step 40 is written while step 40 is iterated: the kept (committed) state, gathered.
+// step 40 is written while step 40 is iterated: the kept (committed) state, gathered. The
+// single store's compact rows: the serial scheme again on a grid of rows that spill.
 TEST(MpiCoupled, MpiCheckpointRestartIsBitIdentical) {
   if (!have_mpirun()) GTEST_SKIP() << "mpirun is not installed (launch/bootstrap.sh)";
   const fs::path dir = scratch("mpi_restart");
-  for (const std::string scheme : {"serial", "implicit"}) {
-    SCOPED_TRACE(scheme + " scheme");
-    const fs::path scene = write_scene(dir / scheme, scheme, "checkpoint_every = 20");
-    const fs::path straight = dir / scheme / "straight", serial = dir / scheme / "serial";
+  for (const auto& [scheme, single] : {std::pair<std::string, bool>{"serial", false}, {"implicit", false}, {"serial", true}}) {
+    const std::string name = scheme + (single ? "_single" : "");
+    SCOPED_TRACE(name);
+    const fs::path scene = write_scene(dir / name, scheme, "checkpoint_every = 20", single);
+    const fs::path straight = dir / name / "straight", serial = dir / name / "serial";
     expect_run_done(straight, run_launcher(kSource, scene, straight, "--ranks 2", kOneThread));
     expect_run_done(serial, run_launcher(kSource, scene, serial, "", kOneThread));
     const std::string step = "00000040";
@@ -135,9 +143,9 @@ TEST(MpiCoupled, MpiCheckpointRestartIsBitIdentical) {
     EXPECT_FALSE(gathered.empty());
     EXPECT_TRUE(gathered == populations(serial / "checkpoints" / ("fluid_" + step + ".h5")))
         << "the checkpoint gathered from 2 ranks is not the serial run's store";
-    const fs::path from = pair_of(straight, step, dir / scheme / "from40");
+    const fs::path from = pair_of(straight, step, dir / name / "from40");
     for (const int ranks : {2, 3, 0}) {
-      const fs::path out = dir / scheme / ("restarted_on_" + std::to_string(ranks));
+      const fs::path out = dir / name / ("restarted_on_" + std::to_string(ranks));
       const std::string args =
           "--restart " + quoted(from.string()) + (ranks > 0 ? " --ranks " + std::to_string(ranks) : "");
       expect_run_done(out, run_launcher(kSource, scene, out, args, kOneThread));
