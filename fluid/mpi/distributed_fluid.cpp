@@ -40,7 +40,9 @@ void DistributedFluid::initialize(const FluidScene& scene) {
 
 std::string DistributedFluid::describe() const {
   return "slabs along z over " + std::to_string(ranks_) + " MPI ranks (blocks [1, 1, " +
-         std::to_string(slab_.count) + "]); rank 0 adds the monitor's row sums and gathers the grid for snapshots";
+         std::to_string(slab_.count) +
+         "]); rank 0 adds the monitor's row sums, gathers the grid for snapshots and checkpoints and sums the "
+         "markers' samples";
 }
 
 template <class T>
