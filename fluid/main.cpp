@@ -280,12 +280,9 @@ void release_stderr() {
   g_held_stderr = -1;
 }
 
-int mpi_ranks() {
 #if COSIM_HAVE_MPI
-  if (g_world != nullptr) return g_world->size();
+int mpi_ranks() { return g_world != nullptr ? g_world->size() : 1; }
 #endif
-  return 1;
-}
 
 /// A fluid-only scene in this process, or over the MPI ranks of an mpirun.
 int run_fluid_only(const FluidScene& scene, bool quiet) {
