@@ -87,6 +87,24 @@ TEST(Mpi, MpiFluidMatchesSerialBitForBit) {
                                     {"[output]", "[wall_velocity]\nz_min = [0.02, 0.0, 0.0]\n\n[output]"}});
     expect_ranks_match_serial(walls, dir / "walls");
   }
+  {
+    // Copy-type x and y faces (periodic) driven by a body force, the single store's compact
+    // rows (nx = 32): a block's step sends its edge planes with their x and y ghosts while it
+    // collides its interior planes (fluid/overlapped_step.cpp).
+    SCOPED_TRACE("periodic x and y, single store, compact rows");
+    fs::create_directories(dir / "periodic_xy");
+    const fs::path xy = variant(channel, dir / "periodic_xy",
+                                {{"nx = 24", "nx = 32"},
+                                 {"reynolds = 5\nreference_length_um = 1.0", "tau = 0.8"},
+                                 {"[inlet]\nu_max = 0.05\nprofile = \"blasius\"\nboundary_layer_um = 0.5\n",
+                                  "[body_force]\nx = 0.00002\ny = 0.00001\nz = 0.000005\n"},
+                                 {"x_min = \"inlet\"", "x_min = \"periodic\""},
+                                 {"x_max = \"outflow\"", "x_max = \"periodic\""},
+                                 {"y_min = \"wall\"", "y_min = \"periodic\""},
+                                 {"y_max = \"free_slip\"", "y_max = \"periodic\""},
+                                 {"threads = 1", "threads = 1\nprecision = \"single\""}});
+    expect_ranks_match_serial(xy, dir / "periodic_xy");
+  }
 }
 
 TEST(Mpi, MpiBlocksThatCannotBeBuiltAreRefusedInOneLine) {
