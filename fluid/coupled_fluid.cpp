@@ -9,6 +9,7 @@
 
 #include "fluid/coupled/coordinator.hpp"
 #include "fluid/coupled/fluid_run.hpp"
+#include "fluid/fluid_domain.hpp"
 #include "fluid/schemes/fluid_scheme.hpp"
 #include "protocol/checkpoint_file.hpp"
 #include "protocol/hdf5_handle.hpp"
@@ -21,15 +22,17 @@ namespace {
 namespace exit_code = protocol::exit_code;
 
 /// After the handshake: the fluid, the restart, the scheme's LB steps.
-int run_steps(const FluidScene& scene, const CoupledFluidOptions& options, Coordinator& coord, FluidScheme& scheme) {
-  FluidRun run(scene, options, coord, scheme);
+int run_steps(const FluidScene& scene, const CoupledFluidOptions& options, Coordinator& coord, FluidScheme& scheme,
+              FluidDomain& domain) {
+  FluidRun run(scene, options, coord, scheme, domain);
   std::optional<int> failed;
   const std::int64_t first_step = run.start(failed);
   if (failed) return *failed;
   return scheme.run(coord, run, first_step);
 }
 
-int run_coupled(const FluidScene& scene, const CoupledFluidOptions& options, Coordinator& coord, FluidScheme& scheme) {
+int run_coupled(const FluidScene& scene, const CoupledFluidOptions& options, Coordinator& coord, FluidScheme& scheme,
+                FluidDomain& domain) {
   if (auto e = coord.open()) return coord.end(*e);
   // A restart awaits the checkpoint's solid_state_t from the start, so that the solid's
   // republished message passes the step-window check even if it comes before the
@@ -47,7 +50,7 @@ int run_coupled(const FluidScene& scene, const CoupledFluidOptions& options, Coo
   }
   if (auto e = coord.handshake()) return coord.end(*e);
   try {
-    return run_steps(scene, options, coord, scheme);
+    return run_steps(scene, options, coord, scheme, domain);
   } catch (const std::exception& x) {  // output or system errors after the handshake
     return coord.stop_and_end({exit_code::system, x.what(), false}, coord.awaited_step());
   }
@@ -57,6 +60,12 @@ int run_coupled(const FluidScene& scene, const CoupledFluidOptions& options, Coo
 
 int run_coupled_fluid(const FluidScene& scene, const CoupledFluidOptions& options, std::ostream& out,
                       std::ostream& err) {
+  SerialDomain domain(scene.params);
+  return run_coupled_fluid(scene, options, out, err, domain);
+}
+
+int run_coupled_fluid(const FluidScene& scene, const CoupledFluidOptions& options, std::ostream& out,
+                      std::ostream& err, FluidDomain& domain) {
   protocol::hdf5_no_exit_cleanup();
   if (!scene.coupling) {
     err << "fluid: " << scene.path << ": not a coupled scene (no [coupling] section)\n";
@@ -69,7 +78,7 @@ int run_coupled_fluid(const FluidScene& scene, const CoupledFluidOptions& option
   const std::unique_ptr<FluidScheme> scheme =
       make_fluid_scheme(scene.coupling->scheme, scene.steps, scene.coupling->rigid_steps);
   Coordinator coord(scene, options, *scheme, out);
-  const int code = run_coupled(scene, options, coord, *scheme);
+  const int code = run_coupled(scene, options, coord, *scheme, domain);
   if (code != exit_code::ok) err << "fluid: coupled run stopped: " << coord.last_reason() << "\n";
   return code;
 }

@@ -15,6 +15,8 @@ class LCM;
 
 namespace cosim::fluid {
 
+class FluidDomain;
+
 /// The run's token, quiet, an in-process bus (lcm_url is then ignored), faults, --restart
 /// (protocol/session/session_options.hpp), and:
 struct CoupledFluidOptions : protocol::SessionOptions {
@@ -28,5 +30,9 @@ struct CoupledFluidOptions : protocol::SessionOptions {
 /// non-zero code.
 int run_coupled_fluid(const FluidScene& scene, const CoupledFluidOptions& options,
                       std::ostream& out, std::ostream& err);
+/// The same on `domain`: the grid in this process, or over the ranks of an MPI run led from
+/// this one (fluid/mpi/led_domain.hpp; the coordinator and the session live here only).
+int run_coupled_fluid(const FluidScene& scene, const CoupledFluidOptions& options,
+                      std::ostream& out, std::ostream& err, FluidDomain& domain);
 
 }  // namespace cosim::fluid

@@ -125,6 +125,13 @@ void FluidSolver::add_force(int x, int y, int z, double fx, double fy, double fz
 }
 
 void FluidSolver::step() {
+  if (halo_ != nullptr && bc_.has_halo() && layout_.nz() >= 3) {
+    if (params_.precision == Precision::Double)
+      step_overlapped(f_, g_);
+    else
+      step_overlapped(fs_, gs_);
+    return;
+  }
   begin_step();
   finish_step();
 }
@@ -265,5 +272,9 @@ void FluidSolver::macroscopic(MacroscopicFields& out) const {
         out.uz[i] = c.uz;
       }
 }
+
+// For the overlapped step of a block (fluid/overlapped_step.cpp).
+template void FluidSolver::apply_local_forces(const PopulationField&, PopulationField&);
+template void FluidSolver::apply_local_forces(const PopulationFieldSingle&, PopulationFieldSingle&);
 
 }  // namespace cosim::fluid

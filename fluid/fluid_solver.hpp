@@ -61,7 +61,8 @@ class FluidSolver {
   void add_force(int x, int y, int z, double fx, double fy, double fz);
 
   /// One LB step: stream, collide (with forces), boundaries. Clears the added forces.
-  /// begin_step() then finish_step().
+  /// begin_step() then finish_step(); in a block with halo faces and at least 3 planes, the
+  /// same bits with the halo exchange overlapped with the interior planes (step_overlapped).
   void step();
   /// A step in two parts. begin_step(): the bulk of the step (stream and collide every cell
   /// with the uniform body force into the second grid); the state is not changed yet. The
@@ -136,6 +137,9 @@ class FluidSolver {
   void finish_fields(BasicPopulationField<T>& f, BasicPopulationField<T>& g);
   template <class T>
   void apply_local_forces(const BasicPopulationField<T>& f, BasicPopulationField<T>& g);
+  /// step() of a block with halo faces (fluid/overlapped_step.cpp).
+  template <class T>
+  void step_overlapped(BasicPopulationField<T>& f, BasicPopulationField<T>& g);
   template <class T>
   void populations_of(const BasicPopulationField<T>& f, int x, int y, int z, double* out) const;
 

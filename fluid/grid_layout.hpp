@@ -44,10 +44,19 @@ class GridLayout {
   /// populations of a cell sit on 19 different line offsets within a 4 KiB page (fewer
   /// 4K-aliasing and cache-set conflicts between the kernel's streams; docs/performance.md).
   std::size_t stride() const {
+    if (view_stride_ != 0) return view_stride_;
     // The compact rows (row_values) need one line more after the last row for its x = nx.
     const std::size_t tail = compact_rows(shape_.nx, align_) ? 1 : 0;
     const std::size_t lines = std::size_t(sx_) * sy_ * sz_ / align_ + tail;
     return (lines | 1) * align_;
+  }
+  /// The layout of `nz` consecutive planes of this one seen as a block of their own, with
+  /// this layout's stride between populations: for a view of those planes in place
+  /// (BasicPopulationField::planes), e.g. a kernel run over part of a block.
+  GridLayout planes(int nz) const {
+    GridLayout l(GridShape{shape_.nx, shape_.ny, nz}, align_);
+    l.view_stride_ = stride();
+    return l;
   }
   std::ptrdiff_t row_stride() const { return sx_; }
   std::ptrdiff_t plane_stride() const { return std::ptrdiff_t(sx_) * sy_; }
@@ -82,6 +91,7 @@ class GridLayout {
   GridShape shape_;
   int align_ = kLineBytes / 8;
   int sx_ = 0, sy_ = 0, sz_ = 0;
+  std::size_t view_stride_ = 0;  ///< planes(): the stride of the layout they are part of
 };
 
 }  // namespace cosim::fluid

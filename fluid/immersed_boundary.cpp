@@ -43,11 +43,18 @@ ImmersedBoundary::ImmersedBoundary(const FluidSolver& solver)
                         solver.boundaries().face(YMin).kind == FaceKind::Periodic,
                         solver.boundaries().face(ZMin).kind == FaceKind::Periodic}) {}
 
+ImmersedBoundary::ImmersedBoundary(const FluidParams& params)
+    : ImmersedBoundary(params.shape,
+                       {params.faces[XMin].kind == FaceKind::Periodic, params.faces[YMin].kind == FaceKind::Periodic,
+                        params.faces[ZMin].kind == FaceKind::Periodic}) {}
+
+NodeMoments node_moments(const FluidSolver& solver, int x, int y, int z) {
+  const CellState c = solver.cell(x, y, z);
+  return {c.rho, c.rho * c.ux, c.rho * c.uy, c.rho * c.uz};
+}
+
 MarkerSample ImmersedBoundary::sample(const FluidSolver& solver, const Vec3& X) const {
-  const auto m = interpolate(X, [&](int x, int y, int z) {
-    const CellState c = solver.cell(x, y, z);
-    return std::array<double, 4>{c.rho, c.rho * c.ux, c.rho * c.uy, c.rho * c.uz};
-  });
+  const auto m = interpolate(X, [&](int x, int y, int z) { return node_moments(solver, x, y, z); });
   MarkerSample s;
   s.weight = kernel_weight(X);
   s.rho = m[0];
@@ -55,67 +62,64 @@ MarkerSample ImmersedBoundary::sample(const FluidSolver& solver, const Vec3& X) 
   return s;
 }
 
-void ImmersedBoundary::sample(const FluidSolver& solver, std::span<const Vec3> X,
-                              std::span<MarkerSample> out) const {
-  if (out.size() != X.size())
-    throw std::invalid_argument(std::string(__FILE__) + ":" + std::to_string(__LINE__) +
-                                ": sample() needs one output per marker; resize the output "
-                                "span to the number of marker positions");
-  const std::ptrdiff_t n = std::ptrdiff_t(X.size());
-  if (n == 0) return;
+MarkerNodes ImmersedBoundary::marker_nodes(std::span<const Vec3> X) const {
+  MarkerNodes out;
+  const std::size_t n = X.size();
+  out.stencils.resize(n);
+  out.first_visit.assign(n + 1, 0);
+  if (n == 0) return out;
   // The box of all stencils, in unwrapped node coordinates (a node wrapped across a
-  // periodic face may sit in it twice: computed twice, the same value).
-  std::vector<DeltaStencil> stencils(X.size());
+  // periodic face may sit in it twice: listed twice, the same value).
   std::array<int, 3> lo{}, hi{};
-  for (std::size_t l = 0; l < X.size(); ++l) {
-    stencils[l] = delta_stencil(X[l]);
+  for (std::size_t l = 0; l < n; ++l) {
+    out.stencils[l] = delta_stencil(X[l]);
     for (int a = 0; a < 3; ++a) {
-      const int first = stencils[l].first[a];
+      const int first = out.stencils[l].first[a];
       lo[a] = l == 0 ? first : std::min(lo[a], first);
       hi[a] = l == 0 ? first + kDeltaNodes : std::max(hi[a], first + kDeltaNodes);
     }
   }
   const std::array<std::ptrdiff_t, 3> size{hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]};
   const std::ptrdiff_t volume = size[0] * size[1] * size[2];
-  if (volume > 8 * kDeltaNodes * kDeltaNodes * kDeltaNodes * n) {
-    // Markers far apart: the box would be mostly empty; node by node per marker.
-#pragma omp parallel for schedule(static)
-    for (std::ptrdiff_t l = 0; l < n; ++l) out[std::size_t(l)] = sample(solver, X[std::size_t(l)]);
-    return;
-  }
-  const auto box_index = [&](const DeltaStencil& st, int i, int j, int k) {
-    return ((std::ptrdiff_t(st.first[2] + k - lo[2]) * size[1]) + (st.first[1] + j - lo[1])) * size[0] +
-           (st.first[0] + i - lo[0]);
-  };
-  // The nodes some marker reaches, and the cell each stands for.
-  std::vector<std::array<int, 3>> cell(std::size_t(volume), std::array<int, 3>{-1, -1, -1});
-  std::vector<std::ptrdiff_t> needed;
-  for (const DeltaStencil& st : stencils)
+  // Markers far apart: the box would be mostly empty; every stencil node listed as visited.
+  const bool box = volume <= 8 * kDeltaNodes * kDeltaNodes * kDeltaNodes * std::ptrdiff_t(n);
+  constexpr std::size_t kUnlisted = ~std::size_t(0);
+  std::vector<std::size_t> listed(box ? std::size_t(volume) : 0, kUnlisted);
+  out.visit.reserve(n * kDeltaNodes * kDeltaNodes * kDeltaNodes);
+  for (std::size_t l = 0; l < n; ++l) {
+    const DeltaStencil& st = out.stencils[l];
+    out.first_visit[l] = out.visit.size();
     for_each_stencil_node(st, [&](int i, int j, int k, int x, int y, int z, double) {
-      const std::ptrdiff_t b = box_index(st, i, j, k);
-      if (cell[std::size_t(b)][0] < 0) {
-        cell[std::size_t(b)] = {x, y, z};
-        needed.push_back(b);
+      std::size_t* at = nullptr;
+      if (box)
+        at = &listed[std::size_t(((std::ptrdiff_t(st.first[2] + k - lo[2]) * size[1]) + (st.first[1] + j - lo[1])) *
+                                     size[0] +
+                                 (st.first[0] + i - lo[0]))];
+      if (at == nullptr || *at == kUnlisted) {
+        if (at != nullptr) *at = out.cells.size();
+        out.visit.push_back(out.cells.size());
+        out.cells.push_back({x, y, z});
+      } else {
+        out.visit.push_back(*at);
       }
     });
-  // rho and rho u of each node once (as sample(solver, X) takes them from solver.cell).
-  std::vector<std::array<double, 4>> value(static_cast<std::size_t>(volume));
-  const std::ptrdiff_t m = std::ptrdiff_t(needed.size());
-#pragma omp parallel for schedule(static)
-  for (std::ptrdiff_t t = 0; t < m; ++t) {
-    const std::size_t b = std::size_t(needed[std::size_t(t)]);
-    const CellState c = solver.cell(cell[b][0], cell[b][1], cell[b][2]);
-    value[b] = {c.rho, c.rho * c.ux, c.rho * c.uy, c.rho * c.uz};
   }
+  out.first_visit[n] = out.visit.size();
+  return out;
+}
+
+void ImmersedBoundary::sum_samples(const MarkerNodes& nodes, std::span<const NodeMoments> values,
+                                   std::span<MarkerSample> out) const {
   // Eq. 17 per marker, in for_each_node's order.
+  const std::ptrdiff_t n = std::ptrdiff_t(nodes.stencils.size());
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t l = 0; l < n; ++l) {
-    const DeltaStencil& st = stencils[std::size_t(l)];
+    std::size_t v = nodes.first_visit[std::size_t(l)];
     std::array<double, 4> sum{};
     double weight = 0.0;
-    for_each_stencil_node(st, [&](int i, int j, int k, int, int, int, double D) {
-      const std::array<double, 4>& v = value[std::size_t(box_index(st, i, j, k))];
-      for (std::size_t c = 0; c < sum.size(); ++c) sum[c] += D * v[c];
+    for_each_stencil_node(nodes.stencils[std::size_t(l)], [&](int, int, int, int, int, int, double D) {
+      const NodeMoments& m = values[nodes.visit[v++]];
+      for (std::size_t c = 0; c < sum.size(); ++c) sum[c] += D * m[c];
       weight += D;
     });
     MarkerSample& s = out[std::size_t(l)];
@@ -124,6 +128,26 @@ void ImmersedBoundary::sample(const FluidSolver& solver, std::span<const Vec3> X
     s.rho = sum[0];
     if (s.rho > 0.0) s.u = {sum[1] / s.rho, sum[2] / s.rho, sum[3] / s.rho};
   }
+}
+
+void ImmersedBoundary::sample(const FluidSolver& solver, std::span<const Vec3> X,
+                              std::span<MarkerSample> out) const {
+  if (out.size() != X.size())
+    throw std::invalid_argument(std::string(__FILE__) + ":" + std::to_string(__LINE__) +
+                                ": sample() needs one output per marker; resize the output "
+                                "span to the number of marker positions");
+  if (X.empty()) return;
+  // The stencils of neighbouring markers overlap: the moments of each node once (OpenMP
+  // over the nodes), then summed per marker.
+  const MarkerNodes nodes = marker_nodes(X);
+  std::vector<NodeMoments> value(nodes.cells.size());
+  const std::ptrdiff_t m = std::ptrdiff_t(nodes.cells.size());
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t t = 0; t < m; ++t) {
+    const std::array<int, 3>& c = nodes.cells[std::size_t(t)];
+    value[std::size_t(t)] = node_moments(solver, c[0], c[1], c[2]);
+  }
+  sum_samples(nodes, value, out);
 }
 
 void ImmersedBoundary::interpolate_populations(const FluidSolver& solver, const Vec3& X,
@@ -136,17 +160,17 @@ void ImmersedBoundary::interpolate_populations(const FluidSolver& solver, const 
   for (int q = 0; q < D3Q19::Q; ++q) f[q] = fl[std::size_t(q)];
 }
 
-void ImmersedBoundary::spread(FluidSolver& solver, std::span<const Vec3> X,
-                              std::span<const Vec3> J) const {
-  if (J.size() != X.size())
+void ImmersedBoundary::check_impulses(std::size_t markers, std::size_t impulses) {
+  if (impulses != markers)
     throw std::invalid_argument(std::string(__FILE__) + ":" + std::to_string(__LINE__) +
                                 ": spread() needs one impulse per marker position; got " +
-                                std::to_string(J.size()) + " impulses for " +
-                                std::to_string(X.size()) + " markers");
-  for (std::size_t l = 0; l < X.size(); ++l)
-    spread(X[l], J[l], [&](int x, int y, int z, const Vec3& F) {
-      solver.add_force(x, y, z, F[0], F[1], F[2]);
-    });
+                                std::to_string(impulses) + " impulses for " +
+                                std::to_string(markers) + " markers");
+}
+
+void ImmersedBoundary::spread(FluidSolver& solver, std::span<const Vec3> X,
+                              std::span<const Vec3> J) const {
+  spread(X, J, [&](int x, int y, int z, const Vec3& F) { solver.add_force(x, y, z, F[0], F[1], F[2]); });
 }
 
 }  // namespace cosim::fluid

@@ -4,7 +4,9 @@
 #pragma once
 
 #include <array>
+#include <cstddef>
 #include <span>
+#include <vector>
 
 #include "fluid/delta_kernel.hpp"
 #include "fluid/grid_layout.hpp"
@@ -12,8 +14,25 @@
 namespace cosim::fluid {
 
 class FluidSolver;
+struct FluidParams;
 
 using Vec3 = std::array<double, 3>;
+/// What Eq. 17 interpolates at one node: rho and rho u (FluidSolver::cell).
+using NodeMoments = std::array<double, 4>;
+
+/// rho, rho u_x, rho u_y, rho u_z of the cell (x, y, z) of `solver` (FluidSolver::cell).
+NodeMoments node_moments(const FluidSolver& solver, int x, int y, int z);
+
+/// The nodes the kernels of a set of markers reach (Eq. 22) and, per marker, which of them
+/// each stencil node is, in for_each_node's order: what a batched sample() gathers its node
+/// values for and sums from. A grid over several blocks (fluid/mpi/) gets the values of
+/// `cells` from the blocks that own them and sums on one process, in the same order.
+struct MarkerNodes {
+  std::vector<DeltaStencil> stencils;       ///< per marker
+  std::vector<std::array<int, 3>> cells;    ///< the nodes whose moments the sums need (wrapped cells)
+  std::vector<std::size_t> visit;           ///< per marker and stencil node in order: its index in cells
+  std::vector<std::size_t> first_visit;     ///< marker l's entries are visit[first_visit[l] .. first_visit[l + 1])
+};
 
 /// rho and u interpolated at one marker (Eq. 17), lattice units. u is the velocity of
 /// FluidSolver::cell(): (sum_a c_a f_a + F_body / 2) / rho, without the IB force of the
@@ -76,6 +95,8 @@ class ImmersedBoundary {
   ImmersedBoundary(const GridShape& shape, const std::array<bool, 3>& periodic);
   /// Shape and periodic axes (FaceKind::Periodic) of the solver's block.
   explicit ImmersedBoundary(const FluidSolver& solver);
+  /// Shape and periodic axes of the whole grid of `params` (a grid over several blocks).
+  explicit ImmersedBoundary(const FluidParams& params);
 
   const GridShape& shape() const { return shape_; }
   bool periodic(int axis) const { return periodic_[axis]; }
@@ -115,6 +136,14 @@ class ImmersedBoundary {
       sink(x, y, z, Vec3{D * J[0], D * J[1], D * J[2]});
     });
   }
+  /// The same for every marker in order (each node's contributions in marker order: a grid
+  /// over blocks keeps the nodes it owns and gets each node's sum in the same order).
+  /// @pre J.size() == X.size()
+  template <class Sink>
+  void spread(std::span<const Vec3> X, std::span<const Vec3> J, Sink&& sink) const {
+    check_impulses(X.size(), J.size());
+    for (std::size_t l = 0; l < X.size(); ++l) spread(X[l], J[l], sink);
+  }
 
   /// Eq. 17 applied to the populations: rho_l = sum D rho and rho_l u_l = sum D rho u, so
   /// that u_l = (sum D rho u) / (sum D rho) is the velocity of the interpolated populations.
@@ -125,6 +154,12 @@ class ImmersedBoundary {
   /// @pre out.size() == X.size()
   void sample(const FluidSolver& solver, std::span<const Vec3> X,
               std::span<MarkerSample> out) const;
+  /// The two halves of the batched sample(): the nodes the markers reach (each once when
+  /// the markers are close together), and Eq. 17 per marker from the nodes' moments
+  /// (values[i] those of nodes.cells[i]). @pre out.size() == X.size() of nodes
+  MarkerNodes marker_nodes(std::span<const Vec3> X) const;
+  void sum_samples(const MarkerNodes& nodes, std::span<const NodeMoments> values,
+                   std::span<MarkerSample> out) const;
   /// Eq. 17 literally: the 19 populations interpolated at X, f[0..18].
   void interpolate_populations(const FluidSolver& solver, const Vec3& X, double* f) const;
 
@@ -134,6 +169,7 @@ class ImmersedBoundary {
   void spread(FluidSolver& solver, std::span<const Vec3> X, std::span<const Vec3> J) const;
 
  private:
+  static void check_impulses(std::size_t markers, std::size_t impulses);
   /// for_each_node over a stencil: visit(i, j, k, x, y, z, D) with (i, j, k) the node's
   /// place in the stencil (unwrapped: s.first + (i, j, k)) and (x, y, z) the wrapped cell.
   template <class Visit>

@@ -14,7 +14,10 @@
 // "inlet", the default when a face is an inlet): the flow that would enter anyway, so the
 // start is not an impulsive one from rest against the inlet.
 #include <omp.h>
+#include <pthread.h>
 #include <unistd.h>
+
+#include <csignal>
 
 #include <CLI/CLI.hpp>
 #include <chrono>
@@ -48,6 +51,7 @@
 #include "protocol/units.hpp"
 #if COSIM_HAVE_MPI
 #include "fluid/mpi/distributed_fluid.hpp"
+#include "fluid/mpi/led_domain.hpp"
 #include "fluid/mpi/mpi_world.hpp"
 #endif
 
@@ -262,6 +266,9 @@ int run(const FluidScene& s, bool quiet, FluidDomain& domain) {
 #if COSIM_HAVE_MPI
 mpi::World* g_world = nullptr;  // set by main() when mpirun started the process
 #endif
+// The signal mask before main() blocked SIGINT and SIGTERM for MPI's threads.
+sigset_t g_mask_before_mpi;
+bool g_interrupts_blocked = false;
 // The standard error of a rank other than 0 while the command line and the scene are read
 // (every rank finds the same problems; rank 0 says them once): -1 when not held back.
 int g_held_stderr = -1;
@@ -273,19 +280,9 @@ void release_stderr() {
   g_held_stderr = -1;
 }
 
-int mpi_ranks() {
 #if COSIM_HAVE_MPI
-  if (g_world != nullptr) return g_world->size();
+int mpi_ranks() { return g_world != nullptr ? g_world->size() : 1; }
 #endif
-  return 1;
-}
-
-int mpi_rank() {
-#if COSIM_HAVE_MPI
-  if (g_world != nullptr) return g_world->rank();
-#endif
-  return 0;
-}
 
 /// A fluid-only scene in this process, or over the MPI ranks of an mpirun.
 int run_fluid_only(const FluidScene& scene, bool quiet) {
@@ -303,6 +300,33 @@ int run_fluid_only(const FluidScene& scene, bool quiet) {
 #endif
   SerialDomain domain(scene.params);
   return run(scene, quiet, domain);
+}
+
+/// A coupled scene: the coordinator, the session and the scheme in this process, the grid
+/// here or, under mpirun on several ranks, in slabs over the ranks, led from rank 0 (the
+/// other ranks follow its calls; fluid/mpi/led_domain.hpp).
+int run_coupled_scene(const FluidScene& scene, const CoupledFluidOptions& co) {
+#if COSIM_HAVE_MPI
+  if (mpi_ranks() > 1) {
+    std::unique_ptr<mpi::DistributedFluid> grid;
+    try {
+      grid = std::make_unique<mpi::DistributedFluid>(scene, g_world->comm());
+    } catch (const std::invalid_argument& e) {
+      if (g_world->rank() == 0) std::fprintf(stderr, "%s: %s\n", scene.path.c_str(), one_line(e.what()).c_str());
+      return exit_code::bad_input;
+    }
+    MPI_Comm orders = MPI_COMM_NULL;
+    mpi::check(MPI_Comm_dup(g_world->comm(), &orders), "MPI_Comm_dup");
+    if (g_world->rank() != 0) return mpi::follow(*grid, scene, orders);
+    std::printf("  blocks   %s\n", grid->describe().c_str());
+    std::fflush(stdout);
+    mpi::LedDomain led(*grid, orders);
+    const int code = run_coupled_fluid(scene, co, std::cout, std::cerr, led);
+    led.end(code);
+    return code;
+  }
+#endif
+  return run_coupled_fluid(scene, co, std::cout, std::cerr);
 }
 
 int main_impl(int argc, char** argv) {
@@ -386,14 +410,6 @@ int main_impl(int argc, char** argv) {
     return exit_code::ok;
   }
   if (scene.coupling) {
-    if (mpi_ranks() > 1) {
-      if (mpi_rank() == 0)  // every rank finds it; one says it
-        std::fprintf(stderr,
-                     "%s: a coupled scene runs its fluid in one process for now (%d MPI ranks given); "
-                     "run it without --ranks\n",
-                     scene.path.c_str(), mpi_ranks());
-      return exit_code::bad_input;
-    }
     protocol::catch_interrupts();  // before any thread starts (OpenMP, LCM)
     if (token.empty())
       if (const char* env = std::getenv("COSIM_RUN_TOKEN")) token = env;
@@ -422,8 +438,9 @@ int main_impl(int argc, char** argv) {
       std::fprintf(stderr, "fluid: %s\n", e.what());
       return exit_code::bad_input;
     }
-    return run_coupled_fluid(scene, co, std::cout, std::cerr);
+    return run_coupled_scene(scene, co);
   }
+  if (g_interrupts_blocked) pthread_sigmask(SIG_SETMASK, &g_mask_before_mpi, nullptr);
   return run_fluid_only(scene, quiet);
 }
 
@@ -435,6 +452,16 @@ int main(int argc, char** argv) {
   // MPI only under mpirun: alone, the fluid runs as a build without MPI does.
   std::optional<cosim::fluid::mpi::World> world;
   if (cosim::fluid::mpi::launched_by_mpirun()) {
+    // SIGINT and SIGTERM blocked before MPI starts threads of its own, which would otherwise
+    // take them and end the process: a coupled run takes them in the thread of
+    // protocol::catch_interrupts (rank 0 then stops the run at its next step); a fluid-only
+    // run unblocks them again.
+    sigset_t interrupts;
+    sigemptyset(&interrupts);
+    sigaddset(&interrupts, SIGINT);
+    sigaddset(&interrupts, SIGTERM);
+    pthread_sigmask(SIG_BLOCK, &interrupts, &cosim::fluid::g_mask_before_mpi);
+    cosim::fluid::g_interrupts_blocked = true;
     world.emplace(argc, argv);
     cosim::fluid::g_world = &*world;
     // One process prints: the others' standard output would repeat the leader's lines.

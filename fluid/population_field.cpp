@@ -9,7 +9,7 @@ const char* precision_name(Precision p) { return p == Precision::Double ? "doubl
 
 template <class T>
 void BasicPopulationField<T>::FreeDeleter::operator()(T* p) const {
-  std::free(p);
+  if (owns) std::free(p);
 }
 
 template <class T>

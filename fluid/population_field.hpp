@@ -32,6 +32,15 @@ class BasicPopulationField {
   using value_type = T;
   BasicPopulationField() = default;
   explicit BasicPopulationField(const GridLayout& layout);
+  /// The planes z0 .. z0 + nz - 1 of `whole` (with the ghost planes next to them) as a field
+  /// of their own, in place: a view that owns nothing and must not outlive `whole`.
+  static BasicPopulationField planes(BasicPopulationField& whole, int z0, int nz) {
+    BasicPopulationField v;
+    v.layout_ = whole.layout_.planes(nz);
+    v.data_ = std::unique_ptr<T, FreeDeleter>(whole.data_.get() + std::ptrdiff_t(z0) * whole.layout_.plane_stride(),
+                                              FreeDeleter{false});
+    return v;
+  }
 
   T* q(int q) { return data_.get() + std::size_t(q) * layout_.stride(); }
   const T* q(int q) const { return data_.get() + std::size_t(q) * layout_.stride(); }
@@ -42,6 +51,7 @@ class BasicPopulationField {
 
  private:
   struct FreeDeleter {
+    bool owns = true;  ///< false for planes(): a view
     void operator()(T* p) const;
   };
   GridLayout layout_;

@@ -24,7 +24,19 @@ term_wait=30
 interrupted=""; fluid=""
 on_interrupt() {
   interrupted=$1
-  [ -n "$fluid" ] && kill -"$1" "$fluid" 2>/dev/null
+  [ -n "$fluid" ] && kill -"$1" "$(fluid_rank0)" 2>/dev/null
+}
+# The fluid process that hosts the coordinator: the fluid, or under mpirun (--ranks) its
+# rank 0, which stops the run at its next step and then ends the other ranks (a signal to
+# mpirun would end every rank at once, without a checkpoint).
+fluid_rank0() {
+  local p
+  if [ -n "${COSIM_FLUID_RANKS:-}" ]; then
+    for p in $(pgrep -P "$fluid" 2>/dev/null); do
+      if tr '\0' '\n' <"/proc/$p/environ" 2>/dev/null | grep -qx 'OMPI_COMM_WORLD_RANK=0'; then echo "$p"; return; fi
+    done
+  fi
+  echo "$fluid"
 }
 trap 'on_interrupt INT' USR1
 trap 'on_interrupt TERM' INT TERM
@@ -65,7 +77,13 @@ else
   : >"$output/fluid.log"; : >"$output/solid.log"
 fi
 fluid_from=$(stat -c %s "$output/fluid.log"); solid_from=$(stat -c %s "$output/solid.log")
-setsid "$root/build/fluid/fluid" "$scene" --output "$output" --channel-prefix "$prefix" $quiet \
+# The fluid alone, or its grid over COSIM_FLUID_RANKS MPI ranks (run-coupled.sh --ranks)
+# in this network namespace.
+fluid_cmd=("$root/build/fluid/fluid")
+if [ -n "${COSIM_FLUID_RANKS:-}" ]; then
+  fluid_cmd=(env COSIM_NETNS_PRIVATE=1 bash "$root/launch/mpirun-local.sh" "$COSIM_FLUID_RANKS" "${fluid_cmd[@]}")
+fi
+setsid "${fluid_cmd[@]}" "$scene" --output "$output" --channel-prefix "$prefix" $quiet \
   ${COSIM_FLUID_RESTART:+--restart "$COSIM_FLUID_RESTART"} ${COSIM_TIME_RATIO:+--time-ratio "$COSIM_TIME_RATIO"} \
   >>"$output/fluid.log" 2>&1 &
 fluid=$!
@@ -130,12 +148,25 @@ wait $watcher 2>/dev/null
 # The documented codes 0-4 only: a server killed by a signal (128 + N), or any other
 # status, counts as 1 (a system error).
 documented() { if [ "$1" -ge 0 ] && [ "$1" -le 4 ]; then echo "$1"; else echo 1; fi; }
+# The last line of a server's log; under mpirun (--ranks) mpirun's note of a rank that died
+# (which rank, which signal), else the fluid's own last line, not mpirun's closing notes.
+last_line() {
+  local died
+  died=$(grep -m1 'mpirun noticed that process rank' "$output/$1.log" 2>/dev/null)
+  if [ "$1" = fluid ] && [ -n "${COSIM_FLUID_RANKS:-}" ] && [ -n "$died" ]; then
+    echo "$died"
+  elif [ "$1" = fluid ] && [ -n "${COSIM_FLUID_RANKS:-}" ] && grep -q '^fluid: ' "$output/fluid.log"; then
+    grep '^fluid: ' "$output/fluid.log" | tail -1
+  else
+    grep -v '^\s*$' "$output/$1.log" | tail -1
+  fi
+}
 for n in fluid solid; do
   s=$(cat "$output/$n.exit")
   if [ "$s" -gt 128 ] && [ "$s" -lt 160 ]; then
-    echo "run-coupled: $n was killed by signal $((s - 128)) (status $s, counted as exit 1): $(grep -v '^\s*$' "$output/$n.log" | tail -1)" >&2
+    echo "run-coupled: $n was killed by signal $((s - 128)) (status $s, counted as exit 1): $(last_line "$n")" >&2
   elif [ "$s" != 0 ]; then
-    echo "run-coupled: $n exited $s: $(grep -v '^\s*$' "$output/$n.log" | tail -1)" >&2
+    echo "run-coupled: $n exited $s: $(last_line "$n")" >&2
   fi
 done
 s_first=$(documented "$s_first"); s_other=$(documented "$s_other")

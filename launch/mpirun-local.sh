@@ -10,7 +10,10 @@
 # More ranks than cores are allowed (--oversubscribe). Each rank gets OMP_NUM_THREADS =
 # the cores divided among the ranks (at least 1) unless OMP_NUM_THREADS is set. The exit
 # status is mpirun's: 0 when every rank ended with 0, else a rank's non-zero status (one
-# rank killed: mpirun ends the others and says which rank died and how).
+# rank killed: mpirun ends the others and says which rank died and how). Every COSIM_*
+# variable set here goes to the ranks (the run's token, id, faults, kernel level).
+# COSIM_NETNS_PRIVATE=1: the caller already runs in a private network namespace
+# (launch/coupled-inner.sh, where the solid listens): no second one.
 set -euo pipefail
 . "$(dirname "${BASH_SOURCE[0]}")/help.sh" && answer_help "${BASH_SOURCE[0]}" "$@"
 die() { echo "mpirun-local: $*" >&2; exit 2; }
@@ -22,13 +25,13 @@ command -v mpirun >/dev/null 2>&1 || die "mpirun not found: install OpenMPI (bas
 threads=${OMP_NUM_THREADS:-$(( $(nproc) / ranks ))}
 [ "$threads" -ge 1 ] 2>/dev/null || threads=1
 cmd=(mpirun -np "$ranks" --oversubscribe --mca btl self,vader -x "OMP_NUM_THREADS=$threads")
-for v in OMP_WAIT_POLICY COSIM_RUN_TOKEN; do
+for v in OMP_WAIT_POLICY $(compgen -e | grep '^COSIM_' || true); do
   [ -n "${!v:-}" ] && cmd+=(-x "$v")
 done
 cmd+=("$@")
 if [ "$(id -u)" -eq 0 ]; then
   export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
-  if command -v unshare >/dev/null 2>&1 && unshare -n true 2>/dev/null; then
+  if [ "${COSIM_NETNS_PRIVATE:-0}" != 1 ] && command -v unshare >/dev/null 2>&1 && unshare -n true 2>/dev/null; then
     exec unshare -n bash -c 'ip link set lo up && exec "$@"' mpirun-local "${cmd[@]}"
   fi
 fi

@@ -4,7 +4,7 @@
 #
 #   bash launch/run-coupled.sh SCENE.toml [--output DIR] [--log] [--no-build] [--quiet]
 #                              [--solid-cmd CMD] [--extra CMD] [--restart PATH]
-#                              [--time-ratio N | --new-time-ratio N]
+#                              [--time-ratio N | --new-time-ratio N] [--ranks N]
 #
 # Each run has its own output folder: by default out/<scene name>/<UTC date-time>/ (always
 # new; $COSIM_OUTPUT_ROOT replaces out/); --output DIR must be new or hold no run (a folder
@@ -44,6 +44,12 @@
 # the newest pair of checkpoints before step S (from step 0 if there is none), at most R
 # times. Each retry is reported on a "run-coupled: watchdog retry" line and in the exit line.
 #
+# --ranks N runs the fluid's grid in N slabs along z over MPI ranks on this machine
+# (launch/mpirun-local.sh: shared memory only, in the run's network namespace; [run] blocks
+# in the scene sets the layout): the coordinator and the session run on rank 0 alone, so
+# the solid sees no difference, and the outputs and checkpoints are those of one process,
+# bit for bit (DESIGN 8, docs/scaling.md). A checkpoint restarts on any number of ranks.
+#
 # --solid-cmd replaces build/solid/solid with another solid process that speaks the
 # protocol (it gets the same arguments: SCENE --output DIR --channel-prefix P [--quiet],
 # and the token in COSIM_RUN_TOKEN). --extra starts one more process in the same network
@@ -68,10 +74,10 @@ set -euo pipefail
 . "$(dirname "${BASH_SOURCE[0]}")/help.sh" && answer_help "${BASH_SOURCE[0]}" "$@"
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 
-usage() { echo "usage: bash launch/run-coupled.sh SCENE.toml [--output DIR] [--log] [--no-build] [--quiet] [--solid-cmd CMD] [--extra CMD] [--restart PATH] [--time-ratio N | --new-time-ratio N]" >&2; exit 2; }
+usage() { echo "usage: bash launch/run-coupled.sh SCENE.toml [--output DIR] [--log] [--no-build] [--quiet] [--solid-cmd CMD] [--extra CMD] [--restart PATH] [--time-ratio N | --new-time-ratio N] [--ranks N]" >&2; exit 2; }
 [ $# -ge 1 ] || usage
 scene=$1; shift
-output=""; log=0; build=1; quiet=""; solid_cmd=""; extra=""; restart=""; time_ratio=""; new_ratio=0
+output=""; log=0; build=1; ranks=""; quiet=""; solid_cmd=""; extra=""; restart=""; time_ratio=""; new_ratio=0
 while [ $# -gt 0 ]; do
   case "$1" in
     --output) [ $# -ge 2 ] || usage; output=$2; shift 2 ;;
@@ -81,6 +87,9 @@ while [ $# -gt 0 ]; do
     --solid-cmd) [ $# -ge 2 ] || usage; solid_cmd=$2; shift 2 ;;
     --extra) [ $# -ge 2 ] || usage; extra=$2; shift 2 ;;
     --restart) [ $# -ge 2 ] || usage; restart=$2; shift 2 ;;
+    --ranks) [ $# -ge 2 ] || usage; ranks=$2; shift 2
+      [[ "$ranks" =~ ^[1-9][0-9]{0,3}$ ]] || {
+        echo "run-coupled: --ranks $ranks: allowed: an integer from 1 to 9999 (MPI ranks of the fluid)" >&2; exit 2; } ;;
     --time-ratio|--new-time-ratio) [ $# -ge 2 ] || usage; [ "$1" = --new-time-ratio ] && new_ratio=1
       time_ratio=$2; shift 2
       [[ "$time_ratio" =~ ^[1-9][0-9]{0,6}$ ]] && [ "$time_ratio" -le 1000000 ] || {
@@ -108,6 +117,11 @@ if [ $build -eq 1 ]; then
   bash "$root/launch/bootstrap.sh"
   bash "$root/launch/build.sh" >/dev/null
 fi
+if [ -n "$ranks" ]; then
+  grep -q "COSIM_HAVE_MPI:INTERNAL=\(ON\|TRUE\|1\)" "$root/build/CMakeCache.txt" 2>/dev/null ||
+    refuse "--ranks $ranks: this build has no MPI (install libopenmpi-dev and openmpi-bin, then rebuild)"
+fi
+export COSIM_FLUID_RANKS=$ranks
 name=$(basename "$scene" .toml)
 
 # The run id a checkpoint carries ("run_id"; empty if it has none or is not HDF5: the

@@ -1,7 +1,8 @@
 // The fluid's grid over MPI ranks (DESIGN 8, fluid/mpi/): a fluid-only scene on 1 to 4 ranks
 // (launch/mpirun-local.sh: loopback only, more ranks than cores allowed) writes the same
 // HDF5 outputs as the serial run, bit for bit; a decomposition that cannot be built is
-// refused in one line; a flow that runs away stops as in the serial run; a killed rank stops
+// refused in one line, for a fluid-only or a coupled scene (coupled scenes over ranks:
+// test_mpi_coupled.cpp); a flow that runs away stops as in the serial run; a killed rank stops
 // the run with a reason instead of a hang.
 #include <gtest/gtest.h>
 #include <signal.h>
@@ -86,6 +87,24 @@ TEST(Mpi, MpiFluidMatchesSerialBitForBit) {
                                     {"[output]", "[wall_velocity]\nz_min = [0.02, 0.0, 0.0]\n\n[output]"}});
     expect_ranks_match_serial(walls, dir / "walls");
   }
+  {
+    // Copy-type x and y faces (periodic) driven by a body force, the single store's compact
+    // rows (nx = 32): a block's step sends its edge planes with their x and y ghosts while it
+    // collides its interior planes (fluid/overlapped_step.cpp).
+    SCOPED_TRACE("periodic x and y, single store, compact rows");
+    fs::create_directories(dir / "periodic_xy");
+    const fs::path xy = variant(channel, dir / "periodic_xy",
+                                {{"nx = 24", "nx = 32"},
+                                 {"reynolds = 5\nreference_length_um = 1.0", "tau = 0.8"},
+                                 {"[inlet]\nu_max = 0.05\nprofile = \"blasius\"\nboundary_layer_um = 0.5\n",
+                                  "[body_force]\nx = 0.00002\ny = 0.00001\nz = 0.000005\n"},
+                                 {"x_min = \"inlet\"", "x_min = \"periodic\""},
+                                 {"x_max = \"outflow\"", "x_max = \"periodic\""},
+                                 {"y_min = \"wall\"", "y_min = \"periodic\""},
+                                 {"y_max = \"free_slip\"", "y_max = \"periodic\""},
+                                 {"threads = 1", "threads = 1\nprecision = \"single\""}});
+    expect_ranks_match_serial(xy, dir / "periodic_xy");
+  }
 }
 
 TEST(Mpi, MpiBlocksThatCannotBeBuiltAreRefusedInOneLine) {
@@ -111,22 +130,18 @@ TEST(Mpi, MpiBlocksThatCannotBeBuiltAreRefusedInOneLine) {
   EXPECT_EQ(x.status, 2);
   EXPECT_TRUE(contains(x.err, "run.blocks = [2, 1, 1]: only slabs along z are built")) << x.err;
   EXPECT_EQ(lines(x.err), 1u) << x.err;
-}
-
-// The fluid of a coupled run stays in one process for now: refused on 2 ranks, once, exit 2,
-// nothing written.
-TEST(Mpi, MpiCoupledSceneIsRefusedOnSeveralRanks) {
-  if (!have_mpirun()) GTEST_SKIP() << "mpirun is not installed (launch/bootstrap.sh)";
-  const fs::path dir = scratch("mpi_coupled");
-  const fs::path scene = kSource / "scenes" / "coupled_small.toml";
-  const RunResult r = run_command(mpirun(2) + quoted(kFluid) + " " + quoted(scene.string()) + " --quiet --output " +
-                                      quoted((dir / "out").string()),
-                                  dir / "log");
-  EXPECT_EQ(r.status, 2) << r.err;
-  const std::string what = "a coupled scene runs its fluid in one process for now (2 MPI ranks given)";
-  EXPECT_TRUE(contains(r.err, what)) << r.err;
-  EXPECT_EQ(r.err.find(what), r.err.rfind(what)) << "said more than once:\n" << r.err;
-  EXPECT_FALSE(fs::exists(dir / "out" / "monitor.h5"));
+  // A coupled scene's grid the same (its fluid ends before it waits for a solid).
+  fs::create_directories(dir / "coupled");
+  const fs::path coupled =
+      variant(kSource / "scenes" / "coupled_small.toml", dir / "coupled", {{"[run]\n", "[run]\nblocks = [1, 1, 3]\n"}});
+  const RunResult c = run_command(mpirun(2) + quoted(kFluid) + " " + quoted(coupled.string()) + " --quiet --output " +
+                                      quoted((dir / "coupled_out").string()),
+                                  dir / "log_coupled");
+  EXPECT_EQ(c.status, 2) << c.err;
+  const std::string what = "run.blocks = [1, 1, 3]: 3 blocks for 2 MPI ranks";
+  EXPECT_TRUE(contains(c.err, what)) << c.err;
+  EXPECT_EQ(c.err.find(what), c.err.rfind(what)) << "said more than once:\n" << c.err;
+  EXPECT_FALSE(fs::exists(dir / "coupled_out" / "monitor.h5"));
 }
 
 /// The first line of `text` that holds `what` ("" if none).

@@ -17,7 +17,9 @@
 namespace {
 
 namespace fs = std::filesystem;
+using cosim::test::expect_run_done;
 using cosim::test::logs;
+using cosim::test::replace_in;
 using cosim::test::read_datasets;
 using cosim::test::run_launcher;
 using cosim::test::scratch;
@@ -29,11 +31,7 @@ const fs::path kSource = COSIM_SOURCE_DIR;
 /// snapshots, and the given coupling scheme.
 fs::path small_scene(const fs::path& dir, const std::string& scheme) {
   std::string s = slurp(kSource / "scenes" / "coupled_small.toml");
-  const auto set = [&s](const std::string& from, const std::string& to) {
-    const std::size_t at = s.find(from);
-    if (at == std::string::npos) throw std::runtime_error("scene template lacks " + from);
-    s.replace(at, from.size(), to);
-  };
+  const auto set = [&s](const std::string& from, const std::string& to) { replace_in(s, from, to); };
   set("steps = 200", "steps = 120");
   set("rigid_steps = 50", "rigid_steps = 40\nscheme = \"" + scheme + "\"");
   set("fields_every = 50", "fields_every = 0");

@@ -73,15 +73,15 @@ std::vector<FlowSummary> get_rows(const protocol::CheckpointReader& r) {
 }  // namespace
 
 FluidRun::FluidRun(const FluidScene& scene, const CoupledFluidOptions& options, Coordinator& coordinator,
-                   const FluidScheme& scheme)
+                   const FluidScheme& scheme, FluidDomain& domain)
     : s_(scene), restart_(options.restart), run_id_(options.run_id), new_time_ratio_(options.new_time_ratio),
       quiet_(options.quiet), coord_(coordinator), scheme_(scheme),
-      solver_(scene.params), ib_(solver_),
+      domain_(domain),
       limits_{scene.mach_limit, 0.0, scene.watchdog.rho_min, scene.watchdog.rho_max},
       dt_us_(coordinator.units().dt_lb_s() * 1e6),
       monitor_path_((std::filesystem::path(created(scene.output_dir)) / "monitor.h5").string()),
       snapshots_(scene, dt_us_), markers_(scene.watchdog, scene.mach_limit, scene.coupling->time_ratio) {
-  initialize_flow(solver_, s_);
+  domain_.initialize(s_);
   coord_.on_end([this](std::ostream& out) {
     if (markers_.has_reference()) out << "fluid: watchdog margins: " << markers_.margins() << "\n";
   });
@@ -106,13 +106,13 @@ std::int64_t FluidRun::start(std::optional<int>& failed) {
     coord_.out() << "fluid: restarted from " << restart_ << " at step " << first_step << "\n";
     if (in_flight) coord_.republish(std::move(*in_flight));
   } else {
-    const FlowSummary first = summarize(solver_);
+    const FlowSummary first = *domain_.summary();
     mass0_ = first.mass;
     bulk_u_ = first.momentum[0] / first.mass;
     log_.emplace(monitor_path_, dt_us_);
     log_->append(first);
     rows_.push_back(first);
-    if (snapshots_.due(0, false)) snapshots_.write(solver_, false);
+    if (snapshots_.due(0, false)) snapshots_.write(*domain_.whole(), false);
   }
   // OUTPUT/scene.toml, provenance_fluid.toml: once the run is accepted (a refused restart
   // adds nothing to the folder).
@@ -141,7 +141,7 @@ std::optional<int> FluidRun::check_positions(std::int64_t step, const std::vecto
 std::optional<int> FluidRun::sample_markers(std::int64_t now, const std::vector<Vec3>& x,
                                             std::vector<MarkerSample>& samples) {
   const std::size_t n = x.size();
-  ib_.sample(solver_, x, samples);
+  domain_.sample(x, samples);
   // rho_l over the kernel's weight in the fluid: the density the kernel sees, also at a
   // marker on the wall (half the kernel outside).
   const Clock::time_point w1 = Clock::now();
@@ -160,7 +160,7 @@ std::optional<int> FluidRun::sample_markers(std::int64_t now, const std::vector<
 std::optional<int> FluidRun::check_step_read(std::int64_t step) {
   if (step % s_.watchdog.health_every != 0) return std::nullopt;
   const Clock::time_point w = Clock::now();
-  const std::string problem = kernel_state_problem(solver_, limits_);
+  const std::string problem = domain_.kernel_problem(limits_);
   timing_.watch += std::chrono::duration<double>(Clock::now() - w).count();
   if (problem.empty()) return std::nullopt;
   return unhealthy(problem, step);
@@ -185,7 +185,7 @@ int FluidRun::unhealthy(const std::string& problem, std::int64_t step) {
 int FluidRun::trip(const protocol::Trip& t, bool checkpoint_state, std::int64_t step) {
   std::string reason = t.diagnosis;
   if (checkpoint_state && step >= 1 && step > coord_.first_step()) {
-    const std::string problem = health_problem(summarize(solver_), limits_);
+    const std::string problem = health_problem(*domain_.summary(), limits_);
     if (problem.empty()) reason += checkpoint(step, t.diagnosis);
     else reason += "; no checkpoint of step " + std::to_string(step) + ": " + problem;
   }
@@ -197,7 +197,7 @@ std::optional<int> FluidRun::step_outputs(std::int64_t now, bool last, bool peri
   const bool monitor = now % s_.monitor_every == 0 || last;
   const bool snapshot = snapshots_.due(now, last);
   if (monitor || snapshot || periodic) {
-    const FlowSummary sum = summarize(solver_);
+    const FlowSummary sum = *domain_.summary();
     const std::string problem = health_problem(sum, limits_);
     if (!problem.empty()) return unhealthy(problem, now);
     if (monitor) {
@@ -208,7 +208,7 @@ std::optional<int> FluidRun::step_outputs(std::int64_t now, bool last, bool peri
       coord_.out().flush();
     }
   }
-  if (snapshot) snapshots_.write(solver_, last);
+  if (snapshot) snapshots_.write(*domain_.whole(), last);
   return std::nullopt;
 }
 
@@ -228,22 +228,12 @@ int FluidRun::peer_ending(Ending e, std::int64_t step, const std::string& note) 
 
 // ---- coupled checkpoints (DESIGN 2.4; protocol/README.md section 10) ----
 
-std::string FluidRun::checkpoint(std::int64_t step, const std::string& reason) {
-  return solver_.precision() == Precision::Double ? checkpoint_of(solver_.state(), step, reason)
-                                                  : checkpoint_of(solver_.state_single(), step, reason);
-}
-std::string FluidRun::checkpoint(const PopulationField& f, std::int64_t step, const std::string& reason) {
-  return checkpoint_of(f, step, reason);
-}
-std::string FluidRun::checkpoint(const PopulationFieldSingle& f, std::int64_t step, const std::string& reason) {
-  return checkpoint_of(f, step, reason);
-}
-
-/// The populations of either store (precision "double" or "single"); a restart reads them
-/// back into a run of the same precision.
-template <class T>
-std::string FluidRun::checkpoint_of(const BasicPopulationField<T>& f, std::int64_t step, const std::string& reason) {
+/// The populations of either store (precision "double" or "single") of the whole grid
+/// (gathered from the blocks of a run over MPI ranks); a restart reads them back into a run
+/// of the same precision, on any number of ranks.
+std::string FluidRun::checkpoint(std::int64_t step, const std::string& reason, bool kept) {
   namespace fs = std::filesystem;
+  const StoreView f = domain_.whole_store(kept);
   const fs::path dir = fs::path(s_.output_dir) / "checkpoints";
   const fs::path file = dir / protocol::checkpoint_name("fluid", step);
   try {
@@ -263,8 +253,11 @@ std::string FluidRun::checkpoint_of(const BasicPopulationField<T>& f, std::int64
     }
     protocol::write_identity(w, identity());
     w.text("reason", reason.empty() ? "every coupling.checkpoint_every steps" : reason);
-    w.put("populations", f.q(0), std::size_t(D3Q19::Q) * f.layout().stride());
-    w.text("precision", std::is_same_v<T, float> ? "single" : "double");
+    if (f.d != nullptr)
+      w.put("populations", f.d, f.size);
+    else
+      w.put("populations", f.s, f.size);
+    w.text("precision", f.d == nullptr ? "single" : "double");
     put_rows(w, rows_);
     w.commit();
     protocol::prune_checkpoints(dir, "fluid_", 3, run_id_);
@@ -295,20 +288,24 @@ std::int64_t FluidRun::restore(std::optional<cosimlcm::fluid_state_t>& in_flight
                              std::to_string(coord_.num_cgps()));
   // The populations in the store's precision (its "precision" text): the scene hash above
   // ties the checkpoint to this scene file, run.precision included.
-  const std::size_t size = std::size_t(D3Q19::Q) * solver_.layout().stride();
-  if (solver_.precision() == Precision::Double) {
-    const std::vector<double> pop = r.doubles("populations", size);
-    std::copy(pop.begin(), pop.end(), solver_.mutable_state().q(0));
+  const std::size_t size = std::size_t(D3Q19::Q) * layout_of(s_.params.shape, s_.params.precision).stride();
+  StoreView pop;
+  std::vector<double> d;
+  std::vector<float> f;
+  if (s_.params.precision == Precision::Double) {
+    d = r.doubles("populations", size);
+    pop.d = d.data();
   } else {
-    const std::vector<float> pop = r.floats("populations", size);
-    std::copy(pop.begin(), pop.end(), solver_.mutable_state_single().q(0));
+    f = r.floats("populations", size);
+    pop.s = f.data();
   }
+  pop.size = size;
   // The checkpoint holds the whole store, ghost planes included, as the step left them: no
   // ghost fill here, the restarted step reads the very ghosts the run's next step would have
   // read (SinglePrecisionCoupledRestartIsBitIdentical). A fill from the stored values gives
   // the same bits (the kernel's x-outflow ghosts are computed from the values as stored,
   // FusedStepMatchesGhostFillStepSingleStore), but a restart does not depend on that.
-  solver_.set_step_count(step);
+  domain_.load_store(pop, step);
   coord_.set_fluid_seq(r.int64_attr("fluid_seq"));
   bulk_u_ = r.double_attr("bulk_velocity_lb");
   mass0_ = r.double_attr("mass0");

@@ -13,7 +13,7 @@
 #include "cosimlcm/fluid_state_t.hpp"
 #include "fluid/coupled_fluid.hpp"
 #include "fluid/flow_monitor.hpp"
-#include "fluid/fluid_solver.hpp"
+#include "fluid/fluid_domain.hpp"
 #include "fluid/immersed_boundary.hpp"
 #include "fluid/monitor_log.hpp"
 #include "fluid/scene_config.hpp"
@@ -44,9 +44,10 @@ class FluidRun {
  public:
   using Clock = std::chrono::steady_clock;
 
-  /// After an accepted handshake: the solver, its initial flow, monitor.h5 and the snapshots.
+  /// After an accepted handshake: the initial flow of `domain` (the grid in this process or
+  /// over MPI ranks, led from here), monitor.h5 and the snapshots.
   FluidRun(const FluidScene& scene, const CoupledFluidOptions& options, Coordinator& coordinator,
-           const FluidScheme& scheme);
+           const FluidScheme& scheme, FluidDomain& domain);
   /// The coordinator no longer prints this run's margins (an ending after it is gone).
   ~FluidRun();
   FluidRun(const FluidRun&) = delete;
@@ -57,8 +58,8 @@ class FluidRun {
   /// in `failed`, the exit code of a checkpoint that cannot be read (stop_t published).
   std::int64_t start(std::optional<int>& failed);
 
-  FluidSolver& solver() { return solver_; }
-  const ImmersedBoundary& ib() const { return ib_; }
+  /// The grid: the schemes step it, sample and spread at the markers through it.
+  FluidDomain& domain() { return domain_; }
   StepTiming& timing() { return timing_; }
   double bulk_velocity() const { return bulk_u_; }
   std::int64_t total_steps() const { return s_.steps; }
@@ -85,11 +86,9 @@ class FluidRun {
   /// published, solid_state_t(step) not yet applied); the newest three are kept. Returns
   /// what to add to an abort's reason (where it went, or why not); a periodic checkpoint
   /// (empty reason) that cannot be written throws.
-  std::string checkpoint(std::int64_t step, const std::string& reason);
-  /// The same for populations kept apart from the solver (the implicit scheme's committed
-  /// state while a step is iterated).
-  std::string checkpoint(const PopulationField& f, std::int64_t step, const std::string& reason);
-  std::string checkpoint(const PopulationFieldSingle& f, std::int64_t step, const std::string& reason);
+  /// `kept`: of the state kept apart (FluidDomain::keep_state: the implicit scheme's
+  /// committed state while a step is iterated).
+  std::string checkpoint(std::int64_t step, const std::string& reason, bool kept = false);
 
   /// The peer lost or stopped with an error while the fluid waited at `step`: `note` (a
   /// checkpoint's line, or why there is none) added, the retry advice when a smaller dt_CG
@@ -109,8 +108,6 @@ class FluidRun {
  private:
   int unhealthy(const std::string& problem, std::int64_t step);
   int trip(const protocol::Trip& t, bool checkpoint_state, std::int64_t step);
-  template <class T>
-  std::string checkpoint_of(const BasicPopulationField<T>& f, std::int64_t step, const std::string& reason);
   std::int64_t restore(std::optional<cosimlcm::fluid_state_t>& in_flight);
   protocol::CheckpointIdentity identity() const;
 
@@ -121,8 +118,7 @@ class FluidRun {
   const bool quiet_;
   Coordinator& coord_;
   const FluidScheme& scheme_;
-  FluidSolver solver_;
-  ImmersedBoundary ib_;
+  FluidDomain& domain_;
   HealthLimits limits_;
   double dt_us_;
   std::string monitor_path_;        ///< OUTPUT/monitor.h5

@@ -1,5 +1,6 @@
 #include "fluid/mpi/slab_halo.hpp"
 
+#include <stdexcept>
 #include <type_traits>
 #include <vector>
 
@@ -16,7 +17,8 @@ std::array<bool, kHaloFaces> SlabHalo::faces() const {
 }
 
 template <class T>
-void SlabHalo::run(BasicPopulationField<T>& f) {
+void SlabHalo::start(BasicPopulationField<T>& f) {
+  if (!requests_.empty()) throw std::logic_error("SlabHalo::post: the exchange posted before is not waited for");
   const double t0 = MPI_Wtime();
   const GridLayout& lay = f.layout();
   const std::ptrdiff_t plane = lay.plane_stride();
@@ -25,7 +27,7 @@ void SlabHalo::run(BasicPopulationField<T>& f) {
   // Offset of the first value of plane z (its x and y ghosts included).
   const auto at = [&](int z) { return std::ptrdiff_t(z + 1) * plane; };
   constexpr int kUp = 100, kDown = 200;  // tags: + q
-  std::vector<MPI_Request> req;
+  std::vector<MPI_Request>& req = requests_;
   req.reserve(4 * 5);
   for (int q = 0; q < D3Q19::Q; ++q) {
     T* fq = f.q(q);
@@ -51,12 +53,18 @@ void SlabHalo::run(BasicPopulationField<T>& f) {
       }
     }
   }
-  check(MPI_Waitall(int(req.size()), req.data(), MPI_STATUSES_IGNORE), "MPI_Waitall (halo exchange)");
+  seconds_ += MPI_Wtime() - t0;
+}
+
+void SlabHalo::wait() {
+  const double t0 = MPI_Wtime();
+  check(MPI_Waitall(int(requests_.size()), requests_.data(), MPI_STATUSES_IGNORE), "MPI_Waitall (halo exchange)");
+  requests_.clear();
   ++exchanges_;
   seconds_ += MPI_Wtime() - t0;
 }
 
-template void SlabHalo::run(PopulationField&);
-template void SlabHalo::run(PopulationFieldSingle&);
+template void SlabHalo::start(PopulationField&);
+template void SlabHalo::start(PopulationFieldSingle&);
 
 }  // namespace cosim::fluid::mpi

@@ -6,6 +6,7 @@
 
 #include <array>
 #include <cstdint>
+#include <vector>
 
 #include "fluid/decomposition.hpp"
 #include "fluid/halo_exchange.hpp"
@@ -17,25 +18,35 @@ namespace cosim::fluid::mpi {
 /// neighbours' planes into the ghost planes z = -1 and z = nz: 5 of the 19 populations, each
 /// a whole plane with its x and y ghosts (GridLayout::plane_stride values), straight from and
 /// into the field (no packing). Nonblocking sends and receives, all posted before the first
-/// wait.
+/// wait (post(), then wait(): a block's step runs its interior planes in between).
 class SlabHalo final : public HaloExchange {
  public:
   SlabHalo(MPI_Comm comm, const SlabNeighbours& n) : comm_(comm), n_(n) {}
-  void exchange(PopulationField& f) override { run(f); }
-  void exchange(PopulationFieldSingle& f) override { run(f); }
+  void exchange(PopulationField& f) override {
+    post(f);
+    wait();
+  }
+  void exchange(PopulationFieldSingle& f) override {
+    post(f);
+    wait();
+  }
+  void post(PopulationField& f) override { start(f); }
+  void post(PopulationFieldSingle& f) override { start(f); }
+  void wait() override;
   std::array<bool, kHaloFaces> faces() const override;
   /// Bytes this slab sent in its exchanges so far.
   std::int64_t bytes_sent() const { return bytes_sent_; }
   std::int64_t exchanges() const { return exchanges_; }
   /// Wall-clock seconds spent in the exchanges so far (posting, waiting: what a step spends
-  /// on its halo).
+  /// on its halo; not the work between post() and wait()).
   double seconds() const { return seconds_; }
 
  private:
   template <class T>
-  void run(BasicPopulationField<T>& f);
+  void start(BasicPopulationField<T>& f);
   MPI_Comm comm_;
   SlabNeighbours n_;
+  std::vector<MPI_Request> requests_;  ///< of the exchange posted
   std::int64_t bytes_sent_ = 0, exchanges_ = 0;
   double seconds_ = 0.0;
 };

@@ -24,26 +24,6 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double seconds(Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double>(b - a).count(); }
 
-/// The committed state of a step while it is iterated, in the solver's precision.
-class KeptState {
- public:
-  void keep(const FluidSolver& solver) {
-    double_ = solver.precision() == Precision::Double;
-    double_ ? solver.copy_state(d_) : solver.copy_state(s_);
-  }
-  void restore(FluidSolver& solver, std::int64_t step) const {
-    solver.precision() == Precision::Double ? solver.restore_state(d_, step) : solver.restore_state(s_, step);
-  }
-  std::string checkpoint(FluidRun& run, std::int64_t step, const std::string& reason) const {
-    return double_ ? run.checkpoint(d_, step, reason) : run.checkpoint(s_, step, reason);
-  }
-
- private:
-  bool double_ = true;
-  PopulationField d_;
-  PopulationFieldSingle s_;
-};
-
 class ImplicitFluidScheme final : public FluidScheme {
  public:
   ImplicitFluidScheme(std::int64_t total_steps, std::int64_t rigid_steps)
@@ -91,13 +71,13 @@ class ImplicitFluidScheme final : public FluidScheme {
 };
 
 int ImplicitFluidScheme::run(Coordinator& coord, FluidRun& run, std::int64_t first_step) {
-  FluidSolver& solver = run.solver();
+  FluidDomain& fluid = run.domain();
   StepTiming& timing = run.timing();
   const auto n = static_cast<std::size_t>(coord.num_cgps());
   std::vector<Vec3> x(n), j(n);
   std::vector<MarkerSample> samples(n), start_samples(n);
   const std::int64_t dynamic_from = std::max<std::int64_t>(rigid_steps_, 1);
-  KeptState backup;  // the committed state of `step` while it is iterated
+  // The committed state of `step` while it is iterated: kept by the domain (keep_state).
   bool have_backup = false;
   protocol::MarkerWatch::Reference marker_ref;
   std::int64_t step = first_step;  // the committed step
@@ -110,7 +90,7 @@ int ImplicitFluidScheme::run(Coordinator& coord, FluidRun& run, std::int64_t fir
       if (e->code == protocol::exit_code::peer_lost && step > first_step)
         // The committed state: kept while the step is iterated, else what the solver holds
         // (a rigid step stepped once is not committed yet either: no checkpoint then).
-        note = have_backup      ? backup.checkpoint(run, step, e->reason)
+        note = have_backup      ? run.checkpoint(step, e->reason, true)
                : iteration < 0 ? run.checkpoint(step, e->reason)
                                : "; no checkpoint (the spin-up step was not accepted yet)";
       return run.peer_ending(*e, step, note);
@@ -118,7 +98,7 @@ int ImplicitFluidScheme::run(Coordinator& coord, FluidRun& run, std::int64_t fir
     if (protocol::interrupted()) {  // SIGINT or SIGTERM: as a lost solid, with the committed state
       std::string reason = protocol::interrupt_reason() + " at step " + std::to_string(step);
       if (step > first_step)
-        reason += have_backup      ? backup.checkpoint(run, step, reason)
+        reason += have_backup      ? run.checkpoint(step, reason, true)
                   : iteration < 0 ? run.checkpoint(step, reason)
                                   : "; no checkpoint (the spin-up step was not accepted yet)";
       return coord.stop_and_end({protocol::exit_code::system, reason, false}, step);
@@ -157,20 +137,20 @@ int ImplicitFluidScheme::run(Coordinator& coord, FluidRun& run, std::int64_t fir
     coord.begin_step(step);
     // The spin-up is not iterated: the state of a rigid step need not be kept.
     if (m.iteration == 0 && step >= dynamic_from) {
-      backup.keep(solver);
+      fluid.keep_state();
       have_backup = true;
       if (run.markers().has_reference()) marker_ref = run.markers().reference();
     } else if (m.iteration > 0) {
       coord.enter(Coordinator::Phase::Iterate);
-      backup.restore(solver, step);
+      fluid.restore_kept(step);
       if (run.markers().has_reference()) run.markers().restore(marker_ref);
       ++redone_steps_;
     }
     iteration = m.iteration;
     if (auto code = run.check_positions(step, x)) return *code;
-    run.ib().sample(solver, x, start_samples);  // the fluid before the step at X_l
-    run.ib().spread(solver, x, j);              // Eqs. 21-24 and 25-26
-    solver.step();
+    fluid.sample(x, start_samples);  // the fluid before the step at X_l
+    fluid.spread(x, j);                         // Eqs. 21-24 and 25-26
+    fluid.step();
     if (auto code = run.check_step_read(step)) return *code;
     if (auto code = run.sample_markers(step + 1, x, samples)) return *code;
     const Clock::time_point t2 = Clock::now();

@@ -15,21 +15,21 @@ double seconds(Clock::time_point a, Clock::time_point b) { return std::chrono::d
 }  // namespace
 
 int SerialFluidScheme::run(Coordinator& coord, FluidRun& run, std::int64_t first_step) {
-  FluidSolver& solver = run.solver();
+  FluidDomain& fluid = run.domain();
   StepTiming& timing = run.timing();
   const auto n = static_cast<std::size_t>(coord.num_cgps());
   std::vector<Vec3> x(n), j(n);
   std::vector<MarkerSample> samples(n);
   for (std::int64_t step = first_step; step < total_steps_; ++step) {
     coord.begin_step(step);
-    // The bulk of the step to step + 1 needs no impulses (FluidSolver::begin_step: the cells
+    // The bulk of the step to step + 1 needs no impulses (FluidDomain::begin_step: the cells
     // that receive them are collided again by finish_step): it runs while the solid computes
     // them, and the result is that of a whole step after the wait. In the free steps the
     // solid computes beside it, on the same cores: the kernel hands its rows out as its
     // threads come free (RowSchedule::Dynamic).
     const Clock::time_point tb = Clock::now();
-    solver.set_row_schedule(step >= rigid_steps_ ? RowSchedule::Dynamic : RowSchedule::Static);
-    solver.begin_step();
+    fluid.set_row_schedule(step >= rigid_steps_ ? RowSchedule::Dynamic : RowSchedule::Static);
+    fluid.begin_step();
     if (auto code = run.check_step_read(step)) return *code;
     const Clock::time_point t0 = Clock::now();
     timing.compute += seconds(tb, t0);
@@ -67,8 +67,8 @@ int SerialFluidScheme::run(Coordinator& coord, FluidRun& run, std::int64_t first
     }
     // Eqs. 21-24 and 25-26: spread J_l at X_l, collide the cells that receive them with the
     // forcing (the rest of the step was streamed and collided above).
-    run.ib().spread(solver, x, j);
-    solver.finish_step();
+    fluid.spread(x, j);
+    fluid.finish_step();
     const std::int64_t now = step + 1;
     const bool last = now == total_steps_;
     const bool publish = publishes(now);

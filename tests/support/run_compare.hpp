@@ -17,6 +17,7 @@
 #include <map>
 #include <set>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -51,12 +52,27 @@ inline int run_launcher(const fs::path& source, const fs::path& scene, const fs:
   return WIFEXITED(s) ? WEXITSTATUS(s) : -1;
 }
 
+/// `text` with the first `from` replaced by `to` (a scene template edited for a test);
+/// throws when `text` lacks `from`.
+inline void replace_in(std::string& text, const std::string& from, const std::string& to) {
+  const std::size_t at = text.find(from);
+  if (at == std::string::npos) throw std::runtime_error("scene template lacks " + from);
+  text.replace(at, from.size(), to);
+}
+
 /// The launcher's, the servers' and the extra command's logs of a run, for a failure message.
 inline std::string logs(const fs::path& out) {
   std::string s;
   for (const char* f : {"launcher.log", "fluid.log", "solid.log", "extra.log"})
     if (fs::exists(out / f)) s += std::string("--- ") + f + "\n" + slurp(out / f);
   return s;
+}
+
+/// A coupled run that completed: the launcher and both servers exited 0 (else their logs).
+inline void expect_run_done(const fs::path& out, int launcher_status) {
+  ASSERT_EQ(launcher_status, 0) << logs(out);
+  ASSERT_EQ(slurp(out / "fluid.exit"), "0\n") << logs(out);
+  ASSERT_EQ(slurp(out / "solid.exit"), "0\n") << logs(out);
 }
 
 /// One dataset read back raw: its shape, its file type's class and size, its bytes (in the
