@@ -84,18 +84,7 @@ Case periodic_box(int n) {
 /// The paper's grid: 120 x 60 x 90, Blasius inlet (U = 0.104, delta = 3.4 cells) on x_min,
 /// outflow on x_max, a wall on y_min, free slip on y_max, periodic in z.
 Case paper_channel() {
-  Case c{"paper 120x60x90", {}};
-  FluidParams& p = c.params;
-  p.shape = {120, 60, 90};
-  p.tau = 0.6;
-  p.faces[XMin].kind = FaceKind::Inlet;
-  p.faces[XMin].inlet_speed = 0.104;
-  p.faces[XMin].profile = InletProfile::Blasius;
-  p.faces[XMin].boundary_layer = 3.4;
-  p.faces[XMax].kind = FaceKind::Outflow;
-  p.faces[YMin].kind = FaceKind::Wall;
-  p.faces[YMax].kind = FaceKind::FreeSlip;
-  return c;
+  return Case{"paper 120x60x90", blasius_channel({120, 60, 90}, 0.6, 0.104, 3.4)};
 }
 
 /// Bytes of one population field (19 populations with ghosts) of a grid.

@@ -24,6 +24,24 @@ struct FluidParams {
   Precision precision = Precision::Double;
 };
 
+/// The paper's channel (DESIGN 3): a Blasius inlet of speed `inlet_speed` (c) and boundary
+/// layer `boundary_layer` (cells) on x_min, outflow on x_max, the plate (a wall) on y_min,
+/// free slip on y_max, periodic in z. The set-up the bench and the tests share.
+inline FluidParams blasius_channel(GridShape shape, double tau, double inlet_speed,
+                                   double boundary_layer) {
+  FluidParams p;
+  p.shape = shape;
+  p.tau = tau;
+  p.faces[XMin].kind = FaceKind::Inlet;
+  p.faces[XMin].inlet_speed = inlet_speed;
+  p.faces[XMin].profile = InletProfile::Blasius;
+  p.faces[XMin].boundary_layer = boundary_layer;
+  p.faces[XMax].kind = FaceKind::Outflow;
+  p.faces[YMin].kind = FaceKind::Wall;
+  p.faces[YMax].kind = FaceKind::FreeSlip;
+  return p;
+}
+
 /// rho and the velocity u = (sum_a c_a f_a + F_body / 2) / rho of one cell (Eqs. 7-8 with
 /// Guo's half-force shift): the velocity before the immersed-boundary force of the coming
 /// step, which is what the IB coupling (DESIGN 2.1) needs.

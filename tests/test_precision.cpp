@@ -77,16 +77,7 @@ struct Poiseuille {
 
 /// The paper's channel in small: Blasius inlet, outflow, plate, free slip, periodic span.
 FluidParams channel(Precision p) {
-  FluidParams fp;
-  fp.shape = {40, 16, 12};
-  fp.tau = 0.6;
-  fp.faces[XMin].kind = FaceKind::Inlet;
-  fp.faces[XMin].inlet_speed = 0.05;
-  fp.faces[XMin].profile = InletProfile::Blasius;
-  fp.faces[XMin].boundary_layer = 4.0;
-  fp.faces[XMax].kind = FaceKind::Outflow;
-  fp.faces[YMin].kind = FaceKind::Wall;
-  fp.faces[YMax].kind = FaceKind::FreeSlip;
+  FluidParams fp = blasius_channel({40, 16, 12}, 0.6, 0.05, 4.0);
   fp.precision = p;
   return fp;
 }

@@ -16,16 +16,9 @@ inline std::vector<fluid::FluidParams> every_boundary_grids() {
   using namespace cosim::fluid;
   std::vector<FluidParams> out;
   {
-    FluidParams p;  // the paper's channel
-    p.shape = {21, 10, 7};
-    p.faces[XMin].kind = FaceKind::Inlet;
-    p.faces[XMin].inlet_speed = 0.05;
-    p.faces[XMin].profile = InletProfile::Blasius;
-    p.faces[XMin].boundary_layer = 3.0;
-    p.faces[XMax].kind = FaceKind::Outflow;
-    p.faces[YMin].kind = FaceKind::Wall;
+    // the paper's channel, its plate moving
+    FluidParams p = blasius_channel({21, 10, 7}, 0.65, 0.05, 3.0);
     p.faces[YMin].wall_velocity = {0.01, 0.0, 0.005};
-    p.faces[YMax].kind = FaceKind::FreeSlip;
     out.push_back(p);
   }
   for (const GridShape shape : {GridShape{31, 6, 8}, GridShape{16, 9, 8}}) {
