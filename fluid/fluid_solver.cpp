@@ -20,7 +20,60 @@ namespace {
                          " precision; use the accessor of that precision, or populations_at()");
 }
 
+bool inside(const GridShape& s, int x, int y, int z) {
+  return x >= 0 && x < s.nx && y >= 0 && y < s.ny && z >= 0 && z < s.nz;
+}
+
+/// Offset of the lattice vector c_q.
+std::ptrdiff_t shift(const GridLayout& lay, int q) {
+  return lay.offset(D3Q19::cx[q], D3Q19::cy[q], D3Q19::cz[q]);
+}
+
+/// Canonical <-> Swapped (PopulationLayout): swaps the slots (q, x) and (opp q, x + c_q) of
+/// every pair whose logical value is an interior cell's or a ghost pulled into one, once per
+/// pair (q odd). Each slot belongs to one pair only: the planes run in parallel.
+template <class T>
+void swap_layout(BasicPopulationField<T>& f) {
+  const GridLayout& lay = f.layout();
+  const GridShape s = lay.shape();
+#pragma omp parallel for schedule(static)
+  for (int z = -1; z <= s.nz; ++z)
+    for (int q = 1; q < D3Q19::Q; q += 2) {
+      T* const a = f.q(q);
+      T* const b = f.q(D3Q19::opp[q]);
+      const int cx = D3Q19::cx[q], cy = D3Q19::cy[q], cz = D3Q19::cz[q];
+      const std::ptrdiff_t c = shift(lay, q);
+      for (int y = -1; y <= s.ny; ++y)
+        for (int x = -1; x <= s.nx; ++x)
+          if (inside(s, x, y, z) || inside(s, x + cx, y + cy, z + cz)) {
+            const std::ptrdiff_t i = lay.index(x, y, z);
+            std::swap(a[i], b[i + c]);
+          }
+    }
+}
+
+/// Calls fn(i) for the linear index of every interior cell with a ghost among its
+/// neighbours (the boundary layer), rows in parallel.
+template <class Fn>
+void for_boundary_layer(const GridLayout& lay, Fn&& fn) {
+  const GridShape s = lay.shape();
+  const std::ptrdiff_t rows = std::ptrdiff_t(s.ny) * s.nz;
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t r = 0; r < rows; ++r) {
+    const int y = int(r % s.ny), z = int(r / s.ny);
+    const std::ptrdiff_t row = lay.index(0, y, z);
+    if (y == 0 || y == s.ny - 1 || z == 0 || z == s.nz - 1) {
+      for (int x = 0; x < s.nx; ++x) fn(row + x, x, y, z);
+    } else {
+      fn(row, 0, y, z);
+      if (s.nx > 1) fn(row + s.nx - 1, s.nx - 1, y, z);
+    }
+  }
+}
+
 }  // namespace
+
+const char* propagation_name(Propagation p) { return p == Propagation::TwoGrid ? "two-grid" : "in-place"; }
 
 FluidSolver::FluidSolver(const FluidParams& params, HaloExchange* halo)
     : params_(params),
@@ -41,38 +94,60 @@ std::size_t FluidSolver::population_bytes() const {
   return 2 * std::size_t(D3Q19::Q) * layout_.stride() * bytes_per_value(params_.precision);
 }
 
+void FluidSolver::make_canonical(const char* call) const {
+  if (params_.propagation != Propagation::InPlace) return;
+  if (mid_step_)
+    throw std::logic_error(std::string("FluidSolver::") + call +
+                           ": between begin_step() and finish_step() the in-place propagation holds no whole state");
+  if (arrangement_ == PopulationLayout::Canonical) return;
+  if (params_.precision == Precision::Double)
+    swap_layout(f_);
+  else
+    swap_layout(fs_);
+  arrangement_ = PopulationLayout::Canonical;
+}
+
 const PopulationField& FluidSolver::state() const {
   if (params_.precision != Precision::Double) wrong_precision("state()", params_.precision);
+  make_canonical("state()");
   return f_;
 }
 PopulationField& FluidSolver::mutable_state() {
   if (params_.precision != Precision::Double) wrong_precision("mutable_state()", params_.precision);
+  make_canonical("mutable_state()");
   have_previous_ = mid_step_ = false;
   return f_;
 }
 const PopulationFieldSingle& FluidSolver::state_single() const {
   if (params_.precision != Precision::Single) wrong_precision("state_single()", params_.precision);
+  make_canonical("state_single()");
   return fs_;
 }
 PopulationFieldSingle& FluidSolver::mutable_state_single() {
   if (params_.precision != Precision::Single)
     wrong_precision("mutable_state_single()", params_.precision);
+  make_canonical("mutable_state_single()");
   have_previous_ = mid_step_ = false;
   return fs_;
 }
 
 const PopulationField& FluidSolver::previous_state() const {
   if (params_.precision != Precision::Double) wrong_precision("previous_state()", params_.precision);
+  if (params_.propagation == Propagation::InPlace)
+    throw std::logic_error("FluidSolver::previous_state(): the in-place propagation keeps no previous state");
   if (!have_previous_) throw std::logic_error("FluidSolver::previous_state(): no step() since the state was set");
   return g_;
 }
 const PopulationFieldSingle& FluidSolver::previous_state_single() const {
   if (params_.precision != Precision::Single) wrong_precision("previous_state_single()", params_.precision);
+  if (params_.propagation == Propagation::InPlace)
+    throw std::logic_error("FluidSolver::previous_state_single(): the in-place propagation keeps no previous state");
   if (!have_previous_) throw std::logic_error("FluidSolver::previous_state_single(): no step() since the state was set");
   return gs_;
 }
 
 void FluidSolver::refresh_ghosts() {
+  make_canonical("refresh_ghosts()");
   if (params_.precision == Precision::Double)
     bc_.fill_ghosts(f_, halo_);
   else
@@ -83,6 +158,7 @@ void FluidSolver::initialize(const InitialState& state) {
   const GridShape& s = layout_.shape();
   const bool dbl = params_.precision == Precision::Double;
   have_previous_ = mid_step_ = false;
+  arrangement_ = PopulationLayout::Canonical;
   // One thread, x fastest: the callback may keep state (e.g. a random generator). Once per
   // run; a few tens of milliseconds on the paper's grid.
   for (int z = 0; z < s.nz; ++z)
@@ -118,7 +194,15 @@ void FluidSolver::add_force(int x, int y, int z, double fx, double fy, double fz
     fz_.assign(layout_.stride(), 0.0);
   }
   const std::ptrdiff_t i = layout_.index(x, y, z);
-  if (fx_[i] == 0.0 && fy_[i] == 0.0 && fz_[i] == 0.0) forced_.push_back(i);
+  if (fx_[i] == 0.0 && fy_[i] == 0.0 && fz_[i] == 0.0) {
+    if (mid_step_ && params_.propagation == Propagation::InPlace)
+      throw std::logic_error("FluidSolver::add_force: cell (" + std::to_string(x) + ", " + std::to_string(y) + ", " +
+                             std::to_string(z) +
+                             ") gets a force between begin_step() and finish_step(), and was not forced before "
+                             "begin_step(): the in-place propagation kept no pulled populations of it (use the "
+                             "two-grid propagation, or add the forces before begin_step())");
+    forced_.push_back(i);
+  }
   fx_[i] += fx;
   fy_[i] += fy;
   fz_[i] += fz;
@@ -131,7 +215,9 @@ void FluidSolver::step() {
 
 void FluidSolver::begin_step() {
   if (mid_step_) throw std::logic_error("FluidSolver::begin_step(): the step begun before is not finished");
-  if (params_.precision == Precision::Double)
+  if (params_.propagation == Propagation::InPlace)
+    params_.precision == Precision::Double ? begin_in_place(f_) : begin_in_place(fs_);
+  else if (params_.precision == Precision::Double)
     begin_fields(f_, g_);
   else
     begin_fields(fs_, gs_);
@@ -141,7 +227,9 @@ void FluidSolver::begin_step() {
 
 void FluidSolver::finish_step() {
   if (!mid_step_) throw std::logic_error("FluidSolver::finish_step(): no step begun");
-  if (params_.precision == Precision::Double)
+  if (params_.propagation == Propagation::InPlace)
+    params_.precision == Precision::Double ? finish_in_place(f_, g_) : finish_in_place(fs_, gs_);
+  else if (params_.precision == Precision::Double)
     finish_fields(f_, g_);
   else
     finish_fields(fs_, gs_);
@@ -165,6 +253,7 @@ void FluidSolver::restore_state_of(const BasicPopulationField<T>& from, BasicPop
   std::copy(from.q(0), from.q(0) + size, f.q(0));
   steps_ = steps;
   have_previous_ = mid_step_ = false;
+  arrangement_ = PopulationLayout::Canonical;
 }
 
 // state() and the others throw std::logic_error for the other precision's field.
@@ -221,15 +310,93 @@ void FluidSolver::apply_local_forces(const BasicPopulationField<T>& f,
   forced_.clear();
 }
 
+// Propagation::InPlace. A step from Canonical ends Swapped and the other way round; the
+// collision is the two-grid kernel's (stream_collide.cpp), the forced cells' the same BgkGuo
+// as apply_local_forces, the ghosts the same BoundaryConditions fills: the same bits as the
+// two-grid step (test_lbm_invariants: InPlaceStepMatchesTwoGridStep).
+template <class T>
+void FluidSolver::begin_in_place(BasicPopulationField<T>& f) {
+  // The forced cells' pulled populations, before the bulk overwrites them.
+  const std::size_t cells = forced_.size();
+  saved_inputs_.resize(cells * D3Q19::Q);
+  const bool canonical = arrangement_ == PopulationLayout::Canonical;
+  for (std::size_t k = 0; k < cells; ++k) {
+    const std::ptrdiff_t i = forced_[k];
+    for (int q = 0; q < D3Q19::Q; ++q)
+      saved_inputs_[k * D3Q19::Q + q] =
+          canonical ? f.q(q)[i - shift(layout_, q)] : f.q(D3Q19::opp[q])[i];
+  }
+  stream_collide_in_place(f, arrangement_, params_.tau, params_.body_force, &extrema_, schedule_);
+  arrangement_ = canonical ? PopulationLayout::Swapped : PopulationLayout::Canonical;
+}
+
+template <class T>
+void FluidSolver::finish_in_place(BasicPopulationField<T>& f, BasicPopulationField<T>& scratch) {
+  if (!forced_.empty()) {
+    const BgkGuo bgk(params_.tau);
+    const auto& F = params_.body_force;
+    const bool swapped = arrangement_ == PopulationLayout::Swapped;
+    const std::ptrdiff_t n = std::ptrdiff_t(forced_.size());
+#pragma omp parallel for schedule(static)
+    for (std::ptrdiff_t k = 0; k < n; ++k) {
+      const std::ptrdiff_t i = forced_[k];
+      double fc[D3Q19::Q];
+      std::copy_n(saved_inputs_.data() + k * D3Q19::Q, D3Q19::Q, fc);
+      bgk.collide(fc, F[0] + fx_[i], F[1] + fy_[i], F[2] + fz_[i]);
+      for (int q = 0; q < D3Q19::Q; ++q) {
+        if (swapped)
+          f.q(D3Q19::opp[q])[i + shift(layout_, q)] = static_cast<T>(fc[q]);
+        else
+          f.q(q)[i] = static_cast<T>(fc[q]);
+      }
+    }
+    for (const std::ptrdiff_t i : forced_) fx_[i] = fy_[i] = fz_[i] = 0.0;
+    forced_.clear();
+  }
+  if (arrangement_ == PopulationLayout::Swapped)
+    fill_swapped_ghosts(f, scratch);
+  else
+    bc_.fill_ghosts(f, halo_);
+}
+
+/// The ghosts of a Swapped state: every slot A[opp q](y) of an interior y whose y - c_q is a
+/// ghost gets the value that fill_ghosts puts at ghost (q, y - c_q) of the Canonical state.
+/// The one fill does it, on `scratch`: the boundary layer's post-collision populations go
+/// there in Canonical slots, fill_ghosts (halo exchange included) fills its ghosts from
+/// them, and the pulled ones come back. The fills read only the boundary layer and the
+/// ghosts (BoundaryConditions); the rest of `scratch` is never touched.
+template <class T>
+void FluidSolver::fill_swapped_ghosts(BasicPopulationField<T>& f, BasicPopulationField<T>& scratch) const {
+  const GridLayout& lay = layout_;
+  std::ptrdiff_t c[D3Q19::Q];
+  for (int q = 0; q < D3Q19::Q; ++q) c[q] = shift(lay, q);
+  for_boundary_layer(lay, [&](std::ptrdiff_t i, int, int, int) {
+    for (int q = 0; q < D3Q19::Q; ++q) scratch.q(q)[i] = f.q(D3Q19::opp[q])[i + c[q]];
+  });
+  bc_.fill_ghosts(scratch, halo_);
+  const GridShape s = lay.shape();
+  for_boundary_layer(lay, [&](std::ptrdiff_t i, int x, int y, int z) {
+    for (int q = 1; q < D3Q19::Q; ++q)
+      if (!inside(s, x - D3Q19::cx[q], y - D3Q19::cy[q], z - D3Q19::cz[q]))
+        f.q(D3Q19::opp[q])[i] = scratch.q(q)[i - c[q]];
+  });
+}
+
 template <class T>
 void FluidSolver::populations_of(const BasicPopulationField<T>& f, int x, int y, int z,
                                  double* out) const {
   const std::ptrdiff_t i = layout_.index(x, y, z);
+  if (arrangement_ == PopulationLayout::Swapped) {
+    // f_q(x) = f*_q(x - c_q), kept at A[opp q](x) (ghosts included: fill_swapped_ghosts).
+    for (int q = 0; q < D3Q19::Q; ++q) out[q] = f.q(D3Q19::opp[q])[i];
+    return;
+  }
   for (int q = 0; q < D3Q19::Q; ++q)
     out[q] = f.q(q)[i - layout_.offset(D3Q19::cx[q], D3Q19::cy[q], D3Q19::cz[q])];
 }
 
 void FluidSolver::populations_at(int x, int y, int z, double* f) const {
+  if (mid_step_ && params_.propagation == Propagation::InPlace) make_canonical("populations_at()");  // throws
   if (params_.precision == Precision::Double)
     populations_of(f_, x, y, z, f);
   else

@@ -161,4 +161,14 @@ void stream_collide(const PopulationFieldSingle& src, PopulationFieldSingle& dst
                              outflow, extrema, schedule);
 }
 
+void stream_collide_in_place(PopulationField& f, PopulationLayout layout, double tau,
+                             const std::array<double, 3>& force, KernelExtrema* extrema, RowSchedule schedule) {
+  active_kernel().in_place_double(f, layout == PopulationLayout::Canonical, tau, force, extrema, schedule);
+}
+
+void stream_collide_in_place(PopulationFieldSingle& f, PopulationLayout layout, double tau,
+                             const std::array<double, 3>& force, KernelExtrema* extrema, RowSchedule schedule) {
+  active_kernel().in_place_single(f, layout == PopulationLayout::Canonical, tau, force, extrema, schedule);
+}
+
 }  // namespace cosim::fluid

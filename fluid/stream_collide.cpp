@@ -395,6 +395,81 @@ void update_rows(const BasicPopulationField<T>& src, BasicPopulationField<T>& ds
   }
 }
 
+/// One in-place step (stream_collide_in_place in stream_collide.hpp) over the interior,
+/// row by row (OpenMP), kLanes cells of x at a time. Each cell x reads its 19 pulled
+/// populations from the slots `rd` and stores the collided ones to the slots `wr`, the same
+/// 19 slots: from Canonical, f_q(x) = A[q](x - c_q) in and f*_q(x) to A[opp q](x + c_q); from
+/// Swapped, f_q(x) = A[opp q](x) in and f*_q(x) to A[q](x). No two cells share a slot, so
+/// the groups of a row and the rows of the threads never touch each other's values. The
+/// lines a group stores were just loaded: ordinary stores (no write-allocate read), unaligned
+/// where the slot is shifted along x.
+template <class T, bool kForce>
+void update_in_place(BasicPopulationField<T>& f, bool from_canonical, double tau,
+                     const std::array<double, 3>& F, KernelExtrema* extrema, RowSchedule schedule) {
+  if (extrema != nullptr) *extrema = KernelExtrema{};
+  const GridLayout& lay = f.layout();
+  const int nx = lay.nx(), ny = lay.ny();
+  const std::ptrdiff_t rows = std::ptrdiff_t(ny) * lay.nz();
+  const std::ptrdiff_t stride = std::ptrdiff_t(lay.stride());
+  const CollisionConstants k(tau, F);
+  std::ptrdiff_t rd[L::Q], wr[L::Q];
+  for (int q = 0; q < L::Q; ++q) {
+    const std::ptrdiff_t c = lay.offset(L::cx[q], L::cy[q], L::cz[q]);
+    if (from_canonical) {
+      rd[q] = q * stride - c;
+      wr[q] = L::opp[q] * stride + c;
+    } else {
+      rd[q] = L::opp[q] * stride;
+      wr[q] = q * stride;
+    }
+  }
+  T* const f0 = f.q(0);
+  const std::ptrdiff_t chunk = std::max<std::ptrdiff_t>(1, (rows + 63) / 64);
+
+#pragma omp parallel
+  {
+    LaneExtrema ex;
+    const auto row = [&](std::ptrdiff_t r) __attribute__((always_inline)) {
+      T* const c = f0 + lay.index(0, int(r % ny), int(r / ny));
+      Lanes v[L::Q];
+      int x = 0;
+      for (; x + kLanes <= nx; x += kLanes) {
+#pragma GCC unroll 19
+        for (int q = 0; q < L::Q; ++q) v[q] = load(c + rd[q] + x);
+        collide<kForce>(v, k, ex);
+#pragma GCC unroll 19
+        for (int q = 0; q < L::Q; ++q) store_unaligned(c + wr[q] + x, v[q]);
+      }
+      if (x < nx) {
+        const int n = nx - x;
+        for (int q = 0; q < L::Q; ++q) v[q] = load_partial(c + rd[q] + x, n);
+        collide<kForce>(v, k, ex, n);
+        for (int q = 0; q < L::Q; ++q) store_partial(c + wr[q] + x, v[q], n);
+      }
+    };
+    if (schedule == RowSchedule::Dynamic) {
+#pragma omp for schedule(dynamic, chunk) nowait
+      for (std::ptrdiff_t r = 0; r < rows; ++r) row(r);
+    } else {
+#pragma omp for schedule(static) nowait
+      for (std::ptrdiff_t r = 0; r < rows; ++r) row(r);
+    }
+    if (extrema != nullptr) {
+#pragma omp critical(cosim_fluid_kernel_extrema)
+      ex.merge_into(*extrema);
+    }
+  }
+}
+
+template <class T>
+void run_in_place(BasicPopulationField<T>& f, bool from_canonical, double tau,
+                  const std::array<double, 3>& force, KernelExtrema* extrema, RowSchedule schedule) {
+  if (force[0] == 0.0 && force[1] == 0.0 && force[2] == 0.0)
+    update_in_place<T, false>(f, from_canonical, tau, force, extrema, schedule);
+  else
+    update_in_place<T, true>(f, from_canonical, tau, force, extrema, schedule);
+}
+
 template <class T>
 void run(const BasicPopulationField<T>& src, BasicPopulationField<T>& dst, double tau,
          const std::array<double, 3>& force, bool nt, const KernelOutflow& outflow,
@@ -410,6 +485,8 @@ void run(const BasicPopulationField<T>& src, BasicPopulationField<T>& dst, doubl
 }  // namespace
 
 extern const KernelTable kernel_table;
-const KernelTable kernel_table{kIsaLevel, kIsaVectors, kLanes, kHasStreamingStores, &run<double>, &run<float>};
+const KernelTable kernel_table{kIsaLevel,        kIsaVectors,         kLanes,
+                               kHasStreamingStores, &run<double>,       &run<float>,
+                               &run_in_place<double>, &run_in_place<float>};
 
 }  // namespace cosim::fluid::COSIM_ISA_NS

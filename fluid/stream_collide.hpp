@@ -70,6 +70,27 @@ void stream_collide(const PopulationFieldSingle& src, PopulationFieldSingle& dst
                     const KernelOutflow& outflow = {}, KernelExtrema* extrema = nullptr,
                     RowSchedule schedule = RowSchedule::Static);
 
+/// Where a field keeps the post-collision populations f*_q(x) of its state.
+///  - Canonical: at A[q](x), the two-grid layout; a step pulls f_q(x) = A[q](x - c_q), the
+///    ghosts filled by BoundaryConditions (fill_ghosts).
+///  - Swapped: at A[opp q](x + c_q), where an in-place step from Canonical leaves them; a
+///    step then finds f_q(x) = f*_q(x - c_q) at A[opp q](x). For interior x whose x - c_q is
+///    a ghost, that slot holds the ghost's value (in-place ghost fill, FluidSolver).
+/// The map (q, x) -> (opp q, x + c_q) is its own inverse: swapping the two slots of every
+/// pair turns one layout into the other (FluidSolver, convert_layout).
+enum class PopulationLayout { Canonical, Swapped };
+
+/// One step in place (the AA pattern): pull (Eq. 9) and collide as stream_collide, on one
+/// field. From Canonical (ghosts filled) the state ends Swapped; from Swapped (its ghost slots
+/// filled) it ends Canonical (ghosts not filled). Same collision arithmetic, bit for bit, as
+/// stream_collide; no outflow ghosts (the solver fills them); ordinary stores.
+void stream_collide_in_place(PopulationField& f, PopulationLayout layout, double tau,
+                             const std::array<double, 3>& force, KernelExtrema* extrema = nullptr,
+                             RowSchedule schedule = RowSchedule::Static);
+void stream_collide_in_place(PopulationFieldSingle& f, PopulationLayout layout, double tau,
+                             const std::array<double, 3>& force, KernelExtrema* extrema = nullptr,
+                             RowSchedule schedule = RowSchedule::Static);
+
 /// Population fields from this size on (bytes, 19 populations with ghosts, either precision) are written with
 /// non-temporal stores: they cannot stay in cache between steps, and skipping the read for
 /// ownership cuts the traffic per update from 456 to 304 bytes. Smaller fields are reused
