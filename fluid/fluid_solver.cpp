@@ -52,10 +52,11 @@ void swap_layout(BasicPopulationField<T>& f) {
     }
 }
 
-/// Calls fn(i) for the linear index of every interior cell with a ghost among its
-/// neighbours (the boundary layer), rows in parallel.
+/// Calls fn(i, x, y, z) (i the linear index) for every interior cell with a ghost among its
+/// neighbours (the boundary layer), rows in parallel. yz_only: only the cells of the rows
+/// next to a y or z face, and their two x ghosts (x = -1, nx) too.
 template <class Fn>
-void for_boundary_layer(const GridLayout& lay, Fn&& fn) {
+void for_boundary_layer(const GridLayout& lay, bool yz_only, Fn&& fn) {
   const GridShape s = lay.shape();
   const std::ptrdiff_t rows = std::ptrdiff_t(s.ny) * s.nz;
 #pragma omp parallel for schedule(static)
@@ -63,8 +64,8 @@ void for_boundary_layer(const GridLayout& lay, Fn&& fn) {
     const int y = int(r % s.ny), z = int(r / s.ny);
     const std::ptrdiff_t row = lay.index(0, y, z);
     if (y == 0 || y == s.ny - 1 || z == 0 || z == s.nz - 1) {
-      for (int x = 0; x < s.nx; ++x) fn(row + x, x, y, z);
-    } else {
+      for (int x = yz_only ? -1 : 0; x < (yz_only ? s.nx + 1 : s.nx); ++x) fn(row + x, x, y, z);
+    } else if (!yz_only) {
       fn(row, 0, y, z);
       if (s.nx > 1) fn(row + s.nx - 1, s.nx - 1, y, z);
     }
@@ -79,7 +80,8 @@ FluidSolver::FluidSolver(const FluidParams& params, HaloExchange* halo)
     : params_(params),
       layout_(layout_of(params.shape, params.precision)),
       halo_(halo),
-      bc_(layout_, params.faces, halo != nullptr ? halo->faces() : std::array<bool, kFaces>{}) {
+      bc_(layout_, params.faces, halo != nullptr ? halo->faces() : std::array<bool, kFaces>{}),
+      x_faces_(bc_.in_place_x_faces()) {
   if (params.precision == Precision::Double) {
     f_ = PopulationField(layout_);
     g_ = PopulationField(layout_);
@@ -326,7 +328,7 @@ void FluidSolver::begin_in_place(BasicPopulationField<T>& f) {
       saved_inputs_[k * D3Q19::Q + q] =
           canonical ? f.q(q)[i - shift(layout_, q)] : f.q(D3Q19::opp[q])[i];
   }
-  stream_collide_in_place(f, arrangement_, params_.tau, params_.body_force, &extrema_, schedule_);
+  stream_collide_in_place(f, arrangement_, params_.tau, params_.body_force, &extrema_, schedule_, &x_faces_);
   arrangement_ = canonical ? PopulationLayout::Swapped : PopulationLayout::Canonical;
 }
 
@@ -350,11 +352,27 @@ void FluidSolver::finish_in_place(BasicPopulationField<T>& f, BasicPopulationFie
           f.q(q)[i] = static_cast<T>(fc[q]);
       }
     }
+    if (x_faces_.all()) {
+      // The kernel wrote the x ghosts of the bulk's populations: those of a forced
+      // boundary cell's row again.
+      std::ptrdiff_t slot[D3Q19::Q];
+      for (int q = 0; q < D3Q19::Q; ++q)
+        slot[q] = swapped ? D3Q19::opp[q] * std::ptrdiff_t(layout_.stride()) + shift(layout_, q)
+                          : q * std::ptrdiff_t(layout_.stride());
+      const std::ptrdiff_t sx = layout_.row_stride(), plane = layout_.plane_stride();
+      for (const std::ptrdiff_t i : forced_) {
+        const int x = int(i % sx) - layout_.front_pad();
+        if (x == 0 || x == layout_.nx() - 1)
+          in_place_x_ghosts(f.q(0) + (i - x), slot, layout_.nx(), int(i % plane / sx) - 1, x_faces_);
+      }
+    }
     for (const std::ptrdiff_t i : forced_) fx_[i] = fy_[i] = fz_[i] = 0.0;
     forced_.clear();
   }
   if (arrangement_ == PopulationLayout::Swapped)
     fill_swapped_ghosts(f, scratch);
+  else if (x_faces_.all())
+    bc_.fill_ghosts_but_x(f, halo_);
   else
     bc_.fill_ghosts(f, halo_);
 }
@@ -365,20 +383,34 @@ void FluidSolver::finish_in_place(BasicPopulationField<T>& f, BasicPopulationFie
 /// there in Canonical slots, fill_ghosts (halo exchange included) fills its ghosts from
 /// them, and the pulled ones come back. The fills read only the boundary layer and the
 /// ghosts (BoundaryConditions); the rest of `scratch` is never touched.
+///
+/// Where the kernel wrote the x faces' ghosts (InPlaceXFaces::all), only the rows next to a y
+/// or z face go there, with their x ghosts, and fill_ghosts_but_x does the rest.
 template <class T>
 void FluidSolver::fill_swapped_ghosts(BasicPopulationField<T>& f, BasicPopulationField<T>& scratch) const {
   const GridLayout& lay = layout_;
+  const GridShape s = lay.shape();
+  const bool yz_only = x_faces_.all();
   std::ptrdiff_t c[D3Q19::Q];
   for (int q = 0; q < D3Q19::Q; ++q) c[q] = shift(lay, q);
-  for_boundary_layer(lay, [&](std::ptrdiff_t i, int, int, int) {
-    for (int q = 0; q < D3Q19::Q; ++q) scratch.q(q)[i] = f.q(D3Q19::opp[q])[i + c[q]];
+  for_boundary_layer(lay, yz_only, [&](std::ptrdiff_t i, int x, int, int) {
+    // An x ghost: the populations the kernel wrote there (c_x inward).
+    const int only = x < 0 ? 1 : x >= s.nx ? -1 : 0;
+    for (int q = 0; q < D3Q19::Q; ++q)
+      if (only == 0 || D3Q19::cx[q] == only) scratch.q(q)[i] = f.q(D3Q19::opp[q])[i + c[q]];
   });
-  bc_.fill_ghosts(scratch, halo_);
-  const GridShape s = lay.shape();
-  for_boundary_layer(lay, [&](std::ptrdiff_t i, int x, int y, int z) {
-    for (int q = 1; q < D3Q19::Q; ++q)
-      if (!inside(s, x - D3Q19::cx[q], y - D3Q19::cy[q], z - D3Q19::cz[q]))
-        f.q(D3Q19::opp[q])[i] = scratch.q(q)[i - c[q]];
+  if (yz_only)
+    bc_.fill_ghosts_but_x(scratch, halo_);
+  else
+    bc_.fill_ghosts(scratch, halo_);
+  for_boundary_layer(lay, yz_only, [&](std::ptrdiff_t i, int x, int y, int z) {
+    if (x < 0 || x >= s.nx) return;
+    for (int q = 1; q < D3Q19::Q; ++q) {
+      const int sy = y - D3Q19::cy[q], sz = z - D3Q19::cz[q];
+      const bool from_ghost = yz_only ? sy < 0 || sy >= s.ny || sz < 0 || sz >= s.nz
+                                      : !inside(s, x - D3Q19::cx[q], sy, sz);
+      if (from_ghost) f.q(D3Q19::opp[q])[i] = scratch.q(q)[i - c[q]];
+    }
   });
 }
 

@@ -169,6 +169,7 @@ class FluidSolver {
   GridLayout layout_;
   HaloExchange* halo_ = nullptr;
   BoundaryConditions bc_;
+  InPlaceXFaces x_faces_;  // what the in-place kernel fills itself (x faces)
   // Current (post-collision, ghosts valid) and scratch; only the pair of the precision is
   // allocated.
   // Propagation::InPlace: the second grid is the scratch of the in-place ghost fill (its

@@ -405,7 +405,8 @@ void update_rows(const BasicPopulationField<T>& src, BasicPopulationField<T>& ds
 /// where the slot is shifted along x.
 template <class T, bool kForce>
 void update_in_place(BasicPopulationField<T>& f, bool from_canonical, double tau,
-                     const std::array<double, 3>& F, KernelExtrema* extrema, RowSchedule schedule) {
+                     const std::array<double, 3>& F, KernelExtrema* extrema, RowSchedule schedule,
+                     const InPlaceXFaces* x_faces) {
   if (extrema != nullptr) *extrema = KernelExtrema{};
   const GridLayout& lay = f.layout();
   const int nx = lay.nx(), ny = lay.ny();
@@ -430,7 +431,8 @@ void update_in_place(BasicPopulationField<T>& f, bool from_canonical, double tau
   {
     LaneExtrema ex;
     const auto row = [&](std::ptrdiff_t r) __attribute__((always_inline)) {
-      T* const c = f0 + lay.index(0, int(r % ny), int(r / ny));
+      const int y = int(r % ny);
+      T* const c = f0 + lay.index(0, y, int(r / ny));
       Lanes v[L::Q];
       int x = 0;
       for (; x + kLanes <= nx; x += kLanes) {
@@ -446,6 +448,7 @@ void update_in_place(BasicPopulationField<T>& f, bool from_canonical, double tau
         collide<kForce>(v, k, ex, n);
         for (int q = 0; q < L::Q; ++q) store_partial(c + wr[q] + x, v[q], n);
       }
+      if (x_faces != nullptr) in_place_x_ghosts(c, wr, nx, y, *x_faces);
     };
     if (schedule == RowSchedule::Dynamic) {
 #pragma omp for schedule(dynamic, chunk) nowait
@@ -463,11 +466,12 @@ void update_in_place(BasicPopulationField<T>& f, bool from_canonical, double tau
 
 template <class T>
 void run_in_place(BasicPopulationField<T>& f, bool from_canonical, double tau,
-                  const std::array<double, 3>& force, KernelExtrema* extrema, RowSchedule schedule) {
+                  const std::array<double, 3>& force, KernelExtrema* extrema, RowSchedule schedule,
+                  const InPlaceXFaces* x_faces) {
   if (force[0] == 0.0 && force[1] == 0.0 && force[2] == 0.0)
-    update_in_place<T, false>(f, from_canonical, tau, force, extrema, schedule);
+    update_in_place<T, false>(f, from_canonical, tau, force, extrema, schedule, x_faces);
   else
-    update_in_place<T, true>(f, from_canonical, tau, force, extrema, schedule);
+    update_in_place<T, true>(f, from_canonical, tau, force, extrema, schedule, x_faces);
 }
 
 template <class T>

@@ -276,7 +276,8 @@ TEST(Lattice, FusedStepMatchesGhostFillStepSingleStore) {
 // kind, both stores, forced cells (before begin_step and again between begin_step and
 // finish_step, boundary layers included), both row schedules, the state read whole at a
 // Swapped step (turned Canonical) and stepped on, a copy_state / restore_state round trip;
-// on every kernel level this CPU runs.
+// on every kernel level this CPU runs. The grids: every_boundary_grids() and one with
+// reflecting x faces.
 template <class T>
 int in_place_mismatches(const FluidParams& base, Precision precision) {
   FluidParams p = base;
@@ -387,7 +388,20 @@ TEST(Lattice, InPlaceStepMatchesTwoGridStep) {
   for (const std::string& level : kernel_levels()) {
     if (!cpu_runs_level(level)) continue;
     set_kernel_level(level);
-    for (const FluidParams& p : cosim::test::every_boundary_grids()) {
+    std::vector<FluidParams> grids = cosim::test::every_boundary_grids();
+    {
+      // Reflecting x faces: the in-place kernel leaves them to the ghost fill (InPlaceXFaces).
+      FluidParams p = grids.back();
+      p.shape = {13, 7, 9};
+      p.faces[XMin].kind = FaceKind::Wall;
+      p.faces[XMin].wall_velocity = {0.0, 0.01, 0.0};
+      p.faces[XMax].kind = FaceKind::FreeSlip;
+      p.faces[ZMin].kind = FaceKind::Inlet;
+      p.faces[ZMin].inlet_speed = 0.03;
+      p.faces[ZMax].kind = FaceKind::Outflow;
+      grids.push_back(p);
+    }
+    for (const FluidParams& p : grids) {
       EXPECT_EQ(in_place_mismatches<double>(p, Precision::Double), 0) << level;
       EXPECT_EQ(in_place_mismatches<float>(p, Precision::Single), 0) << level;
     }
