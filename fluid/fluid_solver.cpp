@@ -53,10 +53,9 @@ void swap_layout(BasicPopulationField<T>& f) {
 }
 
 /// Calls fn(i, x, y, z) (i the linear index) for every interior cell with a ghost among its
-/// neighbours (the boundary layer), rows in parallel. yz_only: only the cells of the rows
-/// next to a y or z face, and their two x ghosts (x = -1, nx) too.
+/// neighbours (the boundary layer), rows in parallel.
 template <class Fn>
-void for_boundary_layer(const GridLayout& lay, bool yz_only, Fn&& fn) {
+void for_boundary_layer(const GridLayout& lay, Fn&& fn) {
   const GridShape s = lay.shape();
   const std::ptrdiff_t rows = std::ptrdiff_t(s.ny) * s.nz;
 #pragma omp parallel for schedule(static)
@@ -64,11 +63,24 @@ void for_boundary_layer(const GridLayout& lay, bool yz_only, Fn&& fn) {
     const int y = int(r % s.ny), z = int(r / s.ny);
     const std::ptrdiff_t row = lay.index(0, y, z);
     if (y == 0 || y == s.ny - 1 || z == 0 || z == s.nz - 1) {
-      for (int x = yz_only ? -1 : 0; x < (yz_only ? s.nx + 1 : s.nx); ++x) fn(row + x, x, y, z);
-    } else if (!yz_only) {
+      for (int x = 0; x < s.nx; ++x) fn(row + x, x, y, z);
+    } else {
       fn(row, 0, y, z);
       if (s.nx > 1) fn(row + s.nx - 1, s.nx - 1, y, z);
     }
+  }
+}
+
+/// Calls fn(row, y, z) (row: the linear index of x = 0) for every row next to a y or z face,
+/// in parallel.
+template <class Fn>
+void for_yz_boundary_rows(const GridLayout& lay, Fn&& fn) {
+  const GridShape s = lay.shape();
+  const std::ptrdiff_t rows = std::ptrdiff_t(s.ny) * s.nz;
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t r = 0; r < rows; ++r) {
+    const int y = int(r % s.ny), z = int(r / s.ny);
+    if (y == 0 || y == s.ny - 1 || z == 0 || z == s.nz - 1) fn(lay.index(0, y, z), y, z);
   }
 }
 
@@ -390,26 +402,38 @@ template <class T>
 void FluidSolver::fill_swapped_ghosts(BasicPopulationField<T>& f, BasicPopulationField<T>& scratch) const {
   const GridLayout& lay = layout_;
   const GridShape s = lay.shape();
-  const bool yz_only = x_faces_.all();
   std::ptrdiff_t c[D3Q19::Q];
   for (int q = 0; q < D3Q19::Q; ++q) c[q] = shift(lay, q);
-  for_boundary_layer(lay, yz_only, [&](std::ptrdiff_t i, int x, int, int) {
-    // An x ghost: the populations the kernel wrote there (c_x inward).
-    const int only = x < 0 ? 1 : x >= s.nx ? -1 : 0;
-    for (int q = 0; q < D3Q19::Q; ++q)
-      if (only == 0 || D3Q19::cx[q] == only) scratch.q(q)[i] = f.q(D3Q19::opp[q])[i + c[q]];
-  });
-  if (yz_only)
-    bc_.fill_ghosts_but_x(scratch, halo_);
-  else
+  if (!x_faces_.all()) {
+    for_boundary_layer(lay, [&](std::ptrdiff_t i, int, int, int) {
+      for (int q = 0; q < D3Q19::Q; ++q) scratch.q(q)[i] = f.q(D3Q19::opp[q])[i + c[q]];
+    });
     bc_.fill_ghosts(scratch, halo_);
-  for_boundary_layer(lay, yz_only, [&](std::ptrdiff_t i, int x, int y, int z) {
-    if (x < 0 || x >= s.nx) return;
+    for_boundary_layer(lay, [&](std::ptrdiff_t i, int x, int y, int z) {
+      for (int q = 1; q < D3Q19::Q; ++q)
+        if (!inside(s, x - D3Q19::cx[q], y - D3Q19::cy[q], z - D3Q19::cz[q]))
+          f.q(D3Q19::opp[q])[i] = scratch.q(q)[i - c[q]];
+    });
+    return;
+  }
+  // Row by row, population by population: contiguous copies. A row's cells and the x ghosts
+  // the kernel wrote (c_x inward).
+  for_yz_boundary_rows(lay, [&](std::ptrdiff_t row, int, int) {
+    for (int q = 0; q < D3Q19::Q; ++q) {
+      const T* const from = f.q(D3Q19::opp[q]) + row + c[q];
+      T* const to = scratch.q(q) + row;
+      const int x0 = D3Q19::cx[q] == 1 ? -1 : 0, x1 = D3Q19::cx[q] == -1 ? s.nx + 1 : s.nx;
+      std::copy(from + x0, from + x1, to + x0);
+    }
+  });
+  bc_.fill_ghosts_but_x(scratch, halo_);
+  for_yz_boundary_rows(lay, [&](std::ptrdiff_t row, int y, int z) {
     for (int q = 1; q < D3Q19::Q; ++q) {
       const int sy = y - D3Q19::cy[q], sz = z - D3Q19::cz[q];
-      const bool from_ghost = yz_only ? sy < 0 || sy >= s.ny || sz < 0 || sz >= s.nz
-                                      : !inside(s, x - D3Q19::cx[q], sy, sz);
-      if (from_ghost) f.q(D3Q19::opp[q])[i] = scratch.q(q)[i - c[q]];
+      if (sy < 0 || sy >= s.ny || sz < 0 || sz >= s.nz) {
+        const T* const from = scratch.q(q) + row - c[q];
+        std::copy(from, from + s.nx, f.q(D3Q19::opp[q]) + row);
+      }
     }
   });
 }
