@@ -291,6 +291,14 @@ int mpi_rank() {
 int run_fluid_only(const FluidScene& scene, bool quiet) {
 #if COSIM_HAVE_MPI
   if (mpi_ranks() > 1) {
+    if (scene.params.propagation == Propagation::InPlace) {
+      if (g_world->rank() == 0)
+        std::fprintf(stderr,
+                     "%s: run.propagation = 'in-place' runs in one process for now (%d MPI ranks given); "
+                     "use 'two-grid' or run without --ranks\n",
+                     scene.path.c_str(), mpi_ranks());
+      return exit_code::bad_input;
+    }
     std::unique_ptr<FluidDomain> domain;
     try {
       domain = std::make_unique<mpi::DistributedFluid>(scene, g_world->comm());

@@ -105,6 +105,10 @@ const std::vector<BadCase> kBadCases = {
       "did you mean \"max_cgp_speed\""}},
     {"precision_unknown.toml",
      {":30: run.precision = \"half\": must be one of \"double\", \"single\""}},
+    {"propagation_unknown.toml",
+     {":30: run.propagation = \"pull\": must be one of \"two-grid\", \"in-place\""}},
+    {"propagation_in_place_coupled.toml",
+     {":29: run.propagation = \"in-place\": 'in-place' is for fluid-only scenes for now", "use 'two-grid'"}},
 };
 
 TEST(Scene, BadSceneFilesAreRejected) {
