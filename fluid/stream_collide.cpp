@@ -238,6 +238,21 @@ inline void store_outflow_ghost(const Lanes (&f)[L::Q], int lane, T* g, std::ptr
     if (L::cx[q] == inward) g[q * stride] = ghost[q];
 }
 
+/// row(r) for the rows r = 0 .. rows - 1, shared among the threads of the enclosing parallel
+/// region as `schedule` says (RowSchedule::Dynamic: 64 chunks, see stream_collide.hpp); no
+/// barrier at the end.
+template <class Row>
+[[gnu::always_inline]] inline void for_rows(std::ptrdiff_t rows, RowSchedule schedule, const Row& row) {
+  if (schedule == RowSchedule::Dynamic) {
+    const std::ptrdiff_t chunk = std::max<std::ptrdiff_t>(1, (rows + 63) / 64);
+#pragma omp for schedule(dynamic, chunk) nowait
+    for (std::ptrdiff_t r = 0; r < rows; ++r) row(r);
+  } else {
+#pragma omp for schedule(static) nowait
+    for (std::ptrdiff_t r = 0; r < rows; ++r) row(r);
+  }
+}
+
 /// The interior of the block row by row (OpenMP), kLanes cells of x at a time; the last,
 /// partial group of a row goes through a padded copy. Outflow ghosts on x faces as the row's
 /// first and last cells are stored (KernelOutflow).
@@ -269,8 +284,6 @@ void update_rows(const BasicPopulationField<T>& src, BasicPopulationField<T>& ds
   for (int q = 0; q < L::Q; ++q) pull[q] = q * stride - lay.offset(L::cx[q], L::cy[q], L::cz[q]);
   const T* const s0 = src.q(0);
   T* const d0 = dst.q(0);
-  // RowSchedule::Dynamic: 64 chunks of whole rows (see stream_collide.hpp).
-  const std::ptrdiff_t chunk = std::max<std::ptrdiff_t>(1, (rows + 63) / 64);
 
 #pragma omp parallel
   {
@@ -380,13 +393,7 @@ void update_rows(const BasicPopulationField<T>& src, BasicPopulationField<T>& ds
         for (int q = 0; q < L::Q; ++q) store_partial(d + q * stride + x, f[q], n);
       }
     };
-    if (schedule == RowSchedule::Dynamic) {
-#pragma omp for schedule(dynamic, chunk) nowait
-      for (std::ptrdiff_t r = 0; r < rows; ++r) row(r);
-    } else {
-#pragma omp for schedule(static) nowait
-      for (std::ptrdiff_t r = 0; r < rows; ++r) row(r);
-    }
+    for_rows(rows, schedule, row);
     if constexpr (kStream) store_fence();  // before the barrier: others read dst next
     if (extrema != nullptr) {
 #pragma omp critical(cosim_fluid_kernel_extrema)
@@ -425,7 +432,6 @@ void update_in_place(BasicPopulationField<T>& f, bool from_canonical, double tau
     }
   }
   T* const f0 = f.q(0);
-  const std::ptrdiff_t chunk = std::max<std::ptrdiff_t>(1, (rows + 63) / 64);
 
 #pragma omp parallel
   {
@@ -450,13 +456,7 @@ void update_in_place(BasicPopulationField<T>& f, bool from_canonical, double tau
       }
       if (x_faces != nullptr) in_place_x_ghosts(c, wr, nx, y, *x_faces);
     };
-    if (schedule == RowSchedule::Dynamic) {
-#pragma omp for schedule(dynamic, chunk) nowait
-      for (std::ptrdiff_t r = 0; r < rows; ++r) row(r);
-    } else {
-#pragma omp for schedule(static) nowait
-      for (std::ptrdiff_t r = 0; r < rows; ++r) row(r);
-    }
+    for_rows(rows, schedule, row);
     if (extrema != nullptr) {
 #pragma omp critical(cosim_fluid_kernel_extrema)
       ex.merge_into(*extrema);
