@@ -52,35 +52,40 @@ void swap_layout(BasicPopulationField<T>& f) {
     }
 }
 
-/// Calls fn(i, x, y, z) (i the linear index) for every interior cell with a ghost among its
-/// neighbours (the boundary layer), rows in parallel.
-template <class Fn>
-void for_boundary_layer(const GridLayout& lay, Fn&& fn) {
+/// Swaps the pairs (q, x) <-> (opp q, x + c_q) of q (odd) whose q end lies in row (y, z),
+/// every pair with both slots in the extended grid (ghosts included): those of swap_layout
+/// and those of two ghosts, where the kernel keeps the x faces' ghosts of the rows next to
+/// a y or z face (a corner's fill reads them).
+template <class T>
+void swap_row_pairs(BasicPopulationField<T>& f, int q, int y, int z) {
+  const GridLayout& lay = f.layout();
   const GridShape s = lay.shape();
-  const std::ptrdiff_t rows = std::ptrdiff_t(s.ny) * s.nz;
-#pragma omp parallel for schedule(static)
-  for (std::ptrdiff_t r = 0; r < rows; ++r) {
-    const int y = int(r % s.ny), z = int(r / s.ny);
-    const std::ptrdiff_t row = lay.index(0, y, z);
-    if (y == 0 || y == s.ny - 1 || z == 0 || z == s.nz - 1) {
-      for (int x = 0; x < s.nx; ++x) fn(row + x, x, y, z);
-    } else {
-      fn(row, 0, y, z);
-      if (s.nx > 1) fn(row + s.nx - 1, s.nx - 1, y, z);
-    }
-  }
+  const int cx = D3Q19::cx[q], y2 = y + D3Q19::cy[q], z2 = z + D3Q19::cz[q];
+  if (y2 < -1 || y2 > s.ny || z2 < -1 || z2 > s.nz) return;
+  const int lo = std::max(-1, -1 - cx), hi = std::min(s.nx, s.nx - cx);
+  T* const a = f.q(q) + lay.index(0, y, z);
+  T* const b = f.q(D3Q19::opp[q]) + lay.index(0, y, z) + shift(lay, q);
+  for (int x = lo; x <= hi; ++x) std::swap(a[x], b[x]);
 }
 
-/// Calls fn(row, y, z) (row: the linear index of x = 0) for every row next to a y or z face,
-/// in parallel.
-template <class Fn>
-void for_yz_boundary_rows(const GridLayout& lay, Fn&& fn) {
-  const GridShape s = lay.shape();
-  const std::ptrdiff_t rows = std::ptrdiff_t(s.ny) * s.nz;
+/// swap_layout restricted to the pairs with an end in a row next to a y or z face (ghost
+/// rows included): what fill_ghosts_but_x reads and writes there, Canonical <-> Swapped;
+/// the rest of the field as it is. Each such pair once: by its q end where that row is one
+/// of them, else by the other end's row.
+template <class T>
+void swap_yz_shell(BasicPopulationField<T>& f) {
+  const GridShape s = f.layout().shape();
+  const auto shell = [&](int y, int z) { return y <= 0 || y >= s.ny - 1 || z <= 0 || z >= s.nz - 1; };
+  const std::ptrdiff_t rows = std::ptrdiff_t(s.ny + 2) * (s.nz + 2);
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t r = 0; r < rows; ++r) {
-    const int y = int(r % s.ny), z = int(r / s.ny);
-    if (y == 0 || y == s.ny - 1 || z == 0 || z == s.nz - 1) fn(lay.index(0, y, z), y, z);
+    const int y = int(r % (s.ny + 2)) - 1, z = int(r / (s.ny + 2)) - 1;
+    if (!shell(y, z)) continue;
+    for (int q = 1; q < D3Q19::Q; q += 2) {
+      swap_row_pairs(f, q, y, z);
+      const int y0 = y - D3Q19::cy[q], z0 = z - D3Q19::cz[q];  // the pairs ending here
+      if (y0 >= -1 && y0 <= s.ny && z0 >= -1 && z0 <= s.nz && !shell(y0, z0)) swap_row_pairs(f, q, y0, z0);
+    }
   }
 }
 
@@ -94,18 +99,21 @@ FluidSolver::FluidSolver(const FluidParams& params, HaloExchange* halo)
       halo_(halo),
       bc_(layout_, params.faces, halo != nullptr ? halo->faces() : std::array<bool, kFaces>{}),
       x_faces_(bc_.in_place_x_faces()) {
+  // The in-place propagation needs one grid.
+  const bool two = params.propagation == Propagation::TwoGrid;
   if (params.precision == Precision::Double) {
     f_ = PopulationField(layout_);
-    g_ = PopulationField(layout_);
+    if (two) g_ = PopulationField(layout_);
   } else {
     fs_ = PopulationFieldSingle(layout_);
-    gs_ = PopulationFieldSingle(layout_);
+    if (two) gs_ = PopulationFieldSingle(layout_);
   }
   initialize_uniform(1.0, {0.0, 0.0, 0.0});
 }
 
 std::size_t FluidSolver::population_bytes() const {
-  return 2 * std::size_t(D3Q19::Q) * layout_.stride() * bytes_per_value(params_.precision);
+  const std::size_t grids = params_.propagation == Propagation::InPlace ? 1 : 2;
+  return grids * std::size_t(D3Q19::Q) * layout_.stride() * bytes_per_value(params_.precision);
 }
 
 void FluidSolver::make_canonical(const char* call) const {
@@ -190,10 +198,10 @@ void FluidSolver::initialize(const InitialState& state) {
       }
   if (dbl) {
     bc_.fill_ghosts(f_, halo_);
-    bc_.fill_static_ghosts(g_);
+    if (!g_.empty()) bc_.fill_static_ghosts(g_);
   } else {
     bc_.fill_ghosts(fs_, halo_);
-    bc_.fill_static_ghosts(gs_);
+    if (!gs_.empty()) bc_.fill_static_ghosts(gs_);
   }
 }
 
@@ -242,7 +250,7 @@ void FluidSolver::begin_step() {
 void FluidSolver::finish_step() {
   if (!mid_step_) throw std::logic_error("FluidSolver::finish_step(): no step begun");
   if (params_.propagation == Propagation::InPlace)
-    params_.precision == Precision::Double ? finish_in_place(f_, g_) : finish_in_place(fs_, gs_);
+    params_.precision == Precision::Double ? finish_in_place(f_) : finish_in_place(fs_);
   else if (params_.precision == Precision::Double)
     finish_fields(f_, g_);
   else
@@ -345,7 +353,7 @@ void FluidSolver::begin_in_place(BasicPopulationField<T>& f) {
 }
 
 template <class T>
-void FluidSolver::finish_in_place(BasicPopulationField<T>& f, BasicPopulationField<T>& scratch) {
+void FluidSolver::finish_in_place(BasicPopulationField<T>& f) {
   if (!forced_.empty()) {
     const BgkGuo bgk(params_.tau);
     const auto& F = params_.body_force;
@@ -382,7 +390,7 @@ void FluidSolver::finish_in_place(BasicPopulationField<T>& f, BasicPopulationFie
     forced_.clear();
   }
   if (arrangement_ == PopulationLayout::Swapped)
-    fill_swapped_ghosts(f, scratch);
+    fill_swapped_ghosts(f);
   else if (x_faces_.all())
     bc_.fill_ghosts_but_x(f, halo_);
   else
@@ -391,51 +399,23 @@ void FluidSolver::finish_in_place(BasicPopulationField<T>& f, BasicPopulationFie
 
 /// The ghosts of a Swapped state: every slot A[opp q](y) of an interior y whose y - c_q is a
 /// ghost gets the value that fill_ghosts puts at ghost (q, y - c_q) of the Canonical state.
-/// The one fill does it, on `scratch`: the boundary layer's post-collision populations go
-/// there in Canonical slots, fill_ghosts (halo exchange included) fills its ghosts from
-/// them, and the pulled ones come back. The fills read only the boundary layer and the
-/// ghosts (BoundaryConditions); the rest of `scratch` is never touched.
-///
-/// Where the kernel wrote the x faces' ghosts (InPlaceXFaces::all), only the rows next to a y
-/// or z face go there, with their x ghosts, and fill_ghosts_but_x does the rest.
+/// The one fill does it, on the field itself: the part of the field it reads and writes is
+/// turned Canonical (swap_layout is its own inverse), filled, and turned back. The fills
+/// read and write only the boundary layer and the ghosts (BoundaryConditions).
+/// Where the kernel wrote the x faces' ghosts (InPlaceXFaces::all), that part is the rows
+/// next to a y or z face (swap_yz_shell) and fill_ghosts_but_x fills their ghosts; else
+/// (reflecting x faces) the whole field, twice a pass.
 template <class T>
-void FluidSolver::fill_swapped_ghosts(BasicPopulationField<T>& f, BasicPopulationField<T>& scratch) const {
-  const GridLayout& lay = layout_;
-  const GridShape s = lay.shape();
-  std::ptrdiff_t c[D3Q19::Q];
-  for (int q = 0; q < D3Q19::Q; ++q) c[q] = shift(lay, q);
+void FluidSolver::fill_swapped_ghosts(BasicPopulationField<T>& f) const {
   if (!x_faces_.all()) {
-    for_boundary_layer(lay, [&](std::ptrdiff_t i, int, int, int) {
-      for (int q = 0; q < D3Q19::Q; ++q) scratch.q(q)[i] = f.q(D3Q19::opp[q])[i + c[q]];
-    });
-    bc_.fill_ghosts(scratch, halo_);
-    for_boundary_layer(lay, [&](std::ptrdiff_t i, int x, int y, int z) {
-      for (int q = 1; q < D3Q19::Q; ++q)
-        if (!inside(s, x - D3Q19::cx[q], y - D3Q19::cy[q], z - D3Q19::cz[q]))
-          f.q(D3Q19::opp[q])[i] = scratch.q(q)[i - c[q]];
-    });
+    swap_layout(f);
+    bc_.fill_ghosts(f, halo_);
+    swap_layout(f);
     return;
   }
-  // Row by row, population by population: contiguous copies. A row's cells and the x ghosts
-  // the kernel wrote (c_x inward).
-  for_yz_boundary_rows(lay, [&](std::ptrdiff_t row, int, int) {
-    for (int q = 0; q < D3Q19::Q; ++q) {
-      const T* const from = f.q(D3Q19::opp[q]) + row + c[q];
-      T* const to = scratch.q(q) + row;
-      const int x0 = D3Q19::cx[q] == 1 ? -1 : 0, x1 = D3Q19::cx[q] == -1 ? s.nx + 1 : s.nx;
-      std::copy(from + x0, from + x1, to + x0);
-    }
-  });
-  bc_.fill_ghosts_but_x(scratch, halo_);
-  for_yz_boundary_rows(lay, [&](std::ptrdiff_t row, int y, int z) {
-    for (int q = 1; q < D3Q19::Q; ++q) {
-      const int sy = y - D3Q19::cy[q], sz = z - D3Q19::cz[q];
-      if (sy < 0 || sy >= s.ny || sz < 0 || sz >= s.nz) {
-        const T* const from = scratch.q(q) + row - c[q];
-        std::copy(from, from + s.nx, f.q(D3Q19::opp[q]) + row);
-      }
-    }
-  });
+  swap_yz_shell(f);
+  bc_.fill_ghosts_but_x(f, halo_);
+  swap_yz_shell(f);
 }
 
 template <class T>

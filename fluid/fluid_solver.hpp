@@ -106,7 +106,8 @@ class FluidSolver {
   PopulationLayout population_layout() const { return arrangement_; }
   /// Whether previous_state() is available (a two-grid step ran since the state was set).
   bool has_previous_state() const { return have_previous_; }
-  /// Bytes of the two population grids (19 values per cell, with ghosts and padding).
+  /// Bytes of the population grids (19 values per cell, with ghosts and padding): two, one
+  /// for Propagation::InPlace.
   std::size_t population_bytes() const;
 
   /// The current post-collision field (ghosts filled); for checkpoints and tests.
@@ -159,9 +160,9 @@ class FluidSolver {
   template <class T>
   void begin_in_place(BasicPopulationField<T>& f);
   template <class T>
-  void finish_in_place(BasicPopulationField<T>& f, BasicPopulationField<T>& scratch);
+  void finish_in_place(BasicPopulationField<T>& f);
   template <class T>
-  void fill_swapped_ghosts(BasicPopulationField<T>& f, BasicPopulationField<T>& scratch) const;
+  void fill_swapped_ghosts(BasicPopulationField<T>& f) const;
   /// Swapped -> Canonical (a pass over the field); @throws std::logic_error mid-step.
   void make_canonical(const char* call) const;
 
@@ -172,8 +173,8 @@ class FluidSolver {
   InPlaceXFaces x_faces_;  // what the in-place kernel fills itself (x faces)
   // Current (post-collision, ghosts valid) and scratch; only the pair of the precision is
   // allocated.
-  // Propagation::InPlace: the second grid is the scratch of the in-place ghost fill (its
-  // shell only is touched); const readers turn a Swapped state Canonical (make_canonical).
+  // Propagation::InPlace: one grid (g_, gs_ stay empty); const readers turn a Swapped state
+  // Canonical (make_canonical).
   mutable PopulationField f_;
   PopulationField g_;
   mutable PopulationFieldSingle fs_;

@@ -125,7 +125,7 @@ void load_grid(const SceneReader& r, FluidScene& s) {
 /// reads, must fit in the fluid's share of this machine's memory (protocol/memory_budget.hpp),
 /// checked before anything is allocated.
 void check_memory(const SceneReader& r, const FluidScene& s) {
-  const std::size_t grids = population_bytes(s.params.shape, s.params.precision);
+  const std::size_t grids = population_bytes(s.params.shape, s.params.precision, s.params.propagation);
   const double need = 1.5 * double(grids);
   const std::string beyond =
       protocol::beyond_share(need, protocol::kFluidMemoryShare, "the rest is left to the solid server and the system");
@@ -451,8 +451,9 @@ FluidScene read_scene(const std::string& path) {
 
 }  // namespace
 
-std::size_t population_bytes(const GridShape& shape, Precision precision) {
-  return 2 * std::size_t(D3Q19::Q) * layout_of(shape, precision).stride() *
+std::size_t population_bytes(const GridShape& shape, Precision precision, Propagation propagation) {
+  const std::size_t grids = propagation == Propagation::InPlace ? 1 : 2;
+  return grids * std::size_t(D3Q19::Q) * layout_of(shape, precision).stride() *
          bytes_per_value(precision);
 }
 
