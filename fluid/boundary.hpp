@@ -143,6 +143,9 @@ class BoundaryConditions {
   void fill_outflow_ghost(BasicPopulationField<T>& f, int x, int y, int z) const;
 
   const FaceSpec& face(int f) const { return faces_[f]; }
+  /// Whether this face's fill reads all 19 populations of the cells it reads (an outflow's
+  /// extrapolation, a halo exchange), not only those that cross the face.
+  bool reads_every_population(int f) const { return halo_[f] || faces_[f].kind == FaceKind::Outflow; }
   /// Whether a neighbour block fills this face's ghosts.
   bool is_halo(int f) const { return halo_[f]; }
   bool has_halo() const;

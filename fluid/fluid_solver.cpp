@@ -68,23 +68,31 @@ void swap_row_pairs(BasicPopulationField<T>& f, int q, int y, int z) {
   for (int x = lo; x <= hi; ++x) std::swap(a[x], b[x]);
 }
 
-/// swap_layout restricted to the pairs with an end in a row next to a y or z face (ghost
-/// rows included): what fill_ghosts_but_x reads and writes there, Canonical <-> Swapped;
-/// the rest of the field as it is. Each such pair once: by its q end where that row is one
-/// of them, else by the other end's row.
+/// swap_layout restricted to what fill_ghosts_but_x reads and writes, Canonical <-> Swapped:
+/// in the rows next to a y or z face (ghost rows included) the populations that cross that
+/// face (c_y or c_z not 0; all 19 where a face of the axis reads them all: all_y, all_z),
+/// with the partners of their pairs; the rest of the field as it is. Each such pair once: by
+/// its q end where that row is one of them, else by the other end's row.
 template <class T>
-void swap_yz_shell(BasicPopulationField<T>& f) {
+void swap_yz_shell(BasicPopulationField<T>& f, bool all_y, bool all_z) {
   const GridShape s = f.layout().shape();
-  const auto shell = [&](int y, int z) { return y <= 0 || y >= s.ny - 1 || z <= 0 || z >= s.nz - 1; };
+  const auto near_y = [&](int y) { return y <= 0 || y >= s.ny - 1; };
+  const auto near_z = [&](int z) { return z <= 0 || z >= s.nz - 1; };
+  // Whether the fill touches population q (or opp q) in row (y, z).
+  const auto touched = [&](int q, int y, int z) {
+    return (near_y(y) && (all_y || D3Q19::cy[q] != 0)) || (near_z(z) && (all_z || D3Q19::cz[q] != 0));
+  };
   const std::ptrdiff_t rows = std::ptrdiff_t(s.ny + 2) * (s.nz + 2);
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t r = 0; r < rows; ++r) {
     const int y = int(r % (s.ny + 2)) - 1, z = int(r / (s.ny + 2)) - 1;
-    if (!shell(y, z)) continue;
+    if (!near_y(y) && !near_z(z)) continue;
     for (int q = 1; q < D3Q19::Q; q += 2) {
-      swap_row_pairs(f, q, y, z);
+      const int y1 = y + D3Q19::cy[q], z1 = z + D3Q19::cz[q];  // the other end's row
+      if (touched(q, y, z) || touched(q, y1, z1)) swap_row_pairs(f, q, y, z);
       const int y0 = y - D3Q19::cy[q], z0 = z - D3Q19::cz[q];  // the pairs ending here
-      if (y0 >= -1 && y0 <= s.ny && z0 >= -1 && z0 <= s.nz && !shell(y0, z0)) swap_row_pairs(f, q, y0, z0);
+      if (y0 >= -1 && y0 <= s.ny && z0 >= -1 && z0 <= s.nz && !near_y(y0) && !near_z(z0) && touched(q, y, z))
+        swap_row_pairs(f, q, y0, z0);
     }
   }
 }
@@ -413,9 +421,11 @@ void FluidSolver::fill_swapped_ghosts(BasicPopulationField<T>& f) const {
     swap_layout(f);
     return;
   }
-  swap_yz_shell(f);
+  const bool all_y = bc_.reads_every_population(YMin) || bc_.reads_every_population(YMax);
+  const bool all_z = bc_.reads_every_population(ZMin) || bc_.reads_every_population(ZMax);
+  swap_yz_shell(f, all_y, all_z);
   bc_.fill_ghosts_but_x(f, halo_);
-  swap_yz_shell(f);
+  swap_yz_shell(f, all_y, all_z);
 }
 
 template <class T>
