@@ -20,42 +20,15 @@ namespace {
                          " precision; use the accessor of that precision, or populations_at()");
 }
 
-bool inside(const GridShape& s, int x, int y, int z) {
-  return x >= 0 && x < s.nx && y >= 0 && y < s.ny && z >= 0 && z < s.nz;
-}
-
 /// Offset of the lattice vector c_q.
 std::ptrdiff_t shift(const GridLayout& lay, int q) {
   return lay.offset(D3Q19::cx[q], D3Q19::cy[q], D3Q19::cz[q]);
 }
 
-/// Canonical <-> Swapped (PopulationLayout): swaps the slots (q, x) and (opp q, x + c_q) of
-/// every pair whose logical value is an interior cell's or a ghost pulled into one, once per
-/// pair (q odd). Each slot belongs to one pair only: the planes run in parallel.
-template <class T>
-void swap_layout(BasicPopulationField<T>& f) {
-  const GridLayout& lay = f.layout();
-  const GridShape s = lay.shape();
-#pragma omp parallel for schedule(static)
-  for (int z = -1; z <= s.nz; ++z)
-    for (int q = 1; q < D3Q19::Q; q += 2) {
-      T* const a = f.q(q);
-      T* const b = f.q(D3Q19::opp[q]);
-      const int cx = D3Q19::cx[q], cy = D3Q19::cy[q], cz = D3Q19::cz[q];
-      const std::ptrdiff_t c = shift(lay, q);
-      for (int y = -1; y <= s.ny; ++y)
-        for (int x = -1; x <= s.nx; ++x)
-          if (inside(s, x, y, z) || inside(s, x + cx, y + cy, z + cz)) {
-            const std::ptrdiff_t i = lay.index(x, y, z);
-            std::swap(a[i], b[i + c]);
-          }
-    }
-}
-
 /// Swaps the pairs (q, x) <-> (opp q, x + c_q) of q (odd) whose q end lies in row (y, z),
-/// every pair with both slots in the extended grid (ghosts included): those of swap_layout
-/// and those of two ghosts, where the kernel keeps the x faces' ghosts of the rows next to
-/// a y or z face (a corner's fill reads them).
+/// every pair with both slots in the extended grid (ghosts included): those whose value is
+/// an interior cell's or a pulled ghost's, and those of two ghosts, where the kernel keeps
+/// the x faces' ghosts of the rows next to a y or z face (a corner's fill reads them).
 template <class T>
 void swap_row_pairs(BasicPopulationField<T>& f, int q, int y, int z) {
   const GridLayout& lay = f.layout();
@@ -66,6 +39,18 @@ void swap_row_pairs(BasicPopulationField<T>& f, int q, int y, int z) {
   T* const a = f.q(q) + lay.index(0, y, z);
   T* const b = f.q(D3Q19::opp[q]) + lay.index(0, y, z) + shift(lay, q);
   for (int x = lo; x <= hi; ++x) std::swap(a[x], b[x]);
+}
+
+/// Canonical <-> Swapped (PopulationLayout): swaps the slots (q, x) and (opp q, x + c_q) of
+/// every pair in the extended grid (swap_row_pairs), once per pair (q odd). Each slot
+/// belongs to one pair only: the rows run in parallel.
+template <class T>
+void swap_layout(BasicPopulationField<T>& f) {
+  const GridShape s = f.layout().shape();
+  const std::ptrdiff_t rows = std::ptrdiff_t(s.ny + 2) * (s.nz + 2);
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t r = 0; r < rows; ++r)
+    for (int q = 1; q < D3Q19::Q; q += 2) swap_row_pairs(f, q, int(r % (s.ny + 2)) - 1, int(r / (s.ny + 2)) - 1);
 }
 
 /// swap_layout restricted to what fill_ghosts_but_x reads and writes, Canonical <-> Swapped:
