@@ -345,7 +345,7 @@ void print_header(const Options& opt, const std::vector<Case>& cases) {
               "non-temporal stores\n");
   std::printf("roofline MLUPS = copy bandwidth with the kernel's kind of stores / B\n");
   std::printf("step = FluidSolver::step() (kernel + ghost fill); kernel = stream_collide only\n"
-              "    (with the x-outflow ghosts it writes)\n");
+              "    (with the x-outflow ghosts it writes); AA rows: stream_collide_in_place only, no ghosts\n");
   if (opt.ib && opt.stores == Stores::Auto)
     std::printf("IB = the paper's sheet, 5 x 40 = 200 markers: interp = Eq. 17 at every marker\n"
                 "    (ImmersedBoundary::sample), spread = Eqs. 21-24 (ImmersedBoundary::spread),\n"
