@@ -146,6 +146,7 @@ struct Options {
   std::vector<int> threads{1, 2};
   std::vector<std::string> grids{"box", "paper"};
   std::vector<Precision> precisions{Precision::Double};
+  std::vector<Propagation> propagations{Propagation::TwoGrid};
   Stores stores = Stores::Auto;
   RowSchedule schedule = RowSchedule::Static;
   bool ib = true;
@@ -156,6 +157,7 @@ struct Row {
   std::string grid;
   int threads = 0;
   Precision precision = Precision::Double;
+  Propagation propagation = Propagation::TwoGrid;
   bool streaming = false;  ///< the kernel's stores (and so the roofline's copy)
   double step_mlups = 0, kernel_mlups = 0, copy_gbs = 0, copy_nt_gbs = 0;
   double ib_interp_us = 0, ib_spread_us = 0, step_ib_mlups = 0;  ///< 0: not measured
@@ -189,10 +191,12 @@ BasicPopulationField<T>& state_of(FluidSolver& s) {
 }
 
 template <class T>
-Row measure(const Case& base, int threads, Precision precision, const Options& opt) {
+Row measure(const Case& base, int threads, Precision precision, Propagation propagation, const Options& opt) {
   omp_set_num_threads(threads);
   Case c = base;
   c.params.precision = precision;
+  c.params.propagation = propagation;
+  const bool in_place = propagation == Propagation::InPlace;
   FluidSolver solver(c.params);
   solver.set_row_schedule(opt.schedule);
   const FaceSpec& in = c.params.faces[XMin];
@@ -229,11 +233,25 @@ Row measure(const Case& base, int threads, Precision precision, const Options& o
     // The kernel alone, ping-ponging two fields as step() does (a field just written
     // with non-temporal stores is not in cache); the ghost fill in between is not timed.
     // The kernel includes the x-outflow ghosts it writes in a step (KernelOutflow).
+    // In place: the in-place kernel on the scratch field, Canonical and Swapped in turn,
+    // without the ghost fills.
     BasicPopulationField<T>* from = &state_of<T>(solver);
     BasicPopulationField<T>* to = &scratch;
     const KernelOutflow outflow = solver.boundaries().kernel_outflow();
     double seconds = 0;
-    for (int s = 0; s < opt.steps; ++s) {
+    if (in_place) {
+      if (r == 0) solver.copy_state(scratch);
+      for (int s = 0; s < opt.steps; ++s) {
+        t0 = Clock::now();
+        stream_collide_in_place(scratch, s % 2 == 0 ? PopulationLayout::Canonical : PopulationLayout::Swapped,
+                                solver.tau(), solver.body_force(), nullptr, opt.schedule);
+        seconds += seconds_since(t0);
+      }
+      if (opt.steps % 2 == 1)  // back to Canonical for the next repeat
+        stream_collide_in_place(scratch, PopulationLayout::Swapped, solver.tau(), solver.body_force(), nullptr,
+                                opt.schedule);
+    }
+    for (int s = 0; s < (in_place ? 0 : opt.steps); ++s) {
       t0 = Clock::now();
       stream_collide(*from, *to, solver.tau(), solver.body_force(), opt.stores, outflow, nullptr, opt.schedule);
       seconds += seconds_since(t0);
@@ -273,7 +291,8 @@ Row measure(const Case& base, int threads, Precision precision, const Options& o
   row.grid = c.name;
   row.threads = threads;
   row.precision = precision;
-  row.streaming = uses_streaming_stores(solver.layout(), opt.stores, sizeof(T));
+  row.propagation = propagation;
+  row.streaming = !in_place && uses_streaming_stores(solver.layout(), opt.stores, sizeof(T));
   row.step_mlups = step.empty() ? 0.0 : median(step);
   row.kernel_mlups = median(kernel);
   row.copy_gbs = median(bw) * 1e-9;
@@ -293,7 +312,7 @@ void print_header(const Options& opt, const std::vector<Case>& cases) {
               kernel_level_source());
   std::printf("cosim fluid bench: D3Q19 BGK-Guo, arithmetic in double, populations stored in");
   for (const Precision p : opt.precisions) std::printf(" %s", precision_name(p));
-  std::printf(", two grids (SoA)\n");
+  std::printf(", structure of arrays\n");
   std::printf("medians of %d repeats of %d steps; OMP_PROC_BIND=%s; rows %s\n", opt.repeat, opt.steps,
               std::getenv("OMP_PROC_BIND") ? std::getenv("OMP_PROC_BIND") : "(unset)",
               opt.schedule == RowSchedule::Static ? "static" : "dynamic (64 chunks)");
@@ -301,6 +320,9 @@ void print_header(const Options& opt, const std::vector<Case>& cases) {
               "    the single one (19 values read + 19 written, counted as STREAM counts copy;\n"
               "    ordinary stores also move 19 write-allocate reads)\n",
               bytes_per_update(Precision::Double), bytes_per_update(Precision::Single));
+  std::printf("prop = propagation (FluidParams::propagation): 2grid = pull from one grid into the\n"
+              "    other, stores plain or NT; AA = in place, one grid (the AA pattern), ordinary stores\n"
+              "    of lines just loaded (no write-allocate: its roofline is the NT copy's)\n");
   std::printf("copy = STREAM copy b[i] = a[i], two arrays each the size of one population field\n"
               "    of the grid in the row's precision (");
   for (std::size_t i = 0; i < cases.size(); ++i)
@@ -312,7 +334,7 @@ void print_header(const Options& opt, const std::vector<Case>& cases) {
               "non-temporal stores\n");
   std::printf("roofline MLUPS = copy bandwidth with the kernel's kind of stores / B\n");
   std::printf("step = FluidSolver::step() (kernel + ghost fill); kernel = stream_collide only\n"
-              "    (with the x-outflow ghosts it writes)\n");
+              "    (with the x-outflow ghosts it writes); AA rows: stream_collide_in_place only, no ghosts\n");
   if (opt.ib && opt.stores == Stores::Auto)
     std::printf("IB = the paper's sheet, 5 x 40 = 200 markers: interp = Eq. 17 at every marker\n"
                 "    (ImmersedBoundary::sample), spread = Eqs. 21-24 (ImmersedBoundary::spread),\n"
@@ -325,7 +347,7 @@ void print_header(const Options& opt, const std::vector<Case>& cases) {
                 "    step/peer = step MLUPS / peer MLUPS\n");
   std::printf("note: a shared machine; other processes add noise\n\n");
   const char* const rows[3][17] = {
-      {"grid", "thr", "store", "stores", "step", "kernel", "copy plain", "copy NT", "roofline",
+      {"grid", "thr", "store", "prop", "step", "kernel", "copy plain", "copy NT", "roofline",
        "step", "kernel", "IB", "IB", "step", "peer", "peer", "step"},
       {"", "", "", "", "MLUPS", "MLUPS", "GB/s", "GB/s", "MLUPS", "/roof", "/roof", "interp",
        "spread", "+IB", "MLUPS", "/roof", "/peer"},
@@ -339,7 +361,8 @@ void print_header(const Options& opt, const std::vector<Case>& cases) {
 }
 
 void print_row(const Row& r) {
-  const double copy = r.streaming ? r.copy_nt_gbs : r.copy_gbs;
+  const bool in_place = r.propagation == Propagation::InPlace;
+  const double copy = r.streaming || in_place ? r.copy_nt_gbs : r.copy_gbs;
   const double roof = copy * 1e9 / bytes_per_update(r.precision) * 1e-6;
   char step[16] = "-", step_ratio[16] = "-", interp[16] = "-", spread[16] = "-", ib[16] = "-";
   if (r.step_mlups > 0) {
@@ -352,7 +375,8 @@ void print_row(const Row& r) {
     std::snprintf(ib, sizeof ib, "%.1f", r.step_ib_mlups);
   }
   std::printf("%-20s %3d %6s %6s %6s %7.1f %10.1f %10.1f %9.1f %6s %5.0f%% %8s %8s %7s",
-              r.grid.c_str(), r.threads, precision_name(r.precision), r.streaming ? "NT" : "plain",
+              r.grid.c_str(), r.threads, precision_name(r.precision),
+              in_place ? "AA" : r.streaming ? "2gr NT" : "2grid",
               step, r.kernel_mlups, r.copy_gbs, r.copy_nt_gbs, roof, step_ratio,
               100.0 * r.kernel_mlups / roof, interp, spread, ib);
   if (r.peer_mlups > 0) {
@@ -396,6 +420,11 @@ int main(int argc, char** argv) {
                  "how the kernel shares rows among threads: static (default) or dynamic (as the parallel "
                  "coupling scheme's free steps)")
       ->transform(CLI::CheckedTransformer(schedules, CLI::ignore_case));
+  const std::map<std::string, Propagation> propagations{{"two-grid", Propagation::TwoGrid},
+                                                        {"in-place", Propagation::InPlace}};
+  app.add_option("--propagation", opt.propagations,
+                 "propagations to run: two-grid (default), in-place (the AA pattern, FluidParams::propagation)")
+      ->transform(CLI::CheckedTransformer(propagations, CLI::ignore_case));
   bool no_ib = false;
   app.add_flag("--no-ib", no_ib, "skip the immersed-boundary columns");
   app.add_flag("--peer-pattern", opt.peer,
@@ -427,8 +456,8 @@ int main(int argc, char** argv) {
   print_header(opt, cases);
   for (const Case& c : cases)
     for (const Precision p : opt.precisions)
-      for (const int t : opt.threads)
-        print_row(p == Precision::Double ? measure<double>(c, t, p, opt)
-                                         : measure<float>(c, t, p, opt));
+      for (const Propagation g : opt.propagations)
+        for (const int t : opt.threads)
+          print_row(p == Precision::Double ? measure<double>(c, t, p, g, opt) : measure<float>(c, t, p, g, opt));
   return 0;
 }

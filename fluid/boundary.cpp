@@ -97,6 +97,14 @@ void fill_outflow(BasicPopulationField<T>& f, const GridLayout& layout, int face
       }
 }
 
+/// The inlet ghost of population q at height y: the equilibrium (Eq. 11) at inlet_density
+/// and the inlet velocity (inward along `axis`).
+double inlet_ghost(const FaceSpec& spec, int axis, int inward, int q, int y) {
+  double vel[3] = {0.0, 0.0, 0.0};
+  vel[axis] = inward * inlet_profile(spec, y);
+  return equilibrium(q, spec.inlet_density, vel[0], vel[1], vel[2]);
+}
+
 bool is_kernel_outflow(const FaceSpec& spec, int face) {
   return spec.kind == FaceKind::Outflow && face_axis(face) == 0;
 }
@@ -117,30 +125,41 @@ BoundaryConditions::BoundaryConditions(const GridLayout& layout,
   // a reflecting or an inlet fill, and fills_copy() skips it).
   for (int f = 0; f < kFaces; ++f)
     if (halo[f]) faces_[f] = FaceSpec{};
+  // The x inlets' ghosts by height, for the in-place kernel (in_place_x_faces).
+  for (const int face : {XMin, XMax}) {
+    if (faces_[face].kind != FaceKind::Inlet) continue;
+    const int inward = face_side(face) == 0 ? 1 : -1;
+    std::vector<double>& t = inlet_x_ghosts_[face_side(face)];
+    t.assign(std::size_t(layout.ny()) * D3Q19::Q, 0.0);
+    for (int y = 0; y < layout.ny(); ++y)
+      for (int q = 0; q < D3Q19::Q; ++q)
+        if (D3Q19::cx[q] == inward) t[std::size_t(y) * D3Q19::Q + q] = inlet_ghost(faces_[face], 0, inward, q, y);
+  }
 }
 
 bool BoundaryConditions::has_halo() const {
   return std::any_of(halo_.begin(), halo_.end(), [](bool h) { return h; });
 }
 
-bool BoundaryConditions::fills_copy(int face, bool all) const {
+bool BoundaryConditions::fills_copy(int face, Fill which) const {
   const FaceKind k = faces_[face].kind;
   if (halo_[face] || !is_copy(k)) return false;
-  return all || (k != FaceKind::Inlet && !is_kernel_outflow(faces_[face], face));
+  if (which == Fill::AllButX) return face_axis(face) != 0;
+  return which == Fill::All || (k != FaceKind::Inlet && !is_kernel_outflow(faces_[face], face));
 }
 
 template <class T>
-void BoundaryConditions::fill_copy_faces(BasicPopulationField<T>& f, int from, int to, bool all) const {
+void BoundaryConditions::fill_copy_faces(BasicPopulationField<T>& f, int from, int to, Fill which) const {
   for (int face = from; face < to; ++face)
-    if (fills_copy(face, all)) {
+    if (fills_copy(face, which)) {
       fill_copy_face(f, face);
 #pragma omp barrier
     }
 }
 
 template <class T>
-void BoundaryConditions::fill_reflect_faces(BasicPopulationField<T>& f) const {
-  for (int face = 0; face < kFaces; ++face)
+void BoundaryConditions::fill_reflect_faces(BasicPopulationField<T>& f, Fill which) const {
+  for (int face = which == Fill::AllButX ? 2 : 0; face < kFaces; ++face)
     if (!is_copy(faces_[face].kind)) {
       fill_reflect_face(f, face);
 #pragma omp barrier
@@ -148,14 +167,14 @@ void BoundaryConditions::fill_reflect_faces(BasicPopulationField<T>& f) const {
 }
 
 template <class T>
-void BoundaryConditions::fill(BasicPopulationField<T>& f, HaloExchange* halo, bool all) const {
+void BoundaryConditions::fill(BasicPopulationField<T>& f, HaloExchange* halo, Fill which) const {
   if (!has_halo()) {
     // One parallel region; the loops of a face (one per population) run without waiting for
     // each other, and one barrier after each face keeps the faces in order.
 #pragma omp parallel
     {
-      fill_copy_faces(f, 0, kFaces, all);
-      fill_reflect_faces(f);
+      fill_copy_faces(f, 0, kFaces, which);
+      fill_reflect_faces(f, which);
     }
     return;
   }
@@ -168,12 +187,12 @@ void BoundaryConditions::fill(BasicPopulationField<T>& f, HaloExchange* halo, bo
   int halo_axis = 0;
   while (!halo_[2 * halo_axis] && !halo_[2 * halo_axis + 1]) ++halo_axis;
 #pragma omp parallel
-  fill_copy_faces(f, 0, 2 * halo_axis, all);
+  fill_copy_faces(f, 0, 2 * halo_axis, which);
   halo->exchange(f);
 #pragma omp parallel
   {
-    fill_copy_faces(f, 2 * halo_axis, kFaces, all);
-    fill_reflect_faces(f);
+    fill_copy_faces(f, 2 * halo_axis, kFaces, which);
+    fill_reflect_faces(f, which);
   }
 }
 
@@ -193,8 +212,66 @@ template void outflow_ghost(const double*, int, int, double, double*);
 template void outflow_ghost(const float*, int, int, double, float*);
 
 template <class T>
+void in_place_x_ghosts(T* c, const std::ptrdiff_t* wr, int nx, int y, const InPlaceXFaces& xf) {
+  using Kind = InPlaceXFaces::Kind;
+  using L = D3Q19;
+  for (int side = 0; side < 2; ++side) {
+    const int inward = side == 0 ? 1 : -1, gx = side == 0 ? -1 : nx, b = side == 0 ? 0 : nx - 1;
+    switch (xf.kind[side]) {
+      case Kind::Periodic: {
+        const int from = side == 0 ? nx - 1 : 0;
+        for (int q = 0; q < L::Q; ++q)
+          if (L::cx[q] == inward) c[wr[q] + gx] = c[wr[q] + from];
+        break;
+      }
+      case Kind::Outflow: {
+        T stored[L::Q], ghost[L::Q];
+        for (int q = 0; q < L::Q; ++q) stored[q] = c[wr[q] + b];
+        outflow_ghost(stored, 0, inward, xf.rho_out[side], ghost);
+        for (int q = 0; q < L::Q; ++q)
+          if (L::cx[q] == inward) c[wr[q] + gx] = ghost[q];
+        break;
+      }
+      case Kind::Inlet: {
+        const double* const v = xf.inlet[side] + std::ptrdiff_t(y) * L::Q;
+        for (int q = 0; q < L::Q; ++q)
+          if (L::cx[q] == inward) c[wr[q] + gx] = static_cast<T>(v[q]);
+        break;
+      }
+      case Kind::Other:
+        break;
+    }
+  }
+}
+
+template void in_place_x_ghosts(double*, const std::ptrdiff_t*, int, int, const InPlaceXFaces&);
+template void in_place_x_ghosts(float*, const std::ptrdiff_t*, int, int, const InPlaceXFaces&);
+
+template <class T>
 void BoundaryConditions::fill_ghosts(BasicPopulationField<T>& f, HaloExchange* halo) const {
-  fill(f, halo, true);
+  fill(f, halo, Fill::All);
+}
+
+template <class T>
+void BoundaryConditions::fill_ghosts_but_x(BasicPopulationField<T>& f, HaloExchange* halo) const {
+  fill(f, halo, Fill::AllButX);
+}
+
+InPlaceXFaces BoundaryConditions::in_place_x_faces() const {
+  InPlaceXFaces k;
+  for (const int face : {XMin, XMax}) {
+    const FaceSpec& spec = faces_[face];
+    const int side = face_side(face);
+    if (halo_[face]) continue;  // Other
+    if (spec.kind == FaceKind::Periodic) k.kind[side] = InPlaceXFaces::Kind::Periodic;
+    if (spec.kind == FaceKind::Outflow) k.kind[side] = InPlaceXFaces::Kind::Outflow;
+    k.rho_out[side] = spec.outflow_density;
+    if (spec.kind == FaceKind::Inlet) {
+      k.kind[side] = InPlaceXFaces::Kind::Inlet;
+      k.inlet[side] = inlet_x_ghosts_[side].data();
+    }
+  }
+  return k;
 }
 
 template <class T>
@@ -209,13 +286,13 @@ void BoundaryConditions::fill_static_ghosts(BasicPopulationField<T>& f) const {
 
 template <class T>
 void BoundaryConditions::fill_step_ghosts(BasicPopulationField<T>& f, HaloExchange* halo) const {
-  fill(f, halo, false);
+  fill(f, halo, Fill::Step);
 }
 
 template <class T>
 void BoundaryConditions::fill_reflect_ghosts(BasicPopulationField<T>& f) const {
 #pragma omp parallel
-  fill_reflect_faces(f);
+  fill_reflect_faces(f, Fill::All);
 }
 
 KernelOutflow BoundaryConditions::kernel_outflow() const {
@@ -274,11 +351,7 @@ void BoundaryConditions::fill_copy_face(BasicPopulationField<T>& f, int face) co
       for (int x = r.lo[0]; x <= r.hi[0]; ++x) {
         const std::ptrdiff_t g = layout_.index(x, y, z);
         if (spec.kind == FaceKind::Inlet) {
-          double vel[3] = {0.0, 0.0, 0.0};
-          vel[axis] = inward * inlet_profile(spec, y);
-          for (int i = 0; i < nq; ++i)
-            f.q(qs[i])[g] =
-                static_cast<T>(equilibrium(qs[i], spec.inlet_density, vel[0], vel[1], vel[2]));
+          for (int i = 0; i < nq; ++i) f.q(qs[i])[g] = static_cast<T>(inlet_ghost(spec, axis, inward, qs[i], y));
         } else {  // Periodic
           for (int i = 0; i < nq; ++i) f.q(qs[i])[g] = f.q(qs[i])[g + src_off];
         }
@@ -341,6 +414,8 @@ void BoundaryConditions::fill_reflect_face(BasicPopulationField<T>& f, int face)
 }
 
 template void BoundaryConditions::fill_ghosts(PopulationField&, HaloExchange*) const;
+template void BoundaryConditions::fill_ghosts_but_x(PopulationField&, HaloExchange*) const;
+template void BoundaryConditions::fill_ghosts_but_x(PopulationFieldSingle&, HaloExchange*) const;
 template void BoundaryConditions::fill_static_ghosts(PopulationField&) const;
 template void BoundaryConditions::fill_step_ghosts(PopulationField&, HaloExchange*) const;
 template void BoundaryConditions::fill_outflow_ghost(PopulationField&, int, int, int) const;

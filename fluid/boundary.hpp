@@ -3,6 +3,7 @@
 
 #include <array>
 #include <string>
+#include <vector>
 
 #include "fluid/equilibrium.hpp"
 #include "fluid/grid_layout.hpp"
@@ -61,6 +62,13 @@ double inlet_profile(const FaceSpec& face, double y);
 template <class T>
 void outflow_ghost(const T* stored, int axis, int inward, double rho_out, T* ghost);
 
+/// The ghosts of the x faces of one row (InPlaceXFaces, fluid/stream_collide.hpp) from its
+/// post-collision populations as stored: f*_q(x) of the row at row[slot[q] + x], and the
+/// ghost (q, x = -1 or nx) goes to row[slot[q] + x] too (slot: the layout's, e.g. q stride
+/// for Canonical). The x faces of fill_ghosts, for the in-place kernel and its forced cells.
+template <class T>
+void in_place_x_ghosts(T* row, const std::ptrdiff_t* slot, int nx, int y, const InPlaceXFaces& xf);
+
 /// Fills the ghost layer of a field of post-collision populations so that a pull
 /// (f_q(x) = f*_q(x - c_q)) at every interior cell realises the boundary conditions:
 ///  - Periodic: copy from the opposite face.
@@ -115,6 +123,14 @@ class BoundaryConditions {
   template <class T>
   void fill_step_ghosts(BasicPopulationField<T>& f, HaloExchange* halo = nullptr) const;
   KernelOutflow kernel_outflow() const;
+  /// fill_ghosts without the x faces, for the in-place propagation, whose kernel writes the x
+  /// faces' ghosts as it goes (in_place_x_faces): the y and z faces over the x ghosts there.
+  template <class T>
+  void fill_ghosts_but_x(BasicPopulationField<T>& f, HaloExchange* halo = nullptr) const;
+  /// The x faces as the in-place kernel writes their ghosts (periodic, outflow, inlet: the
+  /// arithmetic of fill_ghosts, outflow_ghost and the inlet equilibria of its fill); the other
+  /// kinds (walls, free slip, halo) are Kind::Other, filled by fill_ghosts.
+  InPlaceXFaces in_place_x_faces() const;
   /// The reflecting faces' ghosts only (walls, free slip), from the interior and the other
   /// ghosts as they are: for a field put together from blocks (fluid/mpi/distributed_fluid),
   /// where a wall's ghost next to a block's edge plane was filled by the neighbour block.
@@ -127,6 +143,9 @@ class BoundaryConditions {
   void fill_outflow_ghost(BasicPopulationField<T>& f, int x, int y, int z) const;
 
   const FaceSpec& face(int f) const { return faces_[f]; }
+  /// Whether this face's fill reads all 19 populations of the cells it reads (an outflow's
+  /// extrapolation, a halo exchange), not only those that cross the face.
+  bool reads_every_population(int f) const { return halo_[f] || faces_[f].kind == FaceKind::Outflow; }
   /// Whether a neighbour block fills this face's ghosts.
   bool is_halo(int f) const { return halo_[f]; }
   bool has_halo() const;
@@ -138,22 +157,25 @@ class BoundaryConditions {
   void fill_copy_face(BasicPopulationField<T>& f, int face) const;
   template <class T>
   void fill_reflect_face(BasicPopulationField<T>& f, int face) const;
-  /// fill_ghosts (all = true) or fill_step_ghosts: the faces in order, the halo (if any)
-  /// between two parallel regions.
+  /// Which faces fill() fills: All (fill_ghosts), Step (fill_step_ghosts), AllButX
+  /// (fill_ghosts_but_x).
+  enum class Fill { All, Step, AllButX };
+  /// The faces in order, the halo (if any) between two parallel regions.
   template <class T>
-  void fill(BasicPopulationField<T>& f, HaloExchange* halo, bool all) const;
+  void fill(BasicPopulationField<T>& f, HaloExchange* halo, Fill which) const;
   /// Inside a parallel region: the copy-type faces from .. to - 1 that fill() fills, and the
   /// reflecting faces, a barrier after each face.
   template <class T>
-  void fill_copy_faces(BasicPopulationField<T>& f, int from, int to, bool all) const;
+  void fill_copy_faces(BasicPopulationField<T>& f, int from, int to, Fill which) const;
   template <class T>
-  void fill_reflect_faces(BasicPopulationField<T>& f) const;
-  /// A copy-type face that this object fills: in fill_ghosts (all) or in fill_step_ghosts.
-  bool fills_copy(int face, bool all) const;
+  void fill_reflect_faces(BasicPopulationField<T>& f, Fill which) const;
+  /// A copy-type face that this object fills in the fill `which`.
+  bool fills_copy(int face, Fill which) const;
 
   GridLayout layout_;
   std::array<FaceSpec, kFaces> faces_{};
   std::array<bool, kFaces> halo_{};
+  std::vector<double> inlet_x_ghosts_[2];  ///< x_min, x_max inlets: ny x 19 (in_place_x_faces)
 };
 
 }  // namespace cosim::fluid

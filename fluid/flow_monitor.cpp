@@ -255,7 +255,8 @@ bool kernel_extrema_suspect(const KernelExtrema& e, const HealthLimits& limits) 
 
 std::string kernel_state_problem(const FluidSolver& solver, const HealthLimits& limits) {
   if (!kernel_extrema_suspect(solver.last_step_extrema(), limits)) return {};
-  if (solver.mid_step()) return health_problem(summarize(solver), limits);
+  // Mid-step, or where no previous state is kept (the in-place propagation): the state now.
+  if (solver.mid_step() || !solver.has_previous_state()) return health_problem(summarize(solver), limits);
   const std::int64_t before = solver.step_count() - 1;
   return health_problem(flow_summary(partials_of(solver, true, 0), solver.shape(), before), limits);
 }

@@ -14,6 +14,17 @@
 
 namespace cosim::fluid {
 
+/// How a step moves the populations (FluidParams::propagation).
+///  - TwoGrid: pull from one grid into the other (stream_collide), the reference.
+///  - InPlace: one grid, the AA pattern (stream_collide_in_place): the state alternates
+///    between PopulationLayout::Canonical and Swapped from step to step; same bits as
+///    TwoGrid. Readers of the whole field (state(), copy_state()) get it Canonical (a pass
+///    that swaps it back, where it was Swapped). Not kept: previous_state(), and the state
+///    between begin_step() and finish_step() (readers throw there; add_force of a cell not
+///    forced before begin_step() throws: its pulled populations were not saved).
+enum class Propagation { TwoGrid, InPlace };
+const char* propagation_name(Propagation p);
+
 /// Plain typed parameters of the solver (lattice units). Scene parsing lives elsewhere.
 struct FluidParams {
   GridShape shape;
@@ -22,6 +33,7 @@ struct FluidParams {
   std::array<double, 3> body_force{0, 0, 0};   ///< uniform force density (e.g. a pressure drop)
   /// How the populations are stored (fluid/population_field.hpp); arithmetic is double.
   Precision precision = Precision::Double;
+  Propagation propagation = Propagation::TwoGrid;
 };
 
 /// The paper's channel (DESIGN 3): a Blasius inlet of speed `inlet_speed` (c) and boundary
@@ -108,7 +120,13 @@ class FluidSolver {
   std::int64_t step_count() const { return steps_; }
 
   Precision precision() const { return params_.precision; }
-  /// Bytes of the two population grids (19 values per cell, with ghosts and padding).
+  Propagation propagation() const { return params_.propagation; }
+  /// Where the populations are now (always Canonical for Propagation::TwoGrid).
+  PopulationLayout population_layout() const { return arrangement_; }
+  /// Whether previous_state() is available (a two-grid step ran since the state was set).
+  bool has_previous_state() const { return have_previous_; }
+  /// Bytes of the population grids (19 values per cell, with ghosts and padding): two, one
+  /// for Propagation::InPlace.
   std::size_t population_bytes() const;
 
   /// The current post-collision field (ghosts filled); for checkpoints and tests.
@@ -160,15 +178,32 @@ class FluidSolver {
   void step_overlapped(BasicPopulationField<T>& f, BasicPopulationField<T>& g);
   template <class T>
   void populations_of(const BasicPopulationField<T>& f, int x, int y, int z, double* out) const;
+  // Propagation::InPlace (fluid_solver.cpp).
+  template <class T>
+  void begin_in_place(BasicPopulationField<T>& f);
+  template <class T>
+  void finish_in_place(BasicPopulationField<T>& f);
+  template <class T>
+  void fill_swapped_ghosts(BasicPopulationField<T>& f) const;
+  /// Swapped -> Canonical (a pass over the field); @throws std::logic_error mid-step.
+  void make_canonical(const char* call) const;
 
   FluidParams params_;
   GridLayout layout_;
   HaloExchange* halo_ = nullptr;
   BoundaryConditions bc_;
+  InPlaceXFaces x_faces_;  // what the in-place kernel fills itself (x faces)
   // Current (post-collision, ghosts valid) and scratch; only the pair of the precision is
   // allocated.
-  PopulationField f_, g_;
-  PopulationFieldSingle fs_, gs_;
+  // Propagation::InPlace: one grid (g_, gs_ stay empty); const readers turn a Swapped state
+  // Canonical (make_canonical).
+  mutable PopulationField f_;
+  PopulationField g_;
+  mutable PopulationFieldSingle fs_;
+  PopulationFieldSingle gs_;
+  mutable PopulationLayout arrangement_ = PopulationLayout::Canonical;
+  // InPlace: the pulled populations of the forced cells (forced_ order), kept by begin_step().
+  std::vector<double> saved_inputs_;
   std::int64_t steps_ = 0;
   KernelExtrema extrema_;  // of the state the last step read
   RowSchedule schedule_ = RowSchedule::Static;

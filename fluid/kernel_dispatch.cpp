@@ -161,4 +161,18 @@ void stream_collide(const PopulationFieldSingle& src, PopulationFieldSingle& dst
                              outflow, extrema, schedule);
 }
 
+void stream_collide_in_place(PopulationField& f, PopulationLayout layout, double tau,
+                             const std::array<double, 3>& force, KernelExtrema* extrema, RowSchedule schedule,
+                             const InPlaceXFaces* x_faces) {
+  active_kernel().in_place_double(f, layout == PopulationLayout::Canonical, tau, force, extrema, schedule,
+                                  x_faces != nullptr && x_faces->all() ? x_faces : nullptr);
+}
+
+void stream_collide_in_place(PopulationFieldSingle& f, PopulationLayout layout, double tau,
+                             const std::array<double, 3>& force, KernelExtrema* extrema, RowSchedule schedule,
+                             const InPlaceXFaces* x_faces) {
+  active_kernel().in_place_single(f, layout == PopulationLayout::Canonical, tau, force, extrema, schedule,
+                                  x_faces != nullptr && x_faces->all() ? x_faces : nullptr);
+}
+
 }  // namespace cosim::fluid

@@ -42,6 +42,13 @@ struct KernelTable {
   void (*run_single)(const PopulationFieldSingle& src, PopulationFieldSingle& dst, double tau,
                      const std::array<double, 3>& force, bool streaming, const KernelOutflow& outflow,
                      KernelExtrema* extrema, RowSchedule schedule);
+  /// stream_collide_in_place; from_canonical: the state is in PopulationLayout::Canonical.
+  void (*in_place_double)(PopulationField& f, bool from_canonical, double tau,
+                          const std::array<double, 3>& force, KernelExtrema* extrema, RowSchedule schedule,
+                          const InPlaceXFaces* x_faces);
+  void (*in_place_single)(PopulationFieldSingle& f, bool from_canonical, double tau,
+                          const std::array<double, 3>& force, KernelExtrema* extrema, RowSchedule schedule,
+                          const InPlaceXFaces* x_faces);
 };
 
 /// The names of the levels built into the binary, lowest first.

@@ -120,9 +120,11 @@ void print_header(const FluidScene& s, const protocol::UnitConverter& units) {
   const auto& F = s.params.body_force;
   if (F[0] != 0 || F[1] != 0 || F[2] != 0)
     std::printf("  force    body force density (%.4g, %.4g, %.4g) lattice units\n", F[0], F[1], F[2]);
-  std::printf("  memory   %.1f MiB of populations (2 x 19 %s per cell, with ghosts)\n",
-              double(population_bytes(g, s.params.precision)) / (1024.0 * 1024.0),
-              s.params.precision == Precision::Double ? "doubles" : "floats (single precision store)");
+  std::printf("  memory   %.1f MiB of populations (%s x 19 %s per cell, with ghosts; %s propagation)\n",
+              double(population_bytes(g, s.params.precision, s.params.propagation)) / (1024.0 * 1024.0),
+              s.params.propagation == Propagation::InPlace ? "1" : "2",
+              s.params.precision == Precision::Double ? "doubles" : "floats (single precision store)",
+              propagation_name(s.params.propagation));
   std::printf("  run      %lld steps = %.4g us; initial %s; monitor every %lld; ",
               static_cast<long long>(s.steps), units.time_s(double(s.steps)) * 1e6,
               s.initial == InitialFlow::Inlet ? "inlet profile" : "at rest",
@@ -288,6 +290,14 @@ int mpi_ranks() { return g_world != nullptr ? g_world->size() : 1; }
 int run_fluid_only(const FluidScene& scene, bool quiet) {
 #if COSIM_HAVE_MPI
   if (mpi_ranks() > 1) {
+    if (scene.params.propagation == Propagation::InPlace) {
+      if (g_world->rank() == 0)
+        std::fprintf(stderr,
+                     "%s: run.propagation = 'in-place' runs in one process for now (%d MPI ranks given); "
+                     "use 'two-grid' or run without --ranks\n",
+                     scene.path.c_str(), mpi_ranks());
+      return exit_code::bad_input;
+    }
     std::unique_ptr<FluidDomain> domain;
     try {
       domain = std::make_unique<mpi::DistributedFluid>(scene, g_world->comm());

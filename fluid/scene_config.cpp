@@ -67,7 +67,7 @@ const std::vector<SectionSchema>& schema() {
       {"boundaries", {"x_min", "x_max", "y_min", "y_max", "z_min", "z_max"}},
       {"wall_velocity", {"x_min", "x_max", "y_min", "y_max", "z_min", "z_max"}},
       {"body_force", {"x", "y", "z"}},
-      {"run", {"steps", "duration_us", "monitor_every", "mach_limit", "threads", "initial", "precision", "blocks"}},
+      {"run", {"steps", "duration_us", "monitor_every", "mach_limit", "threads", "initial", "precision", "blocks", "propagation"}},
       {"output"},
       {"coupling", protocol::config::coupling_keys()},
       // The stability watchdog (protocol/watchdog.hpp): the same table in both servers.
@@ -125,7 +125,7 @@ void load_grid(const SceneReader& r, FluidScene& s) {
 /// reads, must fit in the fluid's share of this machine's memory (protocol/memory_budget.hpp),
 /// checked before anything is allocated.
 void check_memory(const SceneReader& r, const FluidScene& s) {
-  const std::size_t grids = population_bytes(s.params.shape, s.params.precision);
+  const std::size_t grids = population_bytes(s.params.shape, s.params.precision, s.params.propagation);
   const double need = 1.5 * double(grids);
   const std::string beyond =
       protocol::beyond_share(need, protocol::kFluidMemoryShare, "the rest is left to the solid server and the system");
@@ -197,6 +197,15 @@ void load_run(const SceneReader& r, FluidScene& s) {
   // How the populations are stored; the arithmetic is double either way.
   if (const auto p = run.choice("precision", {"double", "single"}))
     s.params.precision = *p == 0 ? Precision::Double : Precision::Single;
+  // How a step moves the populations (FluidParams::propagation): the same bits either way.
+  if (const auto p = run.choice("propagation", {"two-grid", "in-place"})) {
+    s.params.propagation = *p == 0 ? Propagation::TwoGrid : Propagation::InPlace;
+    if (*p == 1 && r.coupled())
+      run.bad("propagation",
+              "'in-place' is for fluid-only scenes for now: the coupling schemes spread the IB forces "
+              "between the bulk of a step and its end and read the state there, which the in-place "
+              "propagation does not keep; use 'two-grid'");
+  }
 }
 
 void load_boundaries(const SceneReader& r, FluidScene& s) {
@@ -442,8 +451,9 @@ FluidScene read_scene(const std::string& path) {
 
 }  // namespace
 
-std::size_t population_bytes(const GridShape& shape, Precision precision) {
-  return 2 * std::size_t(D3Q19::Q) * layout_of(shape, precision).stride() *
+std::size_t population_bytes(const GridShape& shape, Precision precision, Propagation propagation) {
+  const std::size_t grids = propagation == Propagation::InPlace ? 1 : 2;
+  return grids * std::size_t(D3Q19::Q) * layout_of(shape, precision).stride() *
          bytes_per_value(precision);
 }
 

@@ -111,8 +111,10 @@ void apply_overrides(FluidScene& scene, const SceneOverrides& overrides);
 /// profile of the first inlet face extended through the domain ("inlet").
 void initialize_flow(FluidSolver& solver, const FluidScene& scene);
 
-/// Bytes of the two population grids (19 values per cell, with ghosts and padding).
-std::size_t population_bytes(const GridShape& shape, Precision precision = Precision::Double);
+/// Bytes of the population grids (19 values per cell, with ghosts and padding): two, one for
+/// the in-place propagation.
+std::size_t population_bytes(const GridShape& shape, Precision precision = Precision::Double,
+                             Propagation propagation = Propagation::TwoGrid);
 
 /// Fastest boundary speed in lattice units: the inlet u_max, else the fastest wall.
 double reference_speed(const FluidParams& params);

@@ -238,6 +238,21 @@ inline void store_outflow_ghost(const Lanes (&f)[L::Q], int lane, T* g, std::ptr
     if (L::cx[q] == inward) g[q * stride] = ghost[q];
 }
 
+/// row(r) for the rows r = 0 .. rows - 1, shared among the threads of the enclosing parallel
+/// region as `schedule` says (RowSchedule::Dynamic: 64 chunks, see stream_collide.hpp); no
+/// barrier at the end.
+template <class Row>
+[[gnu::always_inline]] inline void for_rows(std::ptrdiff_t rows, RowSchedule schedule, const Row& row) {
+  if (schedule == RowSchedule::Dynamic) {
+    const std::ptrdiff_t chunk = std::max<std::ptrdiff_t>(1, (rows + 63) / 64);
+#pragma omp for schedule(dynamic, chunk) nowait
+    for (std::ptrdiff_t r = 0; r < rows; ++r) row(r);
+  } else {
+#pragma omp for schedule(static) nowait
+    for (std::ptrdiff_t r = 0; r < rows; ++r) row(r);
+  }
+}
+
 /// The interior of the block row by row (OpenMP), kLanes cells of x at a time; the last,
 /// partial group of a row goes through a padded copy. Outflow ghosts on x faces as the row's
 /// first and last cells are stored (KernelOutflow).
@@ -269,8 +284,6 @@ void update_rows(const BasicPopulationField<T>& src, BasicPopulationField<T>& ds
   for (int q = 0; q < L::Q; ++q) pull[q] = q * stride - lay.offset(L::cx[q], L::cy[q], L::cz[q]);
   const T* const s0 = src.q(0);
   T* const d0 = dst.q(0);
-  // RowSchedule::Dynamic: 64 chunks of whole rows (see stream_collide.hpp).
-  const std::ptrdiff_t chunk = std::max<std::ptrdiff_t>(1, (rows + 63) / 64);
 
 #pragma omp parallel
   {
@@ -380,19 +393,85 @@ void update_rows(const BasicPopulationField<T>& src, BasicPopulationField<T>& ds
         for (int q = 0; q < L::Q; ++q) store_partial(d + q * stride + x, f[q], n);
       }
     };
-    if (schedule == RowSchedule::Dynamic) {
-#pragma omp for schedule(dynamic, chunk) nowait
-      for (std::ptrdiff_t r = 0; r < rows; ++r) row(r);
-    } else {
-#pragma omp for schedule(static) nowait
-      for (std::ptrdiff_t r = 0; r < rows; ++r) row(r);
-    }
+    for_rows(rows, schedule, row);
     if constexpr (kStream) store_fence();  // before the barrier: others read dst next
     if (extrema != nullptr) {
 #pragma omp critical(cosim_fluid_kernel_extrema)
       ex.merge_into(*extrema);
     }
   }
+}
+
+/// One in-place step (stream_collide_in_place in stream_collide.hpp) over the interior,
+/// row by row (OpenMP), kLanes cells of x at a time. Each cell x reads its 19 pulled
+/// populations from the slots `rd` and stores the collided ones to the slots `wr`, the same
+/// 19 slots: from Canonical, f_q(x) = A[q](x - c_q) in and f*_q(x) to A[opp q](x + c_q); from
+/// Swapped, f_q(x) = A[opp q](x) in and f*_q(x) to A[q](x). No two cells share a slot, so
+/// the groups of a row and the rows of the threads never touch each other's values. The
+/// lines a group stores were just loaded: ordinary stores (no write-allocate read), unaligned
+/// where the slot is shifted along x.
+template <class T, bool kForce>
+void update_in_place(BasicPopulationField<T>& f, bool from_canonical, double tau,
+                     const std::array<double, 3>& F, KernelExtrema* extrema, RowSchedule schedule,
+                     const InPlaceXFaces* x_faces) {
+  if (extrema != nullptr) *extrema = KernelExtrema{};
+  const GridLayout& lay = f.layout();
+  const int nx = lay.nx(), ny = lay.ny();
+  const std::ptrdiff_t rows = std::ptrdiff_t(ny) * lay.nz();
+  const std::ptrdiff_t stride = std::ptrdiff_t(lay.stride());
+  const CollisionConstants k(tau, F);
+  std::ptrdiff_t rd[L::Q], wr[L::Q];
+  for (int q = 0; q < L::Q; ++q) {
+    const std::ptrdiff_t c = lay.offset(L::cx[q], L::cy[q], L::cz[q]);
+    if (from_canonical) {
+      rd[q] = q * stride - c;
+      wr[q] = L::opp[q] * stride + c;
+    } else {
+      rd[q] = L::opp[q] * stride;
+      wr[q] = q * stride;
+    }
+  }
+  T* const f0 = f.q(0);
+
+#pragma omp parallel
+  {
+    LaneExtrema ex;
+    const auto row = [&](std::ptrdiff_t r) __attribute__((always_inline)) {
+      const int y = int(r % ny);
+      T* const c = f0 + lay.index(0, y, int(r / ny));
+      Lanes v[L::Q];
+      int x = 0;
+      for (; x + kLanes <= nx; x += kLanes) {
+#pragma GCC unroll 19
+        for (int q = 0; q < L::Q; ++q) v[q] = load(c + rd[q] + x);
+        collide<kForce>(v, k, ex);
+#pragma GCC unroll 19
+        for (int q = 0; q < L::Q; ++q) store_unaligned(c + wr[q] + x, v[q]);
+      }
+      if (x < nx) {
+        const int n = nx - x;
+        for (int q = 0; q < L::Q; ++q) v[q] = load_partial(c + rd[q] + x, n);
+        collide<kForce>(v, k, ex, n);
+        for (int q = 0; q < L::Q; ++q) store_partial(c + wr[q] + x, v[q], n);
+      }
+      if (x_faces != nullptr) in_place_x_ghosts(c, wr, nx, y, *x_faces);
+    };
+    for_rows(rows, schedule, row);
+    if (extrema != nullptr) {
+#pragma omp critical(cosim_fluid_kernel_extrema)
+      ex.merge_into(*extrema);
+    }
+  }
+}
+
+template <class T>
+void run_in_place(BasicPopulationField<T>& f, bool from_canonical, double tau,
+                  const std::array<double, 3>& force, KernelExtrema* extrema, RowSchedule schedule,
+                  const InPlaceXFaces* x_faces) {
+  if (force[0] == 0.0 && force[1] == 0.0 && force[2] == 0.0)
+    update_in_place<T, false>(f, from_canonical, tau, force, extrema, schedule, x_faces);
+  else
+    update_in_place<T, true>(f, from_canonical, tau, force, extrema, schedule, x_faces);
 }
 
 template <class T>
@@ -410,6 +489,8 @@ void run(const BasicPopulationField<T>& src, BasicPopulationField<T>& dst, doubl
 }  // namespace
 
 extern const KernelTable kernel_table;
-const KernelTable kernel_table{kIsaLevel, kIsaVectors, kLanes, kHasStreamingStores, &run<double>, &run<float>};
+const KernelTable kernel_table{kIsaLevel,        kIsaVectors,         kLanes,
+                               kHasStreamingStores, &run<double>,       &run<float>,
+                               &run_in_place<double>, &run_in_place<float>};
 
 }  // namespace cosim::fluid::COSIM_ISA_NS

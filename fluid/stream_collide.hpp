@@ -70,6 +70,42 @@ void stream_collide(const PopulationFieldSingle& src, PopulationFieldSingle& dst
                     const KernelOutflow& outflow = {}, KernelExtrema* extrema = nullptr,
                     RowSchedule schedule = RowSchedule::Static);
 
+/// Where a field keeps the post-collision populations f*_q(x) of its state.
+///  - Canonical: at A[q](x), the two-grid layout; a step pulls f_q(x) = A[q](x - c_q), the
+///    ghosts filled by BoundaryConditions (fill_ghosts).
+///  - Swapped: at A[opp q](x + c_q), where an in-place step from Canonical leaves them; a
+///    step then finds f_q(x) = f*_q(x - c_q) at A[opp q](x). For interior x whose x - c_q is
+///    a ghost, that slot holds the ghost's value (in-place ghost fill, FluidSolver).
+/// The map (q, x) -> (opp q, x + c_q) is its own inverse: swapping the two slots of every
+/// pair turns one layout into the other (FluidSolver, convert_layout).
+enum class PopulationLayout { Canonical, Swapped };
+
+/// The x faces whose ghosts the in-place kernel writes itself, row by row, into the layout
+/// the step leaves (BoundaryConditions::in_place_x_faces): after a row is collided, from its
+/// own post-collision populations as stored (still in L1): a periodic face copies the row's
+/// other end, an outflow the non-equilibrium extrapolation of its boundary cell
+/// (outflow_ghost), an inlet the equilibria of `inlet`. Each ghost slot a row writes lies in
+/// a row that no cell of the step touches there. Other (walls, free slip, halo): not written.
+struct InPlaceXFaces {
+  enum class Kind { Other, Periodic, Outflow, Inlet };
+  Kind kind[2] = {Kind::Other, Kind::Other};  ///< x_min, x_max
+  double rho_out[2] = {1.0, 1.0};             ///< Outflow: reference densities
+  const double* inlet[2] = {nullptr, nullptr};  ///< Inlet: ny x 19, ghost of (q, y) (cx inward)
+  bool all() const { return kind[0] != Kind::Other && kind[1] != Kind::Other; }
+};
+
+/// One step in place (the AA pattern): pull (Eq. 9) and collide as stream_collide, on one
+/// field. From Canonical (ghosts filled) the state ends Swapped; from Swapped (its ghost slots
+/// filled) it ends Canonical (ghosts not filled, but for x_faces). Same collision arithmetic, bit for bit, as
+/// stream_collide; no outflow ghosts (the solver fills them); ordinary stores.
+/// With `x_faces`, the ghosts of those x faces too (only where x_faces->all()).
+void stream_collide_in_place(PopulationField& f, PopulationLayout layout, double tau,
+                             const std::array<double, 3>& force, KernelExtrema* extrema = nullptr,
+                             RowSchedule schedule = RowSchedule::Static, const InPlaceXFaces* x_faces = nullptr);
+void stream_collide_in_place(PopulationFieldSingle& f, PopulationLayout layout, double tau,
+                             const std::array<double, 3>& force, KernelExtrema* extrema = nullptr,
+                             RowSchedule schedule = RowSchedule::Static, const InPlaceXFaces* x_faces = nullptr);
+
 /// Population fields from this size on (bytes, 19 populations with ghosts, either precision) are written with
 /// non-temporal stores: they cannot stay in cache between steps, and skipping the read for
 /// ownership cuts the traffic per update from 456 to 304 bytes. Smaller fields are reused

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "support/run_command.hpp"
+#include "support/run_compare.hpp"
 #include "fluid/scene_config.hpp"
 
 namespace {
@@ -105,6 +106,10 @@ const std::vector<BadCase> kBadCases = {
       "did you mean \"max_cgp_speed\""}},
     {"precision_unknown.toml",
      {":30: run.precision = \"half\": must be one of \"double\", \"single\""}},
+    {"propagation_unknown.toml",
+     {":30: run.propagation = \"pull\": must be one of \"two-grid\", \"in-place\""}},
+    {"propagation_in_place_coupled.toml",
+     {":29: run.propagation = \"in-place\": 'in-place' is for fluid-only scenes for now", "use 'two-grid'"}},
 };
 
 TEST(Scene, BadSceneFilesAreRejected) {
@@ -262,6 +267,53 @@ TEST(FluidExecutable, UnhealthyFlowExitsThreeWithOneLine) {
   // u = (n + 1/2) F with F = 0.01 passes Mach 0.3 (u = 0.1732) at n = 17.
   EXPECT_NE(r.err.find("step 17"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("Mach"), std::string::npos) << r.err;
+  fs::remove_all(scratch);
+}
+
+/// `scene` with run.propagation = `propagation` added, written to `dir`.
+fs::path with_propagation(const fs::path& scene, const std::string& propagation, const fs::path& dir) {
+  std::ifstream in(scene);
+  std::ostringstream text;
+  std::string line;
+  while (std::getline(in, line)) {
+    text << line << "\n";
+    if (line == "[run]") text << "propagation = \"" << propagation << "\"\n";
+  }
+  const fs::path out = dir / (propagation + ".toml");
+  std::ofstream(out) << text.str();
+  return out;
+}
+
+// The in-place propagation writes the two-grid run's bits: the reduced paper channel
+// (Blasius inlet, outflow, wall, free slip, periodic z), an odd number of steps, snapshots
+// and monitor rows at Canonical and Swapped steps; every HDF5 dataset compared.
+TEST(FluidExecutable, InPlacePropagationWritesTheTwoGridBits) {
+  const fs::path scratch = scratch_dir("in_place");
+  for (const std::string prop : {"two-grid", "in-place"}) {
+    const RunResult r = run_fluid(quote(with_propagation(kSource / "scenes" / "channel_reduced.toml", prop, scratch).string()) +
+                                      " --steps 101 --monitor-every 5 --fields-every 25 --quiet --output " +
+                                      quote((scratch / prop).string()),
+                                  scratch);
+    ASSERT_EQ(r.status, 0) << prop << ": " << r.err;
+    if (prop == "in-place") {
+      EXPECT_NE(r.out.find("1 x 19 doubles"), std::string::npos) << r.out;
+    }
+  }
+  std::size_t files = 0;
+  EXPECT_EQ(cosim::test::compare_outputs(scratch / "two-grid", scratch / "in-place", &files), "");
+  EXPECT_EQ(files, 7u);  // fields at 0, 25, 50, 75, 100, 101 and the monitor
+  // An unhealthy flow is stopped as in the two-grid run: the same one line.
+  std::string lines_of[2];
+  int k = 0;
+  for (const std::string prop : {"two-grid", "in-place"}) {
+    const RunResult r = run_fluid(quote(with_propagation(kSource / "tests" / "scenes" / "runaway_force.toml", prop, scratch).string()) +
+                                      " --quiet --output " + quote((scratch / ("runaway_" + prop)).string()),
+                                  scratch);
+    EXPECT_EQ(r.status, 3) << prop << ": " << r.out << r.err;
+    lines_of[k++] = r.err;
+  }
+  EXPECT_EQ(lines_of[0], lines_of[1]);
+  EXPECT_NE(lines_of[1].find("step 17"), std::string::npos) << lines_of[1];
   fs::remove_all(scratch);
 }
 
