@@ -6,6 +6,7 @@
 #include <cmath>
 #include <algorithm>
 #include <cstring>
+#include <limits>
 #include <random>
 #include <string>
 #include <stdexcept>
@@ -419,6 +420,130 @@ TEST(Lattice, InPlaceStepMatchesTwoGridStep) {
   }
   EXPECT_GE(levels, 1);
   set_kernel_level(before);
+}
+
+// The ghost fill reads only the interior (and the constants of the faces): two solvers with
+// the same parameters and state whose fields differ only in their ghosts (NaN in one, a
+// finite garbage value in the other, written before the fill) pull the same, finite
+// populations into every cell, after the fill and after a few steps, in either propagation
+// and store. The grids: an outflow on a y or z face next to the faces of every kind of an
+// axis before it (its edge ghosts), and free slip next to a wall in either fill order (a
+// face of the same or the other side; their shared edges).
+std::vector<FluidParams> stale_ghost_grids() {
+  std::vector<FluidParams> out;
+  const FaceKind kinds[] = {FaceKind::Periodic, FaceKind::Inlet, FaceKind::Outflow, FaceKind::Wall,
+                            FaceKind::FreeSlip};
+  const auto base = [] {
+    FluidParams p;
+    p.shape = {6, 5, 4};
+    p.tau = 0.65;
+    p.body_force = {2e-6, -1e-6, 1e-6};
+    return p;
+  };
+  // Outflows on both faces of axis `a`, faces of kind k on both faces of axis b < a.
+  for (const int a : {1, 2})
+    for (int b = 0; b < a; ++b)
+      for (const FaceKind k : kinds) {
+        FluidParams p = base();
+        p.faces[2 * a].kind = p.faces[2 * a + 1].kind = FaceKind::Outflow;
+        p.faces[2 * a].outflow_density = 1.01;
+        p.faces[2 * a + 1].outflow_density = 0.99;
+        for (const int f : {2 * b, 2 * b + 1}) {
+          p.faces[f].kind = k;
+          p.faces[f].inlet_speed = 0.03;
+          p.faces[f].wall_velocity = {0.0, 0.0, 0.0};
+          p.faces[f].wall_velocity[(b + 1) % 3] = 0.01;
+        }
+        out.push_back(p);
+      }
+  // Free slip on both faces of axis a, walls on both faces of axis b (a != b; either order).
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b) {
+      if (a == b) continue;
+      FluidParams p = base();
+      p.faces[2 * a].kind = p.faces[2 * a + 1].kind = FaceKind::FreeSlip;
+      for (const int f : {2 * b, 2 * b + 1}) {
+        p.faces[f].kind = FaceKind::Wall;
+        p.faces[f].wall_velocity[3 - a - b] = 0.01;
+      }
+      out.push_back(p);
+    }
+  {
+    // A wall and free slip on each of two axes, crosswise, an inlet and an outflow on x.
+    FluidParams p = base();
+    p.faces[XMin].kind = FaceKind::Inlet;
+    p.faces[XMin].inlet_speed = 0.03;
+    p.faces[XMax].kind = FaceKind::Outflow;
+    p.faces[YMin].kind = p.faces[ZMax].kind = FaceKind::Wall;
+    p.faces[YMax].kind = p.faces[ZMin].kind = FaceKind::FreeSlip;
+    out.push_back(p);
+  }
+  return out;
+}
+
+template <class T>
+BasicPopulationField<T>& mutable_field(FluidSolver& s) {
+  if constexpr (std::is_same_v<T, double>)
+    return s.mutable_state();
+  else
+    return s.mutable_state_single();
+}
+
+template <class T>
+int stale_ghost_mismatches(const FluidParams& base, Precision precision, Propagation propagation) {
+  FluidParams p = base;
+  p.precision = precision;
+  p.propagation = propagation;
+  FluidSolver a(p), b(p);
+  const auto init = [](int x, int y, int z) {
+    return CellState{1.0 + 0.01 * std::sin(x + 2 * y + 3 * z), 0.02 * std::cos(y + z), 0.015 * std::sin(x + z),
+                     -0.01 * std::cos(x + y)};
+  };
+  a.initialize(init);
+  b.initialize(init);
+  const GridShape& g = p.shape;
+  const auto poison = [&](FluidSolver& s, T value) {
+    BasicPopulationField<T>& f = mutable_field<T>(s);
+    for (int q = 0; q < L::Q; ++q)
+      for (int z = -1; z <= g.nz; ++z)
+        for (int y = -1; y <= g.ny; ++y)
+          for (int x = -1; x <= g.nx; ++x)
+            if (x < 0 || x >= g.nx || y < 0 || y >= g.ny || z < 0 || z >= g.nz) f.at(q, x, y, z) = value;
+    s.refresh_ghosts();
+  };
+  poison(a, std::numeric_limits<T>::quiet_NaN());
+  poison(b, T(0.375));
+  std::string faces;
+  for (int f = 0; f < kFaces; ++f) faces += std::string(" ") + face_name(f) + "=" + kind_name(p.faces[f].kind);
+  const std::string where = std::string(precision_name(precision)) + " store, " + propagation_name(propagation) +
+                            ", faces" + faces;
+  int bad = 0;
+  for (int step = 0; step <= 3; ++step) {
+    if (step > 0) {
+      a.step();
+      b.step();
+    }
+    for (int z = 0; z < g.nz; ++z)
+      for (int y = 0; y < g.ny; ++y)
+        for (int x = 0; x < g.nx; ++x) {
+          double fa[L::Q], fb[L::Q];
+          a.populations_at(x, y, z, fa);
+          b.populations_at(x, y, z, fb);
+          for (int q = 0; q < L::Q; ++q)
+            if ((std::memcmp(&fa[q], &fb[q], sizeof(double)) != 0 || !std::isfinite(fa[q])) && ++bad <= 3)
+              ADD_FAILURE() << where << ": pulled population " << q << " of (" << x << ", " << y << ", " << z
+                            << ") after step " << step << ": " << fa[q] << " (NaN ghosts) vs " << fb[q];
+        }
+  }
+  return bad;
+}
+
+TEST(Lattice, GhostFillDoesNotReadStaleValues) {
+  for (const FluidParams& p : stale_ghost_grids())
+    for (const Propagation prop : {Propagation::TwoGrid, Propagation::InPlace}) {
+      EXPECT_EQ(stale_ghost_mismatches<double>(p, Precision::Double, prop), 0);
+      EXPECT_EQ(stale_ghost_mismatches<float>(p, Precision::Single, prop), 0);
+    }
 }
 
 // What the in-place propagation does not keep is refused with a logic_error, not read wrong.
