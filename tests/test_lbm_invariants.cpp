@@ -278,7 +278,8 @@ TEST(Lattice, FusedStepMatchesGhostFillStepSingleStore) {
 // finish_step, boundary layers included), both row schedules, the state read whole at a
 // Swapped step (turned Canonical) and stepped on, a copy_state / restore_state round trip;
 // on every kernel level this CPU runs. The grids: every_boundary_grids(), one with
-// reflecting x faces and one with periodic x faces and an inlet on z.
+// reflecting x faces, one with periodic x faces and an inlet on z, and two with outflows on
+// y and z and free slip next to walls (edge ghosts of GhostFillDoesNotReadStaleValues).
 template <class T>
 int in_place_mismatches(const FluidParams& base, Precision precision) {
   FluidParams p = base;
@@ -400,16 +401,34 @@ TEST(Lattice, InPlaceStepMatchesTwoGridStep) {
       p.faces[ZMin].kind = p.faces[ZMax].kind = FaceKind::Inlet;
       p.faces[ZMin].inlet_speed = p.faces[ZMax].inlet_speed = 0.03;
       grids.push_back(p);
-      // Periodic x (the kernel's) and y, an inlet and free slip on z. (Two cases the ghost
-      // fill itself gets wrong, in either propagation, are left out: an outflow on a y or z
-      // face extrapolates the edge ghosts next to x ghosts from all 19 populations of the x
-      // ghost cell, of which the x faces' fills write only those entering the grid; free
-      // slip next to a wall reads wall ghosts the wall's fill does not write. The pulled
-      // populations there are whatever the field held: not the same in the two.)
+      // Periodic x (the kernel's) and y, an inlet and free slip on z.
       p.faces[XMin].kind = p.faces[XMax].kind = FaceKind::Periodic;
       p.faces[YMin].kind = p.faces[YMax].kind = FaceKind::Periodic;
       p.faces[ZMax] = FaceSpec{};
       p.faces[ZMax].kind = FaceKind::FreeSlip;
+      grids.push_back(p);
+      // Outflows on y and z next to periodic x (their edge ghosts: the image's column), a
+      // moving wall on y next to free slip and an outflow on z.
+      p.faces[YMin] = p.faces[YMax] = p.faces[ZMin] = p.faces[ZMax] = FaceSpec{};
+      p.faces[YMin].kind = FaceKind::Outflow;
+      p.faces[YMin].outflow_density = 1.01;
+      p.faces[YMax].kind = FaceKind::Wall;
+      p.faces[YMax].wall_velocity = {0.01, 0.0, -0.01};
+      p.faces[ZMin].kind = FaceKind::FreeSlip;
+      p.faces[ZMax].kind = FaceKind::Outflow;
+      grids.push_back(p);
+      // The kernel's x inlet and outflow; free slip and a wall on y, a wall and an outflow
+      // on z (walls on both sides of a free slip face, an outflow next to both).
+      p.faces[XMin].kind = FaceKind::Inlet;
+      p.faces[XMin].inlet_speed = 0.03;
+      p.faces[XMax].kind = FaceKind::Outflow;
+      p.faces[YMin] = p.faces[YMax] = p.faces[ZMin] = p.faces[ZMax] = FaceSpec{};
+      p.faces[YMin].kind = FaceKind::FreeSlip;
+      p.faces[YMax].kind = FaceKind::Wall;
+      p.faces[ZMin].kind = FaceKind::Wall;
+      p.faces[ZMin].wall_velocity = {0.02, 0.0, 0.0};
+      p.faces[ZMax].kind = FaceKind::Outflow;
+      p.faces[ZMax].outflow_density = 0.995;
       grids.push_back(p);
     }
     for (const FluidParams& p : grids) {
