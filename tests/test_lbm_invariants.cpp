@@ -11,6 +11,7 @@
 #include <string>
 #include <stdexcept>
 #include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "fluid/bgk_guo.hpp"
@@ -445,58 +446,35 @@ TEST(Lattice, InPlaceStepMatchesTwoGridStep) {
 // the same parameters and state whose fields differ only in their ghosts (NaN in one, a
 // finite garbage value in the other, written before the fill) pull the same, finite
 // populations into every cell, after the fill and after a few steps, in either propagation
-// and store. The grids: an outflow on a y or z face next to the faces of every kind of an
-// axis before it (its edge ghosts), and free slip next to a wall in either fill order (a
-// face of the same or the other side; their shared edges).
+// and store. The grids: every combination of the face kinds per axis (each kind on both
+// faces, a wall with free slip, an outflow with an inlet), so among them an outflow on a y
+// or z face next to the faces of every kind of an axis before it (its edge ghosts) and free
+// slip next to a wall in either fill order (their shared edges).
 std::vector<FluidParams> stale_ghost_grids() {
+  // Per axis, the kinds of its min and max faces: each kind on both, and mixed pairs.
+  using K = FaceKind;
+  const std::pair<K, K> pairs[] = {{K::Periodic, K::Periodic}, {K::Inlet, K::Inlet},     {K::Outflow, K::Outflow},
+                                   {K::Wall, K::Wall},         {K::FreeSlip, K::FreeSlip}, {K::Wall, K::FreeSlip},
+                                   {K::Outflow, K::Inlet}};
   std::vector<FluidParams> out;
-  const FaceKind kinds[] = {FaceKind::Periodic, FaceKind::Inlet, FaceKind::Outflow, FaceKind::Wall,
-                            FaceKind::FreeSlip};
-  const auto base = [] {
-    FluidParams p;
-    p.shape = {6, 5, 4};
-    p.tau = 0.65;
-    p.body_force = {2e-6, -1e-6, 1e-6};
-    return p;
-  };
-  // Outflows on both faces of axis `a`, faces of kind k on both faces of axis b < a.
-  for (const int a : {1, 2})
-    for (int b = 0; b < a; ++b)
-      for (const FaceKind k : kinds) {
-        FluidParams p = base();
-        p.faces[2 * a].kind = p.faces[2 * a + 1].kind = FaceKind::Outflow;
-        p.faces[2 * a].outflow_density = 1.01;
-        p.faces[2 * a + 1].outflow_density = 0.99;
-        for (const int f : {2 * b, 2 * b + 1}) {
-          p.faces[f].kind = k;
-          p.faces[f].inlet_speed = 0.03;
-          p.faces[f].wall_velocity = {0.0, 0.0, 0.0};
-          p.faces[f].wall_velocity[(b + 1) % 3] = 0.01;
+  for (const auto& px : pairs)
+    for (const auto& py : pairs)
+      for (const auto& pz : pairs) {
+        FluidParams p;
+        p.shape = {6, 5, 4};
+        p.tau = 0.65;
+        p.body_force = {2e-6, -1e-6, 1e-6};
+        const std::pair<K, K>* axes[3] = {&px, &py, &pz};
+        for (int f = 0; f < kFaces; ++f) {
+          const int a = face_axis(f);
+          FaceSpec& s = p.faces[f];
+          s.kind = face_side(f) == 0 ? axes[a]->first : axes[a]->second;
+          s.inlet_speed = 0.03;
+          s.outflow_density = face_side(f) == 0 ? 1.01 : 0.99;
+          s.wall_velocity[(a + 1) % 3] = 0.01 * (f + 1);
         }
         out.push_back(p);
       }
-  // Free slip on both faces of axis a, walls on both faces of axis b (a != b; either order).
-  for (int a = 0; a < 3; ++a)
-    for (int b = 0; b < 3; ++b) {
-      if (a == b) continue;
-      FluidParams p = base();
-      p.faces[2 * a].kind = p.faces[2 * a + 1].kind = FaceKind::FreeSlip;
-      for (const int f : {2 * b, 2 * b + 1}) {
-        p.faces[f].kind = FaceKind::Wall;
-        p.faces[f].wall_velocity[3 - a - b] = 0.01;
-      }
-      out.push_back(p);
-    }
-  {
-    // A wall and free slip on each of two axes, crosswise, an inlet and an outflow on x.
-    FluidParams p = base();
-    p.faces[XMin].kind = FaceKind::Inlet;
-    p.faces[XMin].inlet_speed = 0.03;
-    p.faces[XMax].kind = FaceKind::Outflow;
-    p.faces[YMin].kind = p.faces[ZMax].kind = FaceKind::Wall;
-    p.faces[YMax].kind = p.faces[ZMin].kind = FaceKind::FreeSlip;
-    out.push_back(p);
-  }
   return out;
 }
 
