@@ -445,7 +445,8 @@ TEST(Lattice, InPlaceStepMatchesTwoGridStep) {
 // The ghost fill reads only the interior (and the constants of the faces): two solvers with
 // the same parameters and state whose fields differ only in their ghosts (NaN in one, a
 // finite garbage value in the other, written before the fill) pull the same, finite
-// populations into every cell, after the fill and after a few steps, in either propagation
+// populations into every cell, after the fill and after two steps (the two-grid step fills
+// the other grid, poisoned, at the second), in either propagation
 // and store. The grids: every combination of the face kinds per axis (each kind on both
 // faces, a wall with free slip, an outflow with an inlet), so among them an outflow on a y
 // or z face next to the faces of every kind of an axis before it (its edge ghosts) and free
@@ -515,7 +516,7 @@ int stale_ghost_mismatches(const FluidParams& base, Precision precision, Propaga
   const std::string where = std::string(precision_name(precision)) + " store, " + propagation_name(propagation) +
                             ", faces" + faces;
   int bad = 0;
-  for (int step = 0; step <= 3; ++step) {
+  for (int step = 0; step <= 2; ++step) {
     if (step > 0) {
       a.step();
       b.step();
@@ -541,6 +542,24 @@ TEST(Lattice, GhostFillDoesNotReadStaleValues) {
       EXPECT_EQ(stale_ghost_mismatches<double>(p, Precision::Double, prop), 0);
       EXPECT_EQ(stale_ghost_mismatches<float>(p, Precision::Single, prop), 0);
     }
+}
+
+// An outflow's edge ghosts next to a halo axis would extrapolate from a neighbour block's
+// cell, which the exchange does not send whole: refused (the slabs have their halo on z).
+TEST(Lattice, OutflowAfterAHaloAxisIsRefused) {
+  const GridLayout lay = layout_of({6, 5, 4}, Precision::Double);
+  std::array<FaceSpec, kFaces> faces{};
+  faces[YMin].kind = faces[YMax].kind = FaceKind::Outflow;
+  EXPECT_THROW(BoundaryConditions(lay, faces, {true, true, false, false, false, false}), std::invalid_argument);
+  EXPECT_NO_THROW(BoundaryConditions(lay, faces, {false, false, false, false, true, true}));
+  faces[YMin].kind = faces[YMax].kind = FaceKind::Wall;
+  faces[ZMax].kind = FaceKind::Outflow;
+  faces[ZMin].kind = FaceKind::Inlet;
+  EXPECT_THROW(BoundaryConditions(lay, faces, {false, false, false, true, false, false}), std::invalid_argument);
+  faces[ZMin] = faces[ZMax] = FaceSpec{};
+  faces[XMin].kind = FaceKind::Inlet;
+  faces[XMax].kind = FaceKind::Outflow;
+  EXPECT_NO_THROW(BoundaryConditions(lay, faces, {false, false, false, false, true, false}));
 }
 
 // What the in-place propagation does not keep is refused with a logic_error, not read wrong.
