@@ -79,16 +79,44 @@ PlaneRange plane_range(const GridLayout& L, int axis, bool all_ghosts) {
 
 /// Outflow ghost plane (see BoundaryConditions): non-equilibrium extrapolation at the
 /// reference density, from the boundary cell b = g + src_off. Inside a parallel region.
+///
+/// The edge ghosts of a y or z outflow next to the ghosts of an axis before it (the plane
+/// range includes those): b = g + src_off is then a ghost cell of that axis, whose fill
+/// wrote only the populations entering the grid there, while the extrapolation reads all
+/// 19. Those b are taken instead as the interior cell the earlier face's ghost stands for:
+///  - periodic axis (`periodic[a]`): its image across the grid (n - 1 for -1, 0 for n), so
+///    the edge ghost is the outflow ghost of the image's column, as in a wider periodic grid;
+///  - inlet, outflow, wall, free slip: the nearest interior cell (0 for -1, n - 1 for n),
+///    the corner's own boundary cell: the edge ghost is the outflow's extrapolation from
+///    the cell it enters, as on the rest of the face. Next to a wall or free slip face the
+///    pulled edge populations are written again afterwards by that face's fill (reflecting
+///    faces go last), so there the choice only keeps the outflow from reading stale values.
+/// Elsewhere b is g + src_off, as before.
 template <class T>
 void fill_outflow(BasicPopulationField<T>& f, const GridLayout& layout, int face, double rho_out,
-                  const PlaneRange& r, std::ptrdiff_t src_off) {
+                  const PlaneRange& r, std::ptrdiff_t src_off, const bool periodic[3]) {
   const int axis = face_axis(face);
   const int inward = face_side(face) == 0 ? 1 : -1;
+  const int n[3] = {layout.nx(), layout.ny(), layout.nz()};
+  // The interior coordinate an earlier axis' ghost coordinate c stands for.
+  const auto inside = [&](int a, int c) {
+    if (c < 0) return periodic[a] ? n[a] - 1 : 0;
+    if (c >= n[a]) return periodic[a] ? 0 : n[a] - 1;
+    return c;
+  };
 #pragma omp for collapse(2) schedule(static) nowait
   for (int z = r.lo[2]; z <= r.hi[2]; ++z)
     for (int y = r.lo[1]; y <= r.hi[1]; ++y)
       for (int x = r.lo[0]; x <= r.hi[0]; ++x) {
-        const std::ptrdiff_t g = layout.index(x, y, z), b = g + src_off;
+        const std::ptrdiff_t g = layout.index(x, y, z);
+        int c[3] = {x, y, z};
+        bool edge = false;
+        for (int a = 0; a < axis; ++a) {
+          const int ci = inside(a, c[a]);
+          edge = edge || ci != c[a];
+          c[a] = ci;
+        }
+        const std::ptrdiff_t b = edge ? layout.index(c[0], c[1], c[2]) + src_off : g + src_off;
         T stored[D3Q19::Q], ghost[D3Q19::Q];
         for (int q = 0; q < D3Q19::Q; ++q) stored[q] = f.q(q)[b];
         outflow_ghost(stored, axis, inward, rho_out, ghost);
@@ -121,6 +149,17 @@ BoundaryConditions::BoundaryConditions(const GridLayout& layout,
   for (int a = 0; a < 3; ++a) axes += halo[2 * a] || halo[2 * a + 1];
   if (axes > 1)
     throw std::invalid_argument("BoundaryConditions: halo faces on more than one axis (the blocks are slabs)");
+  // An outflow's edge ghosts next to an earlier axis' ghosts extrapolate from the interior
+  // cell those ghosts stand for (fill_outflow); next to halo faces that is a neighbour
+  // block's cell, which the exchange does not send whole.
+  for (int a = 0; a < 3; ++a)
+    for (int b = a + 1; b < 3; ++b)
+      if ((halo[2 * a] || halo[2 * a + 1]) &&
+          (faces[2 * b].kind == FaceKind::Outflow || faces[2 * b + 1].kind == FaceKind::Outflow) &&
+          !halo[2 * b] && !halo[2 * b + 1])
+        throw std::invalid_argument(std::string("BoundaryConditions: an outflow on ") + face_name(2 * b) + "/" +
+                                    face_name(2 * b + 1) + " next to halo faces on " + face_name(2 * a) + "/" +
+                                    face_name(2 * a + 1) + " (the blocks are cut across z only)");
   // A halo face is filled by the exchange only: no fill of its own (kind Periodic is never
   // a reflecting or an inlet fill, and fills_copy() skips it).
   for (int f = 0; f < kFaces; ++f)
@@ -157,13 +196,23 @@ void BoundaryConditions::fill_copy_faces(BasicPopulationField<T>& f, int from, i
     }
 }
 
+/// Free slip faces first, then the walls. A free slip ghost next to a wall's ghosts (their
+/// shared edge) mirrors a population of the wall's ghost cell that the wall's half-way
+/// fill does not write (it writes only what its interior cells bounce back); the pulled
+/// populations of such an edge ghost are those entering through both faces, and the wall
+/// writes every one of them (from the corner's interior cell). So the wall's fill comes
+/// after and decides the edge: half-way bounce-back (Eq. 14) at a wall / free slip edge,
+/// as at a wall / wall edge, a no-slip corner. Two free slip faces: the later one's edge
+/// ghosts mirror populations the earlier one wrote from the interior. The order matters
+/// only on such edges (no other reflecting fill reads another's ghosts).
 template <class T>
 void BoundaryConditions::fill_reflect_faces(BasicPopulationField<T>& f, Fill which) const {
-  for (int face = which == Fill::AllButX ? 2 : 0; face < kFaces; ++face)
-    if (!is_copy(faces_[face].kind)) {
-      fill_reflect_face(f, face);
+  for (const FaceKind kind : {FaceKind::FreeSlip, FaceKind::Wall})
+    for (int face = which == Fill::AllButX ? 2 : 0; face < kFaces; ++face)
+      if (faces_[face].kind == kind) {
+        fill_reflect_face(f, face);
 #pragma omp barrier
-    }
+      }
 }
 
 template <class T>
@@ -341,7 +390,10 @@ void BoundaryConditions::fill_copy_face(BasicPopulationField<T>& f, int face) co
   if (spec.kind == FaceKind::Outflow) src_shift[axis] = inward;
   const std::ptrdiff_t src_off = layout_.offset(src_shift[0], src_shift[1], src_shift[2]);
   if (spec.kind == FaceKind::Outflow) {
-    fill_outflow(f, layout_, face, spec.outflow_density, r, src_off);
+    const bool periodic[3] = {faces_[XMin].kind == FaceKind::Periodic && !halo_[XMin],
+                              faces_[YMin].kind == FaceKind::Periodic && !halo_[YMin],
+                              faces_[ZMin].kind == FaceKind::Periodic && !halo_[ZMin]};
+    fill_outflow(f, layout_, face, spec.outflow_density, r, src_off, periodic);
     return;
   }
 

@@ -83,8 +83,14 @@ void in_place_x_ghosts(T* row, const std::ptrdiff_t* slot, int nx, int y, const 
 ///    wall at half a cell outside the last interior layer).
 ///  - FreeSlip: specular reflection, f_q(x) = f*_mirror(q)(x - c_q + c_q,n n).
 /// Copy-type faces are filled axis by axis (x, y, z), each over the ghosts of the axes
-/// before it, so edges and corners come out right; reflecting faces go last and read only
-/// what is already valid. Either store precision (T = double or float): values are computed
+/// before it, so edges and corners come out right; an outflow's edge ghosts there
+/// extrapolate from the interior cell the earlier ghost stands for (its periodic image, else
+/// the nearest interior cell; fill_outflow in boundary.cpp), since the earlier fills write
+/// only the populations entering the grid. Reflecting faces go last, free slip before walls,
+/// so that a wall's bounce-back decides the edge it shares with free slip. Every pulled
+/// ghost population is thus a function of the interior and the faces' constants, never of
+/// what the ghosts held before (test_lbm_invariants: GhostFillDoesNotReadStaleValues).
+/// Either store precision (T = double or float): values are computed
 /// in double from the stored ones and rounded once when stored.
 ///
 /// A block of a decomposed grid (DESIGN 8) has faces that are neither: a neighbour block's
@@ -97,7 +103,9 @@ class BoundaryConditions {
  public:
   BoundaryConditions() = default;
   /// `halo`: the faces a HaloExchange fills (their FaceSpec is not used; the pairing rule of
-  /// check() does not apply to them).
+  /// check() does not apply to them). std::invalid_argument for halo faces on more than one
+  /// axis, or on an axis before an outflow's (its edge ghosts would need the neighbour's
+  /// whole cells; the slabs of fluid/mpi have their halo faces on z, the last axis).
   BoundaryConditions(const GridLayout& layout, const std::array<FaceSpec, kFaces>& faces,
                      const std::array<bool, kFaces>& halo = {});
 
