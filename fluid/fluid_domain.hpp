@@ -67,6 +67,11 @@ class FluidDomain {
   /// between them act on this step.
   virtual void begin_step() = 0;
   virtual void finish_step() = 0;
+  /// Whether begin_step() may run before the forces of the step are spread (the bulk of a
+  /// coupled step overlapping the solid's compute; fluid/schemes/serial_scheme.cpp) and leave
+  /// the state of the current step whole until finish_step(): Propagation::TwoGrid. The
+  /// in-place propagation needs the forced cells before the bulk and overwrites the state.
+  virtual bool bulk_before_impulses() const = 0;
   virtual void set_row_schedule(RowSchedule schedule) = 0;
   /// kernel_state_problem() of the whole grid: the same text on every process.
   virtual std::string kernel_problem(const HealthLimits& limits) = 0;
@@ -110,6 +115,7 @@ class SerialDomain final : public FluidDomain {
   void step() override { solver_.step(); }
   void begin_step() override { solver_.begin_step(); }
   void finish_step() override { solver_.finish_step(); }
+  bool bulk_before_impulses() const override { return solver_.propagation() == Propagation::TwoGrid; }
   void set_row_schedule(RowSchedule schedule) override { solver_.set_row_schedule(schedule); }
   std::string kernel_problem(const HealthLimits& limits) override {
     return kernel_state_problem(solver_, limits);

@@ -99,7 +99,9 @@ class FluidSolver {
   /// cells that receive a force (add_force, before or after begin_step) are collided again
   /// with it by finish_step(), from the same state, which then makes the new state current:
   /// the same result as step(). A coupled step runs the bulk while the solid computes the
-  /// impulses it spreads (fluid/schemes/serial_scheme.cpp). @throws std::logic_error out of order
+  /// impulses it spreads (fluid/schemes/serial_scheme.cpp), with two grids; in place the
+  /// forced cells must be known first (FluidDomain::bulk_before_impulses).
+  /// @throws std::logic_error out of order
   void begin_step();
   void finish_step();
   /// Between begin_step() and finish_step().

@@ -197,15 +197,11 @@ void load_run(const SceneReader& r, FluidScene& s) {
   // How the populations are stored; the arithmetic is double either way.
   if (const auto p = run.choice("precision", {"double", "single"}))
     s.params.precision = *p == 0 ? Precision::Double : Precision::Single;
-  // How a step moves the populations (FluidParams::propagation): the same bits either way.
-  if (const auto p = run.choice("propagation", {"two-grid", "in-place"})) {
+  // How a step moves the populations (FluidParams::propagation): the same bits either way
+  // (in a coupled scene too: the schemes run the whole step after the solid's message,
+  // FluidDomain::bulk_before_impulses). One process only (fluid/main.cpp refuses MPI ranks).
+  if (const auto p = run.choice("propagation", {"two-grid", "in-place"}))
     s.params.propagation = *p == 0 ? Propagation::TwoGrid : Propagation::InPlace;
-    if (*p == 1 && r.coupled())
-      run.bad("propagation",
-              "'in-place' is for fluid-only scenes for now: the coupling schemes spread the IB forces "
-              "between the bulk of a step and its end and read the state there, which the in-place "
-              "propagation does not keep; use 'two-grid'");
-  }
 }
 
 void load_boundaries(const SceneReader& r, FluidScene& s) {

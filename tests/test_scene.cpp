@@ -108,8 +108,6 @@ const std::vector<BadCase> kBadCases = {
      {":30: run.precision = \"half\": must be one of \"double\", \"single\""}},
     {"propagation_unknown.toml",
      {":30: run.propagation = \"pull\": must be one of \"two-grid\", \"in-place\""}},
-    {"propagation_in_place_coupled.toml",
-     {":29: run.propagation = \"in-place\": 'in-place' is for fluid-only scenes for now", "use 'two-grid'"}},
 };
 
 TEST(Scene, BadSceneFilesAreRejected) {

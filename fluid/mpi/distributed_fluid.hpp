@@ -44,6 +44,7 @@ class DistributedFluid final : public FluidDomain {
   void step() override { block_->step(); }
   void begin_step() override { block_->begin_step(); }
   void finish_step() override { block_->finish_step(); }
+  bool bulk_before_impulses() const override { return block_->propagation() == Propagation::TwoGrid; }
   void set_row_schedule(RowSchedule schedule) override { block_->set_row_schedule(schedule); }
   std::string kernel_problem(const HealthLimits& limits) override;
   std::optional<FlowSummary> summary() override { return summary_of(false); }

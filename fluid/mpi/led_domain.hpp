@@ -34,6 +34,7 @@ class LedDomain final : public FluidDomain {
   void step() override;
   void begin_step() override;
   void finish_step() override;
+  bool bulk_before_impulses() const override { return grid_.bulk_before_impulses(); }
   void set_row_schedule(RowSchedule schedule) override;
   std::string kernel_problem(const HealthLimits& limits) override;
   std::optional<FlowSummary> summary() override;

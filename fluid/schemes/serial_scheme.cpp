@@ -20,19 +20,26 @@ int SerialFluidScheme::run(Coordinator& coord, FluidRun& run, std::int64_t first
   const auto n = static_cast<std::size_t>(coord.num_cgps());
   std::vector<Vec3> x(n), j(n);
   std::vector<MarkerSample> samples(n);
+  // The bulk of the step to step + 1 needs no impulses with two grids (FluidDomain::
+  // begin_step: the cells that receive them are collided again by finish_step): it runs
+  // while the solid computes them, and the result is that of a whole step after the wait.
+  // The in-place propagation needs the forced cells before the bulk, which overwrites the
+  // state of `step`: there the whole step runs after the message, so every ending below
+  // (a lost peer, a signal, a watchdog trip) still finds the state of `step` whole.
+  const bool overlap = fluid.bulk_before_impulses();
   for (std::int64_t step = first_step; step < total_steps_; ++step) {
     coord.begin_step(step);
-    // The bulk of the step to step + 1 needs no impulses (FluidDomain::begin_step: the cells
-    // that receive them are collided again by finish_step): it runs while the solid computes
-    // them, and the result is that of a whole step after the wait. In the free steps the
-    // solid computes beside it, on the same cores: the kernel hands its rows out as its
-    // threads come free (RowSchedule::Dynamic).
-    const Clock::time_point tb = Clock::now();
+    // In the free steps the solid computes beside the bulk, on the same cores: the kernel
+    // hands its rows out as its threads come free (RowSchedule::Dynamic).
     fluid.set_row_schedule(step >= rigid_steps_ ? RowSchedule::Dynamic : RowSchedule::Static);
-    fluid.begin_step();
-    if (auto code = run.check_step_read(step)) return *code;
+    if (overlap) {
+      const Clock::time_point tb = Clock::now();
+      fluid.begin_step();
+      // The flow_health sentinel on the state `step` the bulk read.
+      if (auto code = run.check_step_read(step)) return *code;
+      timing.compute += seconds(tb, Clock::now());
+    }
     const Clock::time_point t0 = Clock::now();
-    timing.compute += seconds(tb, t0);
     if (auto e = coord.wait_for_solid_state(step)) {
       // A clean abort (the solid lost or stopped with an error): the state at `step` is
       // whole, so it is kept for a restart (DESIGN 2.4).
@@ -66,9 +73,14 @@ int SerialFluidScheme::run(Coordinator& coord, FluidRun& run, std::int64_t first
       timing.publish += seconds(t2, t1);
     }
     // Eqs. 21-24 and 25-26: spread J_l at X_l, collide the cells that receive them with the
-    // forcing (the rest of the step was streamed and collided above).
+    // forcing (the rest of the step was streamed and collided in the bulk).
     fluid.spread(x, j);
+    if (!overlap) fluid.begin_step();
     fluid.finish_step();
+    // In place, the sentinel after the whole step (the state is not read mid-step; the
+    // fluid-only loop's order): the kernel's extrema of `step`, the state now if suspect.
+    if (!overlap)
+      if (auto code = run.check_step_read(step)) return *code;
     const std::int64_t now = step + 1;
     const bool last = now == total_steps_;
     const bool publish = publishes(now);
