@@ -74,6 +74,7 @@ PlaneRange plane_range(const GridLayout& L, int axis, bool all_ghosts) {
     r.lo[b] = ext ? -1 : 0;
     r.hi[b] = ext ? n[b] : n[b] - 1;
   }
+  if (L.wraps_z()) r.lo[2] = r.hi[2] = 0;  // its z ghosts are the plane itself
   return r;
 }
 
@@ -183,6 +184,7 @@ bool BoundaryConditions::has_halo() const {
 bool BoundaryConditions::fills_copy(int face, Fill which) const {
   const FaceKind k = faces_[face].kind;
   if (halo_[face] || !is_copy(k)) return false;
+  if (face_axis(face) == 2 && layout_.wraps_z()) return false;  // the plane is its own image
   if (which == Fill::AllButX) return face_axis(face) != 0;
   return which == Fill::All || (k != FaceKind::Inlet && !is_kernel_outflow(faces_[face], face));
 }
@@ -397,17 +399,21 @@ void BoundaryConditions::fill_copy_face(BasicPopulationField<T>& f, int face) co
     return;
   }
 
+  // One row of the plane at a time, each population's part of it one contiguous copy (the
+  // rows along x; an x face's rows are one cell long).
+  const std::ptrdiff_t len = r.hi[0] - r.lo[0] + 1;
 #pragma omp for collapse(2) schedule(static) nowait
   for (int z = r.lo[2]; z <= r.hi[2]; ++z)
-    for (int y = r.lo[1]; y <= r.hi[1]; ++y)
-      for (int x = r.lo[0]; x <= r.hi[0]; ++x) {
-        const std::ptrdiff_t g = layout_.index(x, y, z);
-        if (spec.kind == FaceKind::Inlet) {
-          for (int i = 0; i < nq; ++i) f.q(qs[i])[g] = static_cast<T>(inlet_ghost(spec, axis, inward, qs[i], y));
-        } else {  // Periodic
-          for (int i = 0; i < nq; ++i) f.q(qs[i])[g] = f.q(qs[i])[g + src_off];
-        }
+    for (int y = r.lo[1]; y <= r.hi[1]; ++y) {
+      const std::ptrdiff_t g = layout_.index(r.lo[0], y, z);
+      for (int i = 0; i < nq; ++i) {
+        T* const fq = f.q(qs[i]) + g;
+        if (spec.kind == FaceKind::Inlet)
+          std::fill_n(fq, len, static_cast<T>(inlet_ghost(spec, axis, inward, qs[i], y)));
+        else  // Periodic: source and ghost rows are n[axis] cells apart, never overlapping
+          std::copy_n(fq + src_off, len, fq);
       }
+    }
 }
 
 template <class T>

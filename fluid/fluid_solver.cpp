@@ -44,38 +44,45 @@ void swap_row_pairs(BasicPopulationField<T>& f, int q, int y, int z) {
 /// Canonical <-> Swapped (PopulationLayout): swaps the slots (q, x) and (opp q, x + c_q) of
 /// every pair in the extended grid (swap_row_pairs), once per pair (q odd). Each slot
 /// belongs to one pair only: the rows run in parallel.
+/// A grid wrapped along z (GridLayout::wraps_z) has the rows of its one plane only: its z
+/// ghost rows are those rows, and a pair's other end is in the plane.
 template <class T>
 void swap_layout(BasicPopulationField<T>& f) {
   const GridShape s = f.layout().shape();
-  const std::ptrdiff_t rows = std::ptrdiff_t(s.ny + 2) * (s.nz + 2);
+  const bool wrap = f.layout().wraps_z();
+  const std::ptrdiff_t rows = std::ptrdiff_t(s.ny + 2) * (wrap ? 1 : s.nz + 2);
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t r = 0; r < rows; ++r)
-    for (int q = 1; q < D3Q19::Q; q += 2) swap_row_pairs(f, q, int(r % (s.ny + 2)) - 1, int(r / (s.ny + 2)) - 1);
+    for (int q = 1; q < D3Q19::Q; q += 2)
+      swap_row_pairs(f, q, int(r % (s.ny + 2)) - 1, wrap ? 0 : int(r / (s.ny + 2)) - 1);
 }
 
 /// swap_layout restricted to what fill_ghosts_but_x reads and writes, Canonical <-> Swapped:
 /// in the rows next to a y or z face (ghost rows included) the populations that cross that
 /// face (c_y or c_z not 0; all 19 where a face of the axis reads them all: all_y, all_z),
 /// with the partners of their pairs; the rest of the field as it is. Each such pair once: by
-/// its q end where that row is one of them, else by the other end's row.
+/// its q end where that row is one of them, else by the other end's row. A grid wrapped
+/// along z has no z face to fill and the rows of its one plane only (swap_layout).
 template <class T>
 void swap_yz_shell(BasicPopulationField<T>& f, bool all_y, bool all_z) {
   const GridShape s = f.layout().shape();
+  const bool wrap = f.layout().wraps_z();
   const auto near_y = [&](int y) { return y <= 0 || y >= s.ny - 1; };
-  const auto near_z = [&](int z) { return z <= 0 || z >= s.nz - 1; };
+  const auto near_z = [&](int z) { return !wrap && (z <= 0 || z >= s.nz - 1); };
   // Whether the fill touches population q (or opp q) in row (y, z).
   const auto touched = [&](int q, int y, int z) {
     return (near_y(y) && (all_y || D3Q19::cy[q] != 0)) || (near_z(z) && (all_z || D3Q19::cz[q] != 0));
   };
-  const std::ptrdiff_t rows = std::ptrdiff_t(s.ny + 2) * (s.nz + 2);
+  const std::ptrdiff_t rows = std::ptrdiff_t(s.ny + 2) * (wrap ? 1 : s.nz + 2);
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t r = 0; r < rows; ++r) {
-    const int y = int(r % (s.ny + 2)) - 1, z = int(r / (s.ny + 2)) - 1;
+    const int y = int(r % (s.ny + 2)) - 1, z = wrap ? 0 : int(r / (s.ny + 2)) - 1;
     if (!near_y(y) && !near_z(z)) continue;
     for (int q = 1; q < D3Q19::Q; q += 2) {
-      const int y1 = y + D3Q19::cy[q], z1 = z + D3Q19::cz[q];  // the other end's row
+      const int dz = wrap ? 0 : D3Q19::cz[q];
+      const int y1 = y + D3Q19::cy[q], z1 = z + dz;  // the other end's row
       if (touched(q, y, z) || touched(q, y1, z1)) swap_row_pairs(f, q, y, z);
-      const int y0 = y - D3Q19::cy[q], z0 = z - D3Q19::cz[q];  // the pairs ending here
+      const int y0 = y - D3Q19::cy[q], z0 = z - dz;  // the pairs ending here
       if (y0 >= -1 && y0 <= s.ny && z0 >= -1 && z0 <= s.nz && !near_y(y0) && !near_z(z0) && touched(q, y, z))
         swap_row_pairs(f, q, y0, z0);
     }
@@ -84,11 +91,21 @@ void swap_yz_shell(BasicPopulationField<T>& f, bool all_y, bool all_z) {
 
 }  // namespace
 
+/// layout_of, wrapped along z (GridLayout::wrapped_z) where the grid is one cell thick and
+/// periodic along z in this process.
+GridLayout FluidSolver::solver_layout(const FluidParams& p, const HaloExchange* halo) {
+  const GridLayout l = layout_of(p.shape, p.precision);
+  const bool z_halo = halo != nullptr && (halo->faces()[ZMin] || halo->faces()[ZMax]);
+  const bool thin_periodic = p.shape.nz == 1 && p.faces[ZMin].kind == FaceKind::Periodic &&
+                             p.faces[ZMax].kind == FaceKind::Periodic && !z_halo;
+  return thin_periodic ? l.wrapped_z() : l;
+}
+
 const char* propagation_name(Propagation p) { return p == Propagation::TwoGrid ? "two-grid" : "in-place"; }
 
 FluidSolver::FluidSolver(const FluidParams& params, HaloExchange* halo)
     : params_(params),
-      layout_(layout_of(params.shape, params.precision)),
+      layout_(solver_layout(params, halo)),
       halo_(halo),
       bc_(layout_, params.faces, halo != nullptr ? halo->faces() : std::array<bool, kFaces>{}),
       x_faces_(bc_.in_place_x_faces()) {

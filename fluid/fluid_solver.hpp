@@ -165,6 +165,7 @@ class FluidSolver {
   void restore_state(const PopulationFieldSingle& from, std::int64_t steps);
 
  private:
+  static GridLayout solver_layout(const FluidParams& p, const HaloExchange* halo);
   template <class T>
   void copy_state_of(const BasicPopulationField<T>& f, BasicPopulationField<T>& to) const;
   template <class T>

@@ -544,6 +544,77 @@ TEST(Lattice, GhostFillDoesNotReadStaleValues) {
     }
 }
 
+// A grid one cell thick and periodic along z is its own z image (GridLayout::wraps_z: no z
+// ghost fill, the pulls across z read the plane itself). It must step as the same flow on a
+// thicker periodic grid, which fills its z ghosts: a state and forces that do not depend on z
+// stay so, and every plane of the thick grid holds the thin grid's bits. Every x / y face
+// pair of stale_ghost_grids, both stores and propagations, forced cells, an odd number of
+// steps (the in-place state ends Swapped), every kernel level this CPU runs.
+template <class T>
+int thin_grid_mismatches(FluidParams p, Precision precision, Propagation propagation) {
+  p.precision = precision;
+  p.propagation = propagation;
+  p.faces[ZMin] = p.faces[ZMax] = FaceSpec{};  // periodic
+  FluidParams thick = p;
+  p.shape.nz = 1;
+  thick.shape.nz = 3;
+  FluidSolver a(p), b(thick);
+  EXPECT_TRUE(a.layout().wraps_z());
+  EXPECT_FALSE(b.layout().wraps_z());
+  const auto init = [](int x, int y, int) {
+    return CellState{1.0 + 0.01 * std::sin(x + 2 * y), 0.02 * std::cos(y), 0.015 * std::sin(x), -0.01 * std::cos(x + y)};
+  };
+  a.initialize(init);
+  b.initialize(init);
+  std::string faces;
+  for (int f = 0; f < kFaces; ++f) faces += std::string(" ") + face_name(f) + "=" + kind_name(p.faces[f].kind);
+  const std::string where = std::string(precision_name(precision)) + " store, " + propagation_name(propagation) +
+                            ", faces" + faces;
+  int bad = 0;
+  for (int step = 1; step <= 3; ++step) {
+    for (const auto& [x, y] : {std::pair{0, 0}, std::pair{2, 3}, std::pair{p.shape.nx - 1, p.shape.ny - 1}}) {
+      const double fx = 1e-4 * step, fy = -2e-4, fz = 3e-4;
+      a.add_force(x, y, 0, fx, fy, fz);
+      for (int z = 0; z < thick.shape.nz; ++z) b.add_force(x, y, z, fx, fy, fz);
+    }
+    a.step();
+    b.step();
+    for (int z = 0; z < thick.shape.nz; ++z)
+      for (int y = 0; y < p.shape.ny; ++y)
+        for (int x = 0; x < p.shape.nx; ++x) {
+          double fa[L::Q], fb[L::Q];
+          a.populations_at(x, y, 0, fa);
+          b.populations_at(x, y, z, fb);
+          for (int q = 0; q < L::Q; ++q)
+            if ((std::memcmp(&fa[q], &fb[q], sizeof(double)) != 0 || !std::isfinite(fa[q])) && ++bad <= 3)
+              ADD_FAILURE() << where << ": population " << q << " of (" << x << ", " << y << ") after step " << step
+                            << ": " << fa[q] << " (one cell thick) vs " << fb[q] << " (plane " << z << " of 3)";
+        }
+  }
+  return bad;
+}
+
+TEST(Lattice, ThinPeriodicGridMatchesThickerOne) {
+  const std::string before = active_kernel().level;
+  std::vector<FluidParams> grids;
+  for (const FluidParams& p : stale_ghost_grids())  // one per x / y pair
+    if (p.faces[ZMin].kind == FaceKind::Periodic) grids.push_back(p);
+  ASSERT_EQ(grids.size(), 49u);
+  int levels = 0;
+  for (const std::string& level : kernel_levels()) {
+    if (!cpu_runs_level(level)) continue;
+    set_kernel_level(level);
+    for (const FluidParams& p : grids)
+      for (const Propagation prop : {Propagation::TwoGrid, Propagation::InPlace}) {
+        EXPECT_EQ(thin_grid_mismatches<double>(p, Precision::Double, prop), 0) << level;
+        EXPECT_EQ(thin_grid_mismatches<float>(p, Precision::Single, prop), 0) << level;
+      }
+    ++levels;
+  }
+  EXPECT_GE(levels, 1);
+  set_kernel_level(before);
+}
+
 // An outflow's edge ghosts next to a halo axis would extrapolate from a neighbour block's
 // cell, which the exchange does not send whole: refused (the slabs have their halo on z).
 TEST(Lattice, OutflowAfterAHaloAxisIsRefused) {
