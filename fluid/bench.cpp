@@ -310,6 +310,8 @@ void print_header(const Options& opt, const std::vector<Case>& cases) {
   const KernelTable& k = active_kernel();
   std::printf("CPU: %s; kernel level %s (%s), chosen by %s\n", cpu_model().c_str(), k.level, k.vectors,
               kernel_level_source());
+  std::printf("two-grid fields of %.1f MiB and more written with non-temporal stores (the L3 size of CPU 0, else 32)\n",
+              double(streaming_stores_from()) / double(1 << 20));
   std::printf("cosim fluid bench: D3Q19 BGK-Guo, arithmetic in double, populations stored in");
   for (const Precision p : opt.precisions) std::printf(" %s", precision_name(p));
   std::printf(", structure of arrays\n");

@@ -106,11 +106,15 @@ void stream_collide_in_place(PopulationFieldSingle& f, PopulationLayout layout, 
                              const std::array<double, 3>& force, KernelExtrema* extrema = nullptr,
                              RowSchedule schedule = RowSchedule::Static, const InPlaceXFaces* x_faces = nullptr);
 
-/// Population fields from this size on (bytes, 19 populations with ghosts, either precision) are written with
-/// non-temporal stores: they cannot stay in cache between steps, and skipping the read for
-/// ownership cuts the traffic per update from 456 to 304 bytes. Smaller fields are reused
-/// from cache, where ordinary stores are faster (measured: docs/performance.md).
+/// Population fields from the size of the CPU's last-level cache on (bytes, 19 populations
+/// with ghosts, either precision) are written with non-temporal stores: they cannot stay in
+/// cache between steps, and skipping the read for ownership cuts the traffic per update from
+/// 456 to 304 bytes. Smaller fields are reused from cache, where ordinary stores are faster
+/// (measured: docs/performance.md, on a CPU with 32 MiB of L3). The L3 size as the Linux
+/// kernel describes it (sysfs), this where it does not.
 constexpr std::size_t kStreamingStoresFrom = std::size_t(32) << 20;
+/// The threshold in use: the L3 size of this CPU, or kStreamingStoresFrom.
+std::size_t streaming_stores_from();
 
 /// Whether stream_collide(..., stores) writes fields of this layout with non-temporal
 /// stores (never where the target has none, see kHasStreamingStores in fluid/lanes.hpp).

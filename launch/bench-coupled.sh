@@ -7,6 +7,9 @@
 #   serial   wall / (fluid alone + solid alone)   the serial scheme's goal: <= 1.15
 #   parallel wall / max(fluid alone, solid alone) the parallel scheme's goal: <= 1.10
 #   bash launch/bench-coupled.sh [--no-build] [--scenes "coupled_small coupled_paper_grid"]
+#                                [--propagation two-grid|in-place]
+# --propagation sets the scenes' [run] propagation (default: theirs, two-grid); outputs in
+# out/bench/SCENE/ (with --propagation: out/bench/SCENE_PROPAGATION/).
 # The fluid runs with OpenMP's default threads unless OMP_NUM_THREADS is set; set
 # OMP_WAIT_POLICY=passive so that its idle threads do not spin on the solid's core.
 set -euo pipefail
@@ -14,14 +17,20 @@ set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 build=1
 scenes="coupled_small coupled_paper_grid"
+propagation=""
 while [ $# -gt 0 ]; do
   case "$1" in
     --no-build) build=0 ;;
     --scenes) scenes="$2"; shift ;;
-    *) echo "bench-coupled: unknown argument $1 (--no-build, --scenes \"A B\")" >&2; exit 2 ;;
+    --propagation) propagation="${2-}"; shift ;;
+    *) echo "bench-coupled: unknown argument $1 (--no-build, --scenes \"A B\", --propagation P)" >&2; exit 2 ;;
   esac
   shift
 done
+case "$propagation" in
+  ""|two-grid|in-place) ;;
+  *) echo "bench-coupled: --propagation: \"$propagation\" is not one of two-grid, in-place" >&2; exit 2 ;;
+esac
 if [ $build -eq 1 ]; then
   bash "$root/launch/bootstrap.sh"
   bash "$root/launch/build.sh" >/dev/null
@@ -29,18 +38,21 @@ fi
 field() {  # field FILE REGEX: the number captured by the first (..) of the regex
   sed -n "s/$2/\1/p" "$1" | head -1
 }
-echo "bench-coupled: $(getconf _NPROCESSORS_ONLN) cores, OMP_NUM_THREADS=${OMP_NUM_THREADS:-default}," \
+echo "bench-coupled: propagation ${propagation:-of the scenes}; $(getconf _NPROCESSORS_ONLN) cores, OMP_NUM_THREADS=${OMP_NUM_THREADS:-default}," \
   "OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-default}; load average $(cut -d' ' -f1-3 /proc/loadavg)"
 printf '%-20s %-8s %13s %5s %6s | %13s %10s %10s | %13s %10s | %9s\n' scene scheme grid CGPs steps \
   "fluid compute" "wait" "publish" "solid compute" "wait" "wall/step"
 declare -A wall fluid_alone solid_alone
 for scene in $scenes; do
   for scheme in serial parallel; do
-    out="$root/out/bench/$scene/$scheme"
+    out="$root/out/bench/$scene${propagation:+_$propagation}/$scheme"
     rm -rf "$out"
     mkdir -p "$out"
     # The scene with its scheme (the file both servers read; the replay needs its bytes).
-    sed "s/^\[coupling\]$/[coupling]\nscheme = \"$scheme\"/" "$root/scenes/$scene.toml" > "$out/../$scheme.toml"
+    run_line="[run]"
+    [ -n "$propagation" ] && run_line="[run]\npropagation = \"$propagation\""
+    sed -e "s/^\[coupling\]$/[coupling]\nscheme = \"$scheme\"/" -e "s/^\[run\]$/$run_line/" \
+      "$root/scenes/$scene.toml" > "$out/../$scheme.toml"
     log=()
     [ "$scheme" = serial ] && log=(--log)
     bash "$root/launch/run-coupled.sh" "$out/../$scheme.toml" --no-build --quiet --output "$out" "${log[@]}" >/dev/null
