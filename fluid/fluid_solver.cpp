@@ -241,7 +241,9 @@ void FluidSolver::add_force(int x, int y, int z, double fx, double fy, double fz
 }
 
 void FluidSolver::step() {
-  if (halo_ != nullptr && bc_.has_halo() && layout_.nz() >= 3) {
+  // A block's two-grid step sends its edge planes while it collides its interior ones; the
+  // in-place step has one grid, whose edge planes the interior's collision would overwrite.
+  if (halo_ != nullptr && bc_.has_halo() && layout_.nz() >= 3 && params_.propagation == Propagation::TwoGrid) {
     if (params_.precision == Precision::Double)
       step_overlapped(f_, g_);
     else

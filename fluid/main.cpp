@@ -285,24 +285,12 @@ void release_stderr() {
 #if COSIM_HAVE_MPI
 int mpi_ranks() { return g_world != nullptr ? g_world->size() : 1; }
 
-/// The in-place propagation over MPI ranks (fluid-only or coupled): not built yet; rank 0
-/// says so in one line.
-bool in_place_refused(const FluidScene& scene) {
-  if (scene.params.propagation != Propagation::InPlace) return false;
-  if (g_world->rank() == 0)
-    std::fprintf(stderr,
-                 "%s: run.propagation = 'in-place' runs in one process for now (%d MPI ranks given); "
-                 "use 'two-grid' or run without --ranks\n",
-                 scene.path.c_str(), mpi_ranks());
-  return true;
-}
 #endif
 
 /// A fluid-only scene in this process, or over the MPI ranks of an mpirun.
 int run_fluid_only(const FluidScene& scene, bool quiet) {
 #if COSIM_HAVE_MPI
   if (mpi_ranks() > 1) {
-    if (in_place_refused(scene)) return exit_code::bad_input;
     std::unique_ptr<FluidDomain> domain;
     try {
       domain = std::make_unique<mpi::DistributedFluid>(scene, g_world->comm());
@@ -323,7 +311,6 @@ int run_fluid_only(const FluidScene& scene, bool quiet) {
 int run_coupled_scene(const FluidScene& scene, const CoupledFluidOptions& co) {
 #if COSIM_HAVE_MPI
   if (mpi_ranks() > 1) {
-    if (in_place_refused(scene)) return exit_code::bad_input;
     std::unique_ptr<mpi::DistributedFluid> grid;
     try {
       grid = std::make_unique<mpi::DistributedFluid>(scene, g_world->comm());

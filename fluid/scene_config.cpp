@@ -199,7 +199,7 @@ void load_run(const SceneReader& r, FluidScene& s) {
     s.params.precision = *p == 0 ? Precision::Double : Precision::Single;
   // How a step moves the populations (FluidParams::propagation): the same bits either way
   // (in a coupled scene too: the schemes run the whole step after the solid's message,
-  // FluidDomain::bulk_before_impulses). One process only (fluid/main.cpp refuses MPI ranks).
+  // FluidDomain::bulk_before_impulses), in one process or over MPI ranks.
   if (const auto p = run.choice("propagation", {"two-grid", "in-place"}))
     s.params.propagation = *p == 0 ? Propagation::TwoGrid : Propagation::InPlace;
 }

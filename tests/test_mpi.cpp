@@ -105,6 +105,24 @@ TEST(Mpi, MpiFluidMatchesSerialBitForBit) {
                                  {"threads = 1", "threads = 1\nprecision = \"single\""}});
     expect_ranks_match_serial(xy, dir / "periodic_xy");
   }
+  {
+    // The in-place propagation: each block's one grid, its halo planes exchanged in the
+    // state's arrangement of the step (Canonical or Swapped, fill_swapped_ghosts).
+    SCOPED_TRACE("in place, periodic span, double store");
+    fs::create_directories(dir / "in_place");
+    const fs::path in_place = variant(channel, dir / "in_place", {{"threads = 1", "threads = 1\npropagation = \"in-place\""}});
+    expect_ranks_match_serial(in_place, dir / "in_place");
+  }
+  {
+    SCOPED_TRACE("in place, walls across the span, single store");
+    fs::create_directories(dir / "in_place_walls");
+    const fs::path walls = variant(channel, dir / "in_place_walls",
+                                   {{"z_min = \"periodic\"", "z_min = \"wall\""},
+                                    {"z_max = \"periodic\"", "z_max = \"free_slip\""},
+                                    {"threads = 1", "threads = 1\nprecision = \"single\"\npropagation = \"in-place\""},
+                                    {"[output]", "[wall_velocity]\nz_min = [0.02, 0.0, 0.0]\n\n[output]"}});
+    expect_ranks_match_serial(walls, dir / "in_place_walls");
+  }
 }
 
 TEST(Mpi, MpiBlocksThatCannotBeBuiltAreRefusedInOneLine) {

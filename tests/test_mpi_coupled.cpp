@@ -107,6 +107,33 @@ TEST(MpiCoupled, MpiCoupledMatchesSerialBitForBit) {
   if (!HasFailure()) fs::remove_all(dir);
 }
 
+// The in-place propagation over ranks: each block's one grid, its halo planes exchanged in
+// the arrangement of the step's state. For each scheme the runs on 2 and 3 ranks in place
+// write the serial two-grid run's outputs, bit for bit.
+TEST(MpiCoupled, MpiInPlaceCoupledMatchesTwoGridSerial) {
+  if (!have_mpirun()) GTEST_SKIP() << "mpirun is not installed (launch/bootstrap.sh)";
+  const fs::path dir = scratch("mpi_coupled_in_place");
+  for (const std::string scheme : {"serial", "parallel", "implicit"}) {
+    SCOPED_TRACE(scheme + " scheme");
+    const fs::path scene = write_scene(dir / scheme, scheme);
+    std::string text = slurp(scene);
+    replace_in(text, "steps = 60", "steps = 60\npropagation = \"in-place\"");
+    const fs::path in_place = dir / scheme / ("in_place_" + scene.filename().string());
+    std::ofstream(in_place) << text;
+    const fs::path serial = dir / scheme / "serial";
+    expect_run_done(serial, run_launcher(kSource, scene, serial, "", kOneThread));
+    for (int ranks = 2; ranks <= 3; ++ranks) {
+      const fs::path out = dir / scheme / ("ranks" + std::to_string(ranks));
+      expect_run_done(out, run_launcher(kSource, in_place, out, "--ranks " + std::to_string(ranks), kOneThread));
+      EXPECT_TRUE(contains(slurp(out / "fluid.log"), "in-place propagation")) << logs(out);
+      std::size_t files = 0;
+      EXPECT_EQ(compare_outputs(serial, out, &files), "") << ranks << " ranks";
+      EXPECT_EQ(files, 12u) << ranks << " ranks";
+    }
+  }
+  if (!HasFailure()) fs::remove_all(dir);
+}
+
 /// The populations of a fluid checkpoint (the whole grid's store, ghosts included).
 std::vector<unsigned char> populations(const fs::path& file) {
   const auto d = read_datasets(file);

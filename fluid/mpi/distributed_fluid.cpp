@@ -258,8 +258,9 @@ std::string DistributedFluid::kernel_problem(const HealthLimits& limits) {
   all.u2_max = hi[0];
   all.finite = finite != 0;
   if (!kernel_extrema_suspect(all, limits)) return {};
-  // A closer look, as kernel_state_problem: the state the last step read, summarised whole.
-  const std::optional<FlowSummary> s = summary_of(!block_->mid_step());
+  // A closer look, as kernel_state_problem: the state the last step read, summarised whole
+  // (the state now mid-step, or where no previous state is kept: the in-place propagation).
+  const std::optional<FlowSummary> s = summary_of(!block_->mid_step() && block_->has_previous_state());
   return broadcast(comm_, s ? health_problem(*s, limits) : std::string());
 }
 
