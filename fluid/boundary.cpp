@@ -94,7 +94,7 @@ PlaneRange plane_range(const GridLayout& L, int axis, bool all_ghosts) {
 ///    faces go last), so there the choice only keeps the outflow from reading stale values.
 /// Elsewhere b is g + src_off, as before.
 template <class T>
-void fill_outflow(BasicPopulationField<T>& f, const GridLayout& layout, int face, double rho_out,
+void fill_outflow(const PopulationSlots<T>& f, const GridLayout& layout, int face, double rho_out,
                   const PlaneRange& r, std::ptrdiff_t src_off, const bool periodic[3]) {
   const int axis = face_axis(face);
   const int inward = face_side(face) == 0 ? 1 : -1;
@@ -122,7 +122,7 @@ void fill_outflow(BasicPopulationField<T>& f, const GridLayout& layout, int face
         for (int q = 0; q < D3Q19::Q; ++q) stored[q] = f.q(q)[b];
         outflow_ghost(stored, axis, inward, rho_out, ghost);
         for (int q = 0; q < D3Q19::Q; ++q)
-          if (D3Q19::c(q, axis) == inward) f.q(q)[g] = ghost[q];
+          if (D3Q19::c(q, axis) == inward && f.has(q, x, y, z)) f.q(q)[g] = ghost[q];
       }
 }
 
@@ -190,7 +190,7 @@ bool BoundaryConditions::fills_copy(int face, Fill which) const {
 }
 
 template <class T>
-void BoundaryConditions::fill_copy_faces(BasicPopulationField<T>& f, int from, int to, Fill which) const {
+void BoundaryConditions::fill_copy_faces(const PopulationSlots<T>& f, int from, int to, Fill which) const {
   for (int face = from; face < to; ++face)
     if (fills_copy(face, which)) {
       fill_copy_face(f, face);
@@ -208,7 +208,7 @@ void BoundaryConditions::fill_copy_faces(BasicPopulationField<T>& f, int from, i
 /// ghosts mirror populations the earlier one wrote from the interior. The order matters
 /// only on such edges (no other reflecting fill reads another's ghosts).
 template <class T>
-void BoundaryConditions::fill_reflect_faces(BasicPopulationField<T>& f, Fill which) const {
+void BoundaryConditions::fill_reflect_faces(const PopulationSlots<T>& f, Fill which) const {
   for (const FaceKind kind : {FaceKind::FreeSlip, FaceKind::Wall})
     for (int face = which == Fill::AllButX ? 2 : 0; face < kFaces; ++face)
       if (faces_[face].kind == kind) {
@@ -218,17 +218,21 @@ void BoundaryConditions::fill_reflect_faces(BasicPopulationField<T>& f, Fill whi
 }
 
 template <class T>
-void BoundaryConditions::fill(BasicPopulationField<T>& f, HaloExchange* halo, Fill which) const {
+void BoundaryConditions::fill(BasicPopulationField<T>& f, HaloExchange* halo, Fill which,
+                              PopulationLayout arrangement) const {
+  const PopulationSlots<T> slots(f, arrangement);
   if (!has_halo()) {
     // One parallel region; the loops of a face (one per population) run without waiting for
     // each other, and one barrier after each face keeps the faces in order.
 #pragma omp parallel
     {
-      fill_copy_faces(f, 0, kFaces, which);
-      fill_reflect_faces(f, which);
+      fill_copy_faces(slots, 0, kFaces, which);
+      fill_reflect_faces(slots, which);
     }
     return;
   }
+  if (arrangement != PopulationLayout::Canonical)
+    throw std::logic_error("BoundaryConditions: a Swapped state's ghosts with halo faces (the exchange sends the field as it is)");
   if (halo == nullptr) throw std::logic_error("BoundaryConditions: a block with halo faces needs its exchange");
   if (halo->faces() != halo_)
     throw std::logic_error("BoundaryConditions: the halo exchange fills other faces than the conditions leave to it");
@@ -238,12 +242,12 @@ void BoundaryConditions::fill(BasicPopulationField<T>& f, HaloExchange* halo, Fi
   int halo_axis = 0;
   while (!halo_[2 * halo_axis] && !halo_[2 * halo_axis + 1]) ++halo_axis;
 #pragma omp parallel
-  fill_copy_faces(f, 0, 2 * halo_axis, which);
+  fill_copy_faces(slots, 0, 2 * halo_axis, which);
   halo->exchange(f);
 #pragma omp parallel
   {
-    fill_copy_faces(f, 2 * halo_axis, kFaces, which);
-    fill_reflect_faces(f, which);
+    fill_copy_faces(slots, 2 * halo_axis, kFaces, which);
+    fill_reflect_faces(slots, which);
   }
 }
 
@@ -308,6 +312,11 @@ void BoundaryConditions::fill_ghosts_but_x(BasicPopulationField<T>& f, HaloExcha
   fill(f, halo, Fill::AllButX);
 }
 
+template <class T>
+void BoundaryConditions::fill_swapped_ghosts(BasicPopulationField<T>& f, bool x_faces) const {
+  fill(f, nullptr, x_faces ? Fill::All : Fill::AllButX, PopulationLayout::Swapped);
+}
+
 InPlaceXFaces BoundaryConditions::in_place_x_faces() const {
   InPlaceXFaces k;
   for (const int face : {XMin, XMax}) {
@@ -327,10 +336,11 @@ InPlaceXFaces BoundaryConditions::in_place_x_faces() const {
 
 template <class T>
 void BoundaryConditions::fill_static_ghosts(BasicPopulationField<T>& f) const {
+  const PopulationSlots<T> slots(f, PopulationLayout::Canonical);
 #pragma omp parallel
   for (int face = 0; face < kFaces; ++face)
     if (faces_[face].kind == FaceKind::Inlet) {
-      fill_copy_face(f, face);
+      fill_copy_face(slots, face);
 #pragma omp barrier
     }
 }
@@ -342,8 +352,9 @@ void BoundaryConditions::fill_step_ghosts(BasicPopulationField<T>& f, HaloExchan
 
 template <class T>
 void BoundaryConditions::fill_reflect_ghosts(BasicPopulationField<T>& f) const {
+  const PopulationSlots<T> slots(f, PopulationLayout::Canonical);
 #pragma omp parallel
-  fill_reflect_faces(f, Fill::All);
+  fill_reflect_faces(slots, Fill::All);
 }
 
 KernelOutflow BoundaryConditions::kernel_outflow() const {
@@ -372,7 +383,7 @@ void BoundaryConditions::fill_outflow_ghost(BasicPopulationField<T>& f, int x, i
 }
 
 template <class T>
-void BoundaryConditions::fill_copy_face(BasicPopulationField<T>& f, int face) const {
+void BoundaryConditions::fill_copy_face(const PopulationSlots<T>& f, int face) const {
   const FaceSpec& spec = faces_[face];
   const int axis = face_axis(face), side = face_side(face);
   const int n[3] = {layout_.nx(), layout_.ny(), layout_.nz()};
@@ -401,13 +412,14 @@ void BoundaryConditions::fill_copy_face(BasicPopulationField<T>& f, int face) co
 
   // One row of the plane at a time, each population's part of it one contiguous copy (the
   // rows along x; an x face's rows are one cell long).
-  const std::ptrdiff_t len = r.hi[0] - r.lo[0] + 1;
 #pragma omp for collapse(2) schedule(static) nowait
   for (int z = r.lo[2]; z <= r.hi[2]; ++z)
     for (int y = r.lo[1]; y <= r.hi[1]; ++y) {
-      const std::ptrdiff_t g = layout_.index(r.lo[0], y, z);
       for (int i = 0; i < nq; ++i) {
-        T* const fq = f.q(qs[i]) + g;
+        int lo = r.lo[0], hi = r.hi[0];
+        if (!f.clip(qs[i], lo, hi, y, z)) continue;
+        const std::ptrdiff_t len = hi - lo + 1;
+        T* const fq = f.q(qs[i]) + layout_.index(lo, y, z);
         if (spec.kind == FaceKind::Inlet)
           std::fill_n(fq, len, static_cast<T>(inlet_ghost(spec, axis, inward, qs[i], y)));
         else  // Periodic: source and ghost rows are n[axis] cells apart, never overlapping
@@ -417,7 +429,7 @@ void BoundaryConditions::fill_copy_face(BasicPopulationField<T>& f, int face) co
 }
 
 template <class T>
-void BoundaryConditions::fill_reflect_face(BasicPopulationField<T>& f, int face) const {
+void BoundaryConditions::fill_reflect_face(const PopulationSlots<T>& f, int face) const {
   const FaceSpec& spec = faces_[face];
   const int axis = face_axis(face), side = face_side(face);
   const int n[3] = {layout_.nx(), layout_.ny(), layout_.nz()};
@@ -462,17 +474,22 @@ void BoundaryConditions::fill_reflect_face(BasicPopulationField<T>& f, int face)
       const T* fm = f.q(m);
 #pragma omp for collapse(2) schedule(static) nowait
       for (int z = r.lo[2]; z <= r.hi[2]; ++z)
-        for (int y = r.lo[1]; y <= r.hi[1]; ++y)
-          for (int x = r.lo[0]; x <= r.hi[0]; ++x) {
+        for (int y = r.lo[1]; y <= r.hi[1]; ++y) {
+          int lo = r.lo[0], hi = r.hi[0];
+          if (!f.clip(q, lo, hi, y, z)) continue;
+          for (int x = lo; x <= hi; ++x) {
             const std::ptrdiff_t g = layout_.index(x, y, z);
             fq[g] = fm[g + in_off];
           }
+        }
     }
   }
 }
 
 template void BoundaryConditions::fill_ghosts(PopulationField&, HaloExchange*) const;
 template void BoundaryConditions::fill_ghosts_but_x(PopulationField&, HaloExchange*) const;
+template void BoundaryConditions::fill_swapped_ghosts(PopulationField&, bool) const;
+template void BoundaryConditions::fill_swapped_ghosts(PopulationFieldSingle&, bool) const;
 template void BoundaryConditions::fill_ghosts_but_x(PopulationFieldSingle&, HaloExchange*) const;
 template void BoundaryConditions::fill_static_ghosts(PopulationField&) const;
 template void BoundaryConditions::fill_step_ghosts(PopulationField&, HaloExchange*) const;

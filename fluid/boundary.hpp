@@ -1,6 +1,7 @@
 // Boundary conditions of the lattice block as ghost-layer fills (DESIGN 4.1).
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <string>
 #include <vector>
@@ -99,6 +100,46 @@ void in_place_x_ghosts(T* row, const std::ptrdiff_t* slot, int nx, int y, const 
 /// reflecting ones, the place of a periodic copy in the order above (a halo is a periodic
 /// copy from another block), so that every ghost a pull reads gets the bits it has in the
 /// undivided grid (test_mpi: MpiFluidMatchesSerialBitForBit).
+/// The population arrays of a field as the ghost fills address them: A[q] itself for the
+/// Canonical arrangement; for the Swapped one of the in-place propagation (PopulationLayout),
+/// the slots that hold the same values, A[opp q] shifted by c_q (the other end of each pair
+/// swap_layout turns). A fill through the Swapped slots writes and reads what it would on
+/// the field turned Canonical, without turning it. Pointers only: no bounds beyond those
+/// of the field's one allocation (19 arrays back to back, |c_q| < one stride).
+template <class T>
+class PopulationSlots {
+ public:
+  using value_type = T;
+  PopulationSlots(BasicPopulationField<T>& f, PopulationLayout arrangement)
+      : layout_(f.layout()), swapped_(arrangement == PopulationLayout::Swapped) {
+    for (int q = 0; q < D3Q19::Q; ++q)
+      q_[q] = swapped_ ? f.q(D3Q19::opp[q]) + layout_.offset(D3Q19::cx[q], D3Q19::cy[q], D3Q19::cz[q]) : f.q(q);
+  }
+  T* q(int i) const { return q_[i]; }
+  /// The part x = lo .. hi of row (y, z) of population q that has a slot here, clipped in
+  /// place; false where none has. Canonical: all of it. Swapped: the values (q, x) whose
+  /// pair's other end x + c_q is in the extended grid (ghosts included); swap_layout leaves
+  /// the others, ghosts on the outer ring that no cell pulls, and so do the fills (writing
+  /// them would write into the neighbouring row, plane or array).
+  bool clip(int q, int& lo, int& hi, int y, int z) const {
+    if (!swapped_) return true;
+    const int y2 = y + D3Q19::cy[q], z2 = z + D3Q19::cz[q];
+    if (y2 < -1 || y2 > layout_.ny() || (!layout_.wraps_z() && (z2 < -1 || z2 > layout_.nz()))) return false;
+    lo = std::max(lo, -1 - D3Q19::cx[q]);
+    hi = std::min(hi, layout_.nx() - D3Q19::cx[q]);
+    return lo <= hi;
+  }
+  bool has(int q, int x, int y, int z) const {
+    int lo = x, hi = x;
+    return clip(q, lo, hi, y, z);
+  }
+
+ private:
+  GridLayout layout_;
+  bool swapped_;
+  T* q_[D3Q19::Q];
+};
+
 class BoundaryConditions {
  public:
   BoundaryConditions() = default;
@@ -135,6 +176,12 @@ class BoundaryConditions {
   /// faces' ghosts as it goes (in_place_x_faces): the y and z faces over the x ghosts there.
   template <class T>
   void fill_ghosts_but_x(BasicPopulationField<T>& f, HaloExchange* halo = nullptr) const;
+  /// fill_ghosts (x_faces = true) or fill_ghosts_but_x (false) of an in-place state in the
+  /// Swapped arrangement, through its slots (PopulationSlots): the bits the fill gives the
+  /// state turned Canonical, turned back. @pre no halo faces (the exchange sends planes of
+  /// the field as it is)
+  template <class T>
+  void fill_swapped_ghosts(BasicPopulationField<T>& f, bool x_faces) const;
   /// The x faces as the in-place kernel writes their ghosts (periodic, outflow, inlet: the
   /// arithmetic of fill_ghosts, outflow_ghost and the inlet equilibria of its fill); the other
   /// kinds (walls, free slip, halo) are Kind::Other, filled by fill_ghosts.
@@ -162,21 +209,22 @@ class BoundaryConditions {
   // Called inside a parallel region: their plane loops are worksharing loops without a
   // barrier (the loops of one face are independent); the caller puts one after each face.
   template <class T>
-  void fill_copy_face(BasicPopulationField<T>& f, int face) const;
+  void fill_copy_face(const PopulationSlots<T>& f, int face) const;
   template <class T>
-  void fill_reflect_face(BasicPopulationField<T>& f, int face) const;
+  void fill_reflect_face(const PopulationSlots<T>& f, int face) const;
   /// Which faces fill() fills: All (fill_ghosts), Step (fill_step_ghosts), AllButX
   /// (fill_ghosts_but_x).
   enum class Fill { All, Step, AllButX };
   /// The faces in order, the halo (if any) between two parallel regions.
   template <class T>
-  void fill(BasicPopulationField<T>& f, HaloExchange* halo, Fill which) const;
+  void fill(BasicPopulationField<T>& f, HaloExchange* halo, Fill which,
+            PopulationLayout arrangement = PopulationLayout::Canonical) const;
   /// Inside a parallel region: the copy-type faces from .. to - 1 that fill() fills, and the
   /// reflecting faces, a barrier after each face.
   template <class T>
-  void fill_copy_faces(BasicPopulationField<T>& f, int from, int to, Fill which) const;
+  void fill_copy_faces(const PopulationSlots<T>& f, int from, int to, Fill which) const;
   template <class T>
-  void fill_reflect_faces(BasicPopulationField<T>& f, Fill which) const;
+  void fill_reflect_faces(const PopulationSlots<T>& f, Fill which) const;
   /// A copy-type face that this object fills in the fill `which`.
   bool fills_copy(int face, Fill which) const;
 
