@@ -70,36 +70,6 @@ void outflow_ghost(const T* stored, int axis, int inward, double rho_out, T* gho
 template <class T>
 void in_place_x_ghosts(T* row, const std::ptrdiff_t* slot, int nx, int y, const InPlaceXFaces& xf);
 
-/// Fills the ghost layer of a field of post-collision populations so that a pull
-/// (f_q(x) = f*_q(x - c_q)) at every interior cell realises the boundary conditions:
-///  - Periodic: copy from the opposite face.
-///  - Inlet: equilibrium (Eq. 11) at inlet_density and the inlet velocity.
-///  - Outflow: zero-gradient velocity at a reference density (non-equilibrium
-///    extrapolation, Guo, Zheng and Shi 2002): the ghost holds
-///    f_eq(rho_out, u_b) + (f*_b - f_eq(rho_b, u_b)) of the last interior cell b. Velocity
-///    and stress leave with zero gradient; the density (pressure) is pinned, so an open
-///    channel neither gains nor loses mass without bound. A plain copy of all populations
-///    pins nothing: with a velocity inlet the mass of the channel then drifts.
-///  - Wall: half-way bounce-back, f_q(x) = f*_opp(x) + 6 E_q rho c_q.U_w (Eq. 14 with the
-///    wall at half a cell outside the last interior layer).
-///  - FreeSlip: specular reflection, f_q(x) = f*_mirror(q)(x - c_q + c_q,n n).
-/// Copy-type faces are filled axis by axis (x, y, z), each over the ghosts of the axes
-/// before it, so edges and corners come out right; an outflow's edge ghosts there
-/// extrapolate from the interior cell the earlier ghost stands for (its periodic image, else
-/// the nearest interior cell; fill_outflow in boundary.cpp), since the earlier fills write
-/// only the populations entering the grid. Reflecting faces go last, free slip before walls,
-/// so that a wall's bounce-back decides the edge it shares with free slip. Every pulled
-/// ghost population is thus a function of the interior and the faces' constants, never of
-/// what the ghosts held before (test_lbm_invariants: GhostFillDoesNotReadStaleValues).
-/// Either store precision (T = double or float): values are computed
-/// in double from the stored ones and rounded once when stored.
-///
-/// A block of a decomposed grid (DESIGN 8) has faces that are neither: a neighbour block's
-/// edge plane goes into their ghosts. Those are the faces of a HaloExchange given to the
-/// fills; the fills skip them and call the exchange between the copy-type faces and the
-/// reflecting ones, the place of a periodic copy in the order above (a halo is a periodic
-/// copy from another block), so that every ghost a pull reads gets the bits it has in the
-/// undivided grid (test_mpi: MpiFluidMatchesSerialBitForBit).
 /// The population arrays of a field as the ghost fills address them: A[q] itself for the
 /// Canonical arrangement; for the Swapped one of the in-place propagation (PopulationLayout),
 /// the slots that hold the same values, A[opp q] shifted by c_q (the other end of each pair
@@ -140,6 +110,36 @@ class PopulationSlots {
   T* q_[D3Q19::Q];
 };
 
+/// Fills the ghost layer of a field of post-collision populations so that a pull
+/// (f_q(x) = f*_q(x - c_q)) at every interior cell realises the boundary conditions:
+///  - Periodic: copy from the opposite face.
+///  - Inlet: equilibrium (Eq. 11) at inlet_density and the inlet velocity.
+///  - Outflow: zero-gradient velocity at a reference density (non-equilibrium
+///    extrapolation, Guo, Zheng and Shi 2002): the ghost holds
+///    f_eq(rho_out, u_b) + (f*_b - f_eq(rho_b, u_b)) of the last interior cell b. Velocity
+///    and stress leave with zero gradient; the density (pressure) is pinned, so an open
+///    channel neither gains nor loses mass without bound. A plain copy of all populations
+///    pins nothing: with a velocity inlet the mass of the channel then drifts.
+///  - Wall: half-way bounce-back, f_q(x) = f*_opp(x) + 6 E_q rho c_q.U_w (Eq. 14 with the
+///    wall at half a cell outside the last interior layer).
+///  - FreeSlip: specular reflection, f_q(x) = f*_mirror(q)(x - c_q + c_q,n n).
+/// Copy-type faces are filled axis by axis (x, y, z), each over the ghosts of the axes
+/// before it, so edges and corners come out right; an outflow's edge ghosts there
+/// extrapolate from the interior cell the earlier ghost stands for (its periodic image, else
+/// the nearest interior cell; fill_outflow in boundary.cpp), since the earlier fills write
+/// only the populations entering the grid. Reflecting faces go last, free slip before walls,
+/// so that a wall's bounce-back decides the edge it shares with free slip. Every pulled
+/// ghost population is thus a function of the interior and the faces' constants, never of
+/// what the ghosts held before (test_lbm_invariants: GhostFillDoesNotReadStaleValues).
+/// Either store precision (T = double or float): values are computed
+/// in double from the stored ones and rounded once when stored.
+///
+/// A block of a decomposed grid (DESIGN 8) has faces that are neither: a neighbour block's
+/// edge plane goes into their ghosts. Those are the faces of a HaloExchange given to the
+/// fills; the fills skip them and call the exchange between the copy-type faces and the
+/// reflecting ones, the place of a periodic copy in the order above (a halo is a periodic
+/// copy from another block), so that every ghost a pull reads gets the bits it has in the
+/// undivided grid (test_mpi: MpiFluidMatchesSerialBitForBit).
 class BoundaryConditions {
  public:
   BoundaryConditions() = default;
