@@ -479,6 +479,13 @@ std::vector<FluidParams> stale_ghost_grids() {
   return out;
 }
 
+/// "double store, in-place, faces x_min=periodic ...": which case a failure is in.
+std::string case_name(const FluidParams& p, Precision precision, Propagation propagation) {
+  std::string faces;
+  for (int f = 0; f < kFaces; ++f) faces += std::string(" ") + face_name(f) + "=" + kind_name(p.faces[f].kind);
+  return std::string(precision_name(precision)) + " store, " + propagation_name(propagation) + ", faces" + faces;
+}
+
 template <class T>
 BasicPopulationField<T>& mutable_field(FluidSolver& s) {
   if constexpr (std::is_same_v<T, double>)
@@ -511,10 +518,7 @@ int stale_ghost_mismatches(const FluidParams& base, Precision precision, Propaga
   };
   poison(a, std::numeric_limits<T>::quiet_NaN());
   poison(b, T(0.375));
-  std::string faces;
-  for (int f = 0; f < kFaces; ++f) faces += std::string(" ") + face_name(f) + "=" + kind_name(p.faces[f].kind);
-  const std::string where = std::string(precision_name(precision)) + " store, " + propagation_name(propagation) +
-                            ", faces" + faces;
+  const std::string where = case_name(p, precision, propagation);
   int bad = 0;
   for (int step = 0; step <= 2; ++step) {
     if (step > 0) {
@@ -566,10 +570,7 @@ int thin_grid_mismatches(FluidParams p, Precision precision, Propagation propaga
   };
   a.initialize(init);
   b.initialize(init);
-  std::string faces;
-  for (int f = 0; f < kFaces; ++f) faces += std::string(" ") + face_name(f) + "=" + kind_name(p.faces[f].kind);
-  const std::string where = std::string(precision_name(precision)) + " store, " + propagation_name(propagation) +
-                            ", faces" + faces;
+  const std::string where = case_name(p, precision, propagation);
   int bad = 0;
   for (int step = 1; step <= 3; ++step) {
     for (const auto& [x, y] : {std::pair{0, 0}, std::pair{2, 3}, std::pair{p.shape.nx - 1, p.shape.ny - 1}}) {

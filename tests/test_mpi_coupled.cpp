@@ -91,45 +91,30 @@ TEST(MpiCoupled, MpiCoupledMatchesSerialBitForBit) {
     expect_run_done(serial, run_launcher(kSource, scene, serial, "", kOneThread));
     for (int slabs = 2; slabs <= 4; ++slabs)
       EXPECT_GT(straddling(serial, slabs), 0) << "no marker's kernel crosses an edge of " << slabs << " slabs";
-    for (int ranks = 1; ranks <= 4; ++ranks) {
-      const fs::path out = dir / scheme / ("ranks" + std::to_string(ranks));
-      expect_run_done(out, run_launcher(kSource, scene, out, "--ranks " + std::to_string(ranks), kOneThread));
-      if (ranks > 1) {
-        EXPECT_TRUE(contains(slurp(out / "fluid.log"), "slabs along z over " + std::to_string(ranks) + " MPI ranks"))
-            << logs(out);
+    // `run_scene` over `ranks` ranks into `name`, its fluid log saying `says`: the serial run's outputs.
+    const auto expect_matches = [&](const fs::path& run_scene, int ranks, const std::string& name,
+                                    const std::string& says) {
+      const fs::path out = dir / scheme / name;
+      expect_run_done(out, run_launcher(kSource, run_scene, out, "--ranks " + std::to_string(ranks), kOneThread));
+      if (!says.empty()) {
+        EXPECT_TRUE(contains(slurp(out / "fluid.log"), says)) << logs(out);
       }
       std::size_t files = 0;
-      EXPECT_EQ(compare_outputs(serial, out, &files), "") << ranks << " ranks";
+      EXPECT_EQ(compare_outputs(serial, out, &files), "") << name;
       // monitor.h5, solid.h5, 3 field, 4 plane and 3 sheet snapshots.
-      EXPECT_EQ(files, 12u) << ranks << " ranks";
-    }
-  }
-  if (!HasFailure()) fs::remove_all(dir);
-}
-
-// The in-place propagation over ranks: each block's one grid, its halo planes exchanged in
-// the arrangement of the step's state. For each scheme the runs on 2 and 3 ranks in place
-// write the serial two-grid run's outputs, bit for bit.
-TEST(MpiCoupled, MpiInPlaceCoupledMatchesTwoGridSerial) {
-  if (!have_mpirun()) GTEST_SKIP() << "mpirun is not installed (launch/bootstrap.sh)";
-  const fs::path dir = scratch("mpi_coupled_in_place");
-  for (const std::string scheme : {"serial", "parallel", "implicit"}) {
-    SCOPED_TRACE(scheme + " scheme");
-    const fs::path scene = write_scene(dir / scheme, scheme);
+      EXPECT_EQ(files, 12u) << name;
+    };
+    for (int ranks = 1; ranks <= 4; ++ranks)
+      expect_matches(scene, ranks, "ranks" + std::to_string(ranks),
+                     ranks > 1 ? "slabs along z over " + std::to_string(ranks) + " MPI ranks" : "");
+    // The in-place propagation over 2 and 3 ranks (each block's one grid, its halo planes
+    // exchanged in the arrangement of the step's state) against the same two-grid run.
     std::string text = slurp(scene);
     replace_in(text, "steps = 60", "steps = 60\npropagation = \"in-place\"");
     const fs::path in_place = dir / scheme / ("in_place_" + scene.filename().string());
     std::ofstream(in_place) << text;
-    const fs::path serial = dir / scheme / "serial";
-    expect_run_done(serial, run_launcher(kSource, scene, serial, "", kOneThread));
-    for (int ranks = 2; ranks <= 3; ++ranks) {
-      const fs::path out = dir / scheme / ("ranks" + std::to_string(ranks));
-      expect_run_done(out, run_launcher(kSource, in_place, out, "--ranks " + std::to_string(ranks), kOneThread));
-      EXPECT_TRUE(contains(slurp(out / "fluid.log"), "in-place propagation")) << logs(out);
-      std::size_t files = 0;
-      EXPECT_EQ(compare_outputs(serial, out, &files), "") << ranks << " ranks";
-      EXPECT_EQ(files, 12u) << ranks << " ranks";
-    }
+    for (int ranks = 2; ranks <= 3; ++ranks)
+      expect_matches(in_place, ranks, "in_place_ranks" + std::to_string(ranks), "in-place propagation");
   }
   if (!HasFailure()) fs::remove_all(dir);
 }
