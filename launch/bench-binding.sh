@@ -7,9 +7,10 @@
 set -euo pipefail
 . "$(dirname "${BASH_SOURCE[0]}")/help.sh" && answer_help "${BASH_SOURCE[0]}" "$@"
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+. "$root/launch/build-dir.sh"
 [ "${1:-}" = "--no-build" ] || bash "$root/launch/build.sh" >/dev/null
-cpp=$("$root/build/examples/spring_sheet/bench_step")
-py=$(PYTHONPATH="$root/build/sdk/python:$root/examples/python_sheet" /usr/bin/python3 "$root/examples/python_sheet/bench_step.py")
+cpp=$("$bin/examples/spring_sheet/bench_step")
+py=$(PYTHONPATH="$bin/sdk/python:$root/examples/python_sheet" /usr/bin/python3 "$root/examples/python_sheet/bench_step.py")
 echo "| markers | no-op C++ (us) | no-op Python (us) | binding overhead (us) | spring sheet C++ (ms) | spring sheet Python (ms) | Python / C++ |"
 echo "|---|---|---|---|---|---|---|"
 paste <(echo "$cpp") <(echo "$py") | while IFS=$'\t' read -r c p; do

@@ -15,6 +15,7 @@
 set -euo pipefail
 . "$(dirname "${BASH_SOURCE[0]}")/help.sh" && answer_help "${BASH_SOURCE[0]}" "$@"
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+. "$root/launch/build-dir.sh"
 build=1
 scenes="coupled_small coupled_paper_grid"
 propagation=""
@@ -75,7 +76,7 @@ for scene in $scenes; do
       for side in fluid solid; do
         rdir="$out/../alone_$side"
         rm -rf "$rdir"
-        "$root/build/tools/replay/cosim-replay" "$out/traffic.lcmlog" --side $side --scene "$out/../$scheme.toml" \
+        "$bin/tools/replay/cosim-replay" "$out/traffic.lcmlog" --side $side --scene "$out/../$scheme.toml" \
           --output "$rdir" --quiet >/dev/null
         r="$rdir/$side.log"
         if [ $side = fluid ]; then

@@ -5,6 +5,7 @@
 set -uo pipefail
 . "$(dirname "${BASH_SOURCE[0]}")/help.sh" && answer_help "${BASH_SOURCE[0]}" "$@"
 root=$1 scene=$2 output=$3 prefix=$4 log=$5 quiet=$6
+. "$root/launch/build-dir.sh"
 
 # The survivor's grace: the scene's longer timeout ([coupling] handshake_timeout_s, default
 # 120 s; peer_timeout_s, default 30 s), within which it notices its peer is gone, plus 30 s
@@ -79,7 +80,7 @@ fi
 fluid_from=$(stat -c %s "$output/fluid.log"); solid_from=$(stat -c %s "$output/solid.log")
 # The fluid alone, or its grid over COSIM_FLUID_RANKS MPI ranks (run-coupled.sh --ranks)
 # in this network namespace.
-fluid_cmd=("$root/build/fluid/fluid")
+fluid_cmd=("$bin/fluid/fluid")
 if [ -n "${COSIM_FLUID_RANKS:-}" ]; then
   fluid_cmd=(env COSIM_NETNS_PRIVATE=1 bash "$root/launch/mpirun-local.sh" "$COSIM_FLUID_RANKS" "${fluid_cmd[@]}")
 fi
@@ -89,7 +90,7 @@ setsid "${fluid_cmd[@]}" "$scene" --output "$output" --channel-prefix "$prefix" 
 fluid=$!
 [ -n "$interrupted" ] && kill -"$interrupted" $fluid 2>/dev/null
 echo $fluid >"$output/fluid.pid"
-setsid ${COSIM_SOLID_CMD:-$root/build/solid/solid} "$scene" --output "$output" --channel-prefix "$prefix" $quiet \
+setsid ${COSIM_SOLID_CMD:-$bin/solid/solid} "$scene" --output "$output" --channel-prefix "$prefix" $quiet \
   ${COSIM_SOLID_RESTART:+--restart "$COSIM_SOLID_RESTART"} ${COSIM_TIME_RATIO:+--time-ratio "$COSIM_TIME_RATIO"} \
   >>"$output/solid.log" 2>&1 &
 solid=$!

@@ -48,9 +48,12 @@ from typing import Callable
 import h5py
 import numpy as np
 
+from build_dir import build_dir
+
 ROOT = Path(__file__).resolve().parent.parent
-FLUID = ROOT / "build" / "fluid" / "fluid"
-SOLID = ROOT / "build" / "solid" / "solid"
+BUILD = build_dir(ROOT)
+FLUID = BUILD / "fluid" / "fluid"
+SOLID = BUILD / "solid" / "solid"
 COUPLED = ROOT / "launch" / "run-coupled.sh"
 DOC = ROOT / "docs" / "error-vs-runtime.md"
 DOC_FIGURES = ROOT / "docs" / "figures" / "error-vs-runtime"
@@ -1094,7 +1097,7 @@ def _anchor(k: Knob) -> str:
 
 def build_type() -> str:
     try:
-        m = re.search(r"^CMAKE_BUILD_TYPE:\w+=(.*)$", (ROOT / "build" / "CMakeCache.txt").read_text(), re.M)
+        m = re.search(r"^CMAKE_BUILD_TYPE:\w+=(.*)$", (BUILD / "CMakeCache.txt").read_text(), re.M)
         return m.group(1) or "default flags" if m else "?"
     except OSError:
         return "?"

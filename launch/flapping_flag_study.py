@@ -51,6 +51,7 @@ import sys
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from build_dir import build_dir  # noqa: E402
 from sader import CARBON_KG, RHO_AIR, ROOT, SOUND_SPEED  # noqa: E402  (Table 1's air, one C atom)
 
 C_LATTICE = math.sqrt(3.0) * SOUND_SPEED  # c = dx / dt_LB
@@ -174,7 +175,7 @@ tip_displacement_um = {TIP_FRACTION * c["length"] * 1e6:.6g}
 
 def solid_check(scene):
     """The solid's own report of the scene: D (J) and its stable step (s)."""
-    r = subprocess.run([os.path.join(ROOT, "build", "solid", "solid"), scene, "--check", "--token",
+    r = subprocess.run([str(build_dir(ROOT) / "solid" / "solid"), scene, "--check", "--token",
                         "0123456789abcdef"], capture_output=True, text=True)
     text = r.stdout + r.stderr
     d = re.search(r"bending rigidity: D = ([0-9.eE+-]+) J", text)

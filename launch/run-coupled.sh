@@ -50,7 +50,10 @@
 # the solid sees no difference, and the outputs and checkpoints are those of one process,
 # bit for bit (DESIGN 8, docs/scaling.md). A checkpoint restarts on any number of ranks.
 #
-# --solid-cmd replaces build/solid/solid with another solid process that speaks the
+# The servers are build/fluid/fluid and build/solid/solid, or those of $COSIM_BUILD_DIR where it
+# is set (launch/build-dir.sh: e.g. a second build for x86-64-v3 beside build/).
+#
+# --solid-cmd replaces the solid server with another solid process that speaks the
 # protocol (it gets the same arguments: SCENE --output DIR --channel-prefix P [--quiet],
 # and the token in COSIM_RUN_TOKEN). --extra starts one more process in the same network
 # namespace for the run's duration (tests use it for a foreign publisher); it sees
@@ -73,6 +76,7 @@
 set -euo pipefail
 . "$(dirname "${BASH_SOURCE[0]}")/help.sh" && answer_help "${BASH_SOURCE[0]}" "$@"
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+. "$root/launch/build-dir.sh"
 
 usage() { echo "usage: bash launch/run-coupled.sh SCENE.toml [--output DIR] [--log] [--no-build] [--quiet] [--solid-cmd CMD] [--extra CMD] [--restart PATH] [--time-ratio N | --new-time-ratio N] [--ranks N]" >&2; exit 2; }
 [ $# -ge 1 ] || usage
@@ -117,8 +121,9 @@ if [ $build -eq 1 ]; then
   bash "$root/launch/bootstrap.sh"
   bash "$root/launch/build.sh" >/dev/null
 fi
+[ -x "$bin/fluid/fluid" ] || refuse "$bin/fluid/fluid is missing: build first (bash launch/build.sh, or drop --no-build)"
 if [ -n "$ranks" ]; then
-  grep -q "COSIM_HAVE_MPI:INTERNAL=\(ON\|TRUE\|1\)" "$root/build/CMakeCache.txt" 2>/dev/null ||
+  grep -q "COSIM_HAVE_MPI:INTERNAL=\(ON\|TRUE\|1\)" "$bin/CMakeCache.txt" 2>/dev/null ||
     refuse "--ranks $ranks: this build has no MPI (install libopenmpi-dev and openmpi-bin, then rebuild)"
 fi
 export COSIM_FLUID_RANKS=$ranks
@@ -200,7 +205,7 @@ token=$(od -An -N8 -tx1 /dev/urandom | tr -d ' \n')
 prefix="COSIM_${token:0:8}_"
 export COSIM_RUN_TOKEN=$token
 
-export COSIM_SOLID_CMD=${solid_cmd:-$root/build/solid/solid}
+export COSIM_SOLID_CMD=${solid_cmd:-$bin/solid/solid}
 export COSIM_EXTRA_CMD=$extra
 inner=(bash "$root/launch/coupled-inner.sh" "$root" "$scene" "$output" "$prefix" "$log" "$quiet")
 retries=0; retried=""

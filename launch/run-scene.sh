@@ -9,6 +9,7 @@
 set -euo pipefail
 . "$(dirname "${BASH_SOURCE[0]}")/help.sh" && answer_help "${BASH_SOURCE[0]}" "$@"
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+. "$root/launch/build-dir.sh"
 scene=${1:-$root/scenes/channel_reduced.toml}
 [ $# -gt 0 ] && shift
 bash "$root/launch/bootstrap.sh"
@@ -33,8 +34,8 @@ if [ $has_output -eq 0 ]; then
 fi
 if [ "$ranks" != 0 ]; then
   [[ $ranks =~ ^[1-9][0-9]{0,3}$ ]] || { echo "run-scene: --ranks $ranks: the number of MPI ranks must be an integer from 1 to 9999" >&2; exit 2; }
-  grep -q "COSIM_HAVE_MPI:INTERNAL=\(ON\|TRUE\|1\)" "$root/build/CMakeCache.txt" 2>/dev/null ||
+  grep -q "COSIM_HAVE_MPI:INTERNAL=\(ON\|TRUE\|1\)" "$bin/CMakeCache.txt" 2>/dev/null ||
     { echo "run-scene: --ranks $ranks: this build has no MPI (install libopenmpi-dev and openmpi-bin, then rebuild)" >&2; exit 2; }
-  exec bash "$root/launch/mpirun-local.sh" "$ranks" "$root/build/fluid/fluid" "$scene" "${args[@]}"
+  exec bash "$root/launch/mpirun-local.sh" "$ranks" "$bin/fluid/fluid" "$scene" "${args[@]}"
 fi
-exec "$root/build/fluid/fluid" "$scene" "${args[@]}"
+exec "$bin/fluid/fluid" "$scene" "${args[@]}"

@@ -59,6 +59,8 @@ import tomllib
 import numpy as np
 from scipy.special import kv
 
+from build_dir import build_dir
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 # Table 1 of the paper (protocol/units.hpp holds the same numbers for the servers).
@@ -217,7 +219,7 @@ def scene_beam(scene_path, f_vac=None, tau=None):
 
 
 def vacuum_frequency(scene_path):
-    exe = os.path.join(ROOT, "build", "solid", "solid")
+    exe = str(build_dir(ROOT) / "solid" / "solid")
     r = subprocess.run([exe, scene_path, "--check"], capture_output=True, text=True)
     m = re.search(r"eigenfrequencies in vacuum:\s*([0-9.eE+-]+)\s*(MHz|Hz)", r.stdout)
     if not m:

@@ -24,6 +24,7 @@ namespace {
 namespace fs = std::filesystem;
 using cosim::test::slurp;
 using cosim::test::quoted;
+using cosim::test::launcher_build_problem;
 
 const fs::path kSource = COSIM_SOURCE_DIR;
 const fs::path kFluid = FLUID_EXE;
@@ -76,14 +77,10 @@ std::vector<Row> read_results(const fs::path& p) {
 
 TEST(ErrorStudy, ErrorStudyShortRuns) {
   if (!fs::exists(kPython)) GTEST_SKIP() << kPython << " missing (launch/bootstrap.sh installs it)";
-  // The study runs ROOT/build/{fluid/fluid,solid/solid} (as launch/run-coupled.sh does): they
-  // must be this build's, or the test would check another build.
-  std::error_code ec;
-  ASSERT_TRUE(fs::equivalent(kSource / "build" / "fluid" / "fluid", kFluid, ec) &&
-              fs::equivalent(kSource / "build" / "solid" / "solid", kSolid, ec))
-      << "launch/error-study.sh runs " << (kSource / "build").string()
-      << "/{fluid/fluid,solid/solid}, which are not this build's " << kFluid << " and " << kSolid
-      << ": build into " << (kSource / "build").string() << " (launch/build.sh) to run this test";
+  // The study runs the launch scripts' build (as launch/run-coupled.sh does): it must be
+  // this one, or the test would check another build.
+  const std::string problem = launcher_build_problem(kSource, kFluid, kSolid);
+  ASSERT_TRUE(problem.empty()) << problem;
 
   const fs::path dir = fs::path(::testing::TempDir()) / ("cosim_error_study_" + std::to_string(getpid()));
   fs::remove_all(dir);

@@ -32,6 +32,7 @@ namespace {
 namespace fs = std::filesystem;
 using cosim::test::slurp;
 using cosim::test::quoted;
+using cosim::test::launcher_build_problem;
 
 const fs::path kSource = COSIM_SOURCE_DIR;
 const fs::path kReplay = REPLAY_EXE;
@@ -73,15 +74,7 @@ struct Recorded {
 
 /// The launcher's executables must be this build's (the replay links its libraries); empty
 /// when they are.
-std::string build_problem() {
-  std::error_code ec;
-  if (!fs::equivalent(kSource / "build" / "fluid" / "fluid", kFluid, ec) ||
-      !fs::equivalent(kSource / "build" / "solid" / "solid", kSolid, ec))
-    return "launch/run-coupled.sh runs " + (kSource / "build").string() +
-           "/{fluid/fluid,solid/solid}, which are not this build's " + kFluid.string() + " and " +
-           kSolid.string() + ": build into " + (kSource / "build").string() + " (launch/build.sh) to run this test";
-  return "";
-}
+std::string build_problem() { return launcher_build_problem(kSource, kFluid, kSolid); }
 
 /// Runs `rec.scene` through the launcher with --log into `rec.output`.
 void record(Recorded& rec) {
@@ -106,7 +99,7 @@ const Recorded& recorded() {
     const fs::path dir = work_dir();
     fs::remove_all(dir);
     fs::create_directories(dir);
-    // The launcher runs ROOT/build/{fluid,solid}; the replay links this build's libraries:
+    // The launcher runs the launch scripts' build (COSIM_BUILD_DIR); the replay links this build's libraries:
     // they must be the same build, or a difference would be the two builds'.
     rec.problem = build_problem();
     if (!rec.problem.empty()) return rec;

@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cstdlib>
+#include <system_error>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -37,6 +38,27 @@ inline std::filesystem::path fresh_scratch(const std::string& name) {
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   return dir;
+}
+
+/// The build folder whose executables the launch scripts run (launch/build-dir.sh):
+/// $COSIM_BUILD_DIR (CTest sets it to the test's own build, tests/CMakeLists.txt), else
+/// SOURCE/build.
+inline std::filesystem::path launcher_build(const std::filesystem::path& source) {
+  const char* dir = std::getenv("COSIM_BUILD_DIR");
+  return dir != nullptr && *dir != '\0' ? std::filesystem::path(dir) : source / "build";
+}
+
+/// Empty when the launch scripts run `fluid` and `solid` (this build's executables), else
+/// why they run others: a test comparing against this build would check another one.
+inline std::string launcher_build_problem(const std::filesystem::path& source, const std::filesystem::path& fluid,
+                                          const std::filesystem::path& solid) {
+  const std::filesystem::path b = launcher_build(source);
+  std::error_code ec;
+  if (std::filesystem::equivalent(b / "fluid" / "fluid", fluid, ec) &&
+      std::filesystem::equivalent(b / "solid" / "solid", solid, ec))
+    return "";
+  return "the launch scripts run " + b.string() + "/{fluid/fluid,solid/solid}, which are not this build's " +
+         fluid.string() + " and " + solid.string() + ": set COSIM_BUILD_DIR to this build's folder (ctest does)";
 }
 
 inline std::size_t lines(const std::string& s) { return std::size_t(std::count(s.begin(), s.end(), '\n')); }

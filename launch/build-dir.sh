@@ -1,0 +1,13 @@
+# Sourced by the launch scripts that build or run the project's executables, after `root`
+# is set: sets `bin` to the build folder and exports it as COSIM_BUILD_DIR, so that the
+# scripts they start use the same one. The folder is $COSIM_BUILD_DIR (absolute, or relative
+# to the current folder) where that is set and not empty, else ROOT/build: e.g.
+#
+#   COSIM_BUILD_DIR=build-v3 bash launch/build.sh -DCOSIM_NATIVE=OFF -DCOSIM_ARCH=x86-64-v3
+#   COSIM_BUILD_DIR=build-v3 bash launch/run-coupled.sh SCENE.toml --no-build
+#
+# builds a second, AVX2 binary beside build/ and runs a scene with it (launch/run-tests.sh
+# does so for its x86-64-v3 pass).
+bin=${COSIM_BUILD_DIR:-$root/build}
+case $bin in /*) ;; *) bin=$PWD/$bin ;; esac
+export COSIM_BUILD_DIR=$bin
