@@ -162,6 +162,7 @@ struct Row {
   double step_mlups = 0, kernel_mlups = 0, copy_gbs = 0, copy_nt_gbs = 0;
   double ib_interp_us = 0, ib_spread_us = 0, step_ib_mlups = 0;  ///< 0: not measured
   double peer_mlups = 0;                                          ///< 0: not measured
+  double peer_f32_mlups = 0;  ///< the single store's peer in float arithmetic; 0: not measured
 };
 
 /// The peer pattern's field (fluid/bench_kernels.hpp) on the solver's layout, every value
@@ -214,13 +215,18 @@ Row measure(const Case& base, int threads, Precision precision, Propagation prop
   for (int s = 0; s < 2; ++s) solver.step();  // warm-up: page faults, caches
   copy.run(false);
   copy.run(true);
-  BasicPopulationField<T> peer;
+  BasicPopulationField<T> peer, peer_f32;
   const int peer_steps = (opt.steps + 1) / 2 * 2;  // whole AA pairs
+  constexpr bool single = std::is_same_v<T, float>;
   if (opt.peer) {
     peer = peer_field<T>(solver.layout());
     run_peer(peer, solver.tau(), 2);
+    if constexpr (single) {
+      peer_f32 = peer_field<T>(solver.layout());
+      bench_kernels().peer_single_float(peer_f32, solver.tau(), 2);
+    }
   }
-  std::vector<double> step, kernel, bw, bw_nt, interp, spread, step_ib, peer_rate;
+  std::vector<double> step, kernel, bw, bw_nt, interp, spread, step_ib, peer_rate, peer_f32_rate;
   // Interleaved, so that noise from other processes touches all of them alike.
   for (int r = 0; r < opt.repeat; ++r) {
     bw.push_back(std::max(copy.run(false), copy.run(false)));
@@ -263,6 +269,11 @@ Row measure(const Case& base, int threads, Precision precision, Propagation prop
       t0 = Clock::now();
       run_peer(peer, solver.tau(), peer_steps);
       peer_rate.push_back(double(solver.shape().cells()) * peer_steps / seconds_since(t0) * 1e-6);
+      if constexpr (single) {
+        t0 = Clock::now();
+        bench_kernels().peer_single_float(peer_f32, solver.tau(), peer_steps);
+        peer_f32_rate.push_back(double(solver.shape().cells()) * peer_steps / seconds_since(t0) * 1e-6);
+      }
     }
     if (!opt.ib || opt.stores != Stores::Auto) continue;
     // A coupled step's fluid side (DESIGN 2.1): interpolate rho and u at the markers
@@ -298,12 +309,18 @@ Row measure(const Case& base, int threads, Precision precision, Propagation prop
   row.copy_gbs = median(bw) * 1e-9;
   row.copy_nt_gbs = median(bw_nt) * 1e-9;
   if (!peer_rate.empty()) row.peer_mlups = median(peer_rate);
+  if (!peer_f32_rate.empty()) row.peer_f32_mlups = median(peer_f32_rate);
   if (!interp.empty()) {
     row.ib_interp_us = median(interp);
     row.ib_spread_us = median(spread);
     row.step_ib_mlups = median(step_ib);
   }
   return row;
+}
+
+/// Whether the table has the peer f32 columns (--peer-pattern with the single store).
+bool peer_f32_columns(const Options& opt) {
+  return opt.peer && std::find(opt.precisions.begin(), opt.precisions.end(), Precision::Single) != opt.precisions.end();
 }
 
 void print_header(const Options& opt, const std::vector<Case>& cases) {
@@ -347,25 +364,33 @@ void print_header(const Options& opt, const std::vector<Case>& cases) {
                 "    forcing or boundaries (fluid/bench_kernels.hpp), on the same grid and layout,\n"
                 "    MLUPS; peer/roof against the NT copy's roofline (in place: no write-allocate);\n"
                 "    step/peer = step MLUPS / peer MLUPS\n");
+  if (peer_f32_columns(opt))
+    std::printf("peer f32 = the peer pattern on the single store computed in float arithmetic, float\n"
+                "    groups twice as wide (peer and the project's kernel compute in double), MLUPS\n"
+                "    and against the NT copy's roofline; single-store rows only\n");
   std::printf("note: a shared machine; other processes add noise\n\n");
+  const char* const f32[3][2] = {{"peer f32", "peer f32"}, {"MLUPS", "/roof"}, {"", "NT"}};
   const char* const rows[3][17] = {
       {"grid", "thr", "store", "prop", "step", "kernel", "copy plain", "copy NT", "roofline",
        "step", "kernel", "IB", "IB", "step", "peer", "peer", "step"},
       {"", "", "", "", "MLUPS", "MLUPS", "GB/s", "GB/s", "MLUPS", "/roof", "/roof", "interp",
        "spread", "+IB", "MLUPS", "/roof", "/peer"},
       {"", "", "", "", "", "", "", "", "", "", "", "us", "us", "MLUPS", "", "NT", ""}};
-  for (const auto& c : rows) {
+  for (int i = 0; i < 3; ++i) {
+    const auto& c = rows[i];
     std::printf("%-20s %3s %6s %6s %6s %7s %10s %10s %9s %6s %6s %8s %8s %7s", c[0], c[1], c[2], c[3],
                 c[4], c[5], c[6], c[7], c[8], c[9], c[10], c[11], c[12], c[13]);
     if (opt.peer) std::printf(" %7s %6s %6s", c[14], c[15], c[16]);
+    if (peer_f32_columns(opt)) std::printf(" %8s %8s", f32[i][0], f32[i][1]);
     std::printf("\n");
   }
 }
 
-void print_row(const Row& r) {
+void print_row(const Row& r, const Options& opt) {
   const bool in_place = r.propagation == Propagation::InPlace;
   const double copy = r.streaming || in_place ? r.copy_nt_gbs : r.copy_gbs;
   const double roof = copy * 1e9 / bytes_per_update(r.precision) * 1e-6;
+  const double roof_nt = r.copy_nt_gbs * 1e9 / bytes_per_update(r.precision) * 1e-6;
   char step[16] = "-", step_ratio[16] = "-", interp[16] = "-", spread[16] = "-", ib[16] = "-";
   if (r.step_mlups > 0) {
     std::snprintf(step, sizeof step, "%.1f", r.step_mlups);
@@ -382,10 +407,15 @@ void print_row(const Row& r) {
               step, r.kernel_mlups, r.copy_gbs, r.copy_nt_gbs, roof, step_ratio,
               100.0 * r.kernel_mlups / roof, interp, spread, ib);
   if (r.peer_mlups > 0) {
-    const double roof_nt = r.copy_nt_gbs * 1e9 / bytes_per_update(r.precision) * 1e-6;
     char per_peer[16] = "-";
     if (r.step_mlups > 0) std::snprintf(per_peer, sizeof per_peer, "%.0f%%", 100.0 * r.step_mlups / r.peer_mlups);
     std::printf(" %7.1f %5.0f%% %6s", r.peer_mlups, 100.0 * r.peer_mlups / roof_nt, per_peer);
+  }
+  if (peer_f32_columns(opt)) {
+    if (r.peer_f32_mlups > 0)
+      std::printf(" %8.1f %7.0f%%", r.peer_f32_mlups, 100.0 * r.peer_f32_mlups / roof_nt);
+    else
+      std::printf(" %8s %8s", "-", "-");
   }
   std::printf("\n");
   std::fflush(stdout);
@@ -460,6 +490,6 @@ int main(int argc, char** argv) {
     for (const Precision p : opt.precisions)
       for (const Propagation g : opt.propagations)
         for (const int t : opt.threads)
-          print_row(p == Precision::Double ? measure<double>(c, t, p, g, opt) : measure<float>(c, t, p, g, opt));
+          print_row(p == Precision::Double ? measure<double>(c, t, p, g, opt) : measure<float>(c, t, p, g, opt), opt);
   return 0;
 }

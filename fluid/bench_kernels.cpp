@@ -3,6 +3,8 @@
 #include "fluid/bench_kernels.hpp"
 
 #include <cstddef>
+#include <cstring>
+#include <type_traits>
 #include <utility>
 
 #include "fluid/d3q19.hpp"
@@ -28,46 +30,98 @@ void copy(const double* a, double* b, std::ptrdiff_t n, bool streaming) {
   }
 }
 
-/// c v for a lattice velocity component c in {-1, 0, 1}, known at compile time.
-template <int c>
-[[gnu::always_inline]] inline Lanes times(Lanes v) {
-  if constexpr (c == 1) return v;
-  if constexpr (c == -1) return -v;
-  return Lanes{};
+/// The float-arithmetic peer's group: as many floats as the level's vector registers hold
+/// (AVX-512: 16), loaded, computed on and stored as floats (the project's single store
+/// computes in double Lanes, fluid/lanes.hpp).
+using Floats = float __attribute__((vector_size(sizeof(Lanes))));
+
+/// The scalar type of a group V (double for Lanes, float for Floats).
+template <class V>
+using Scalar = std::remove_cvref_t<decltype(V{}[0])>;
+
+/// A group V of values stored as T: copied where V holds T, else converted (fluid/lanes.hpp).
+/// The partial forms move the first n lanes; the others load as 1 (a harmless density).
+template <class V, class T>
+[[gnu::always_inline]] inline V load_group(const T* p) {
+  if constexpr (std::is_same_v<Scalar<V>, T>) {
+    V v;
+    std::memcpy(&v, p, sizeof v);
+    return v;
+  } else {
+    return load(p);
+  }
 }
 
-template <int c>
-[[gnu::always_inline]] inline Lanes add(Lanes a, Lanes v) {
+template <class V, class T>
+[[gnu::always_inline]] inline void store_group(T* p, V v) {
+  if constexpr (std::is_same_v<Scalar<V>, T>)
+    std::memcpy(p, &v, sizeof v);
+  else
+    store_unaligned(p, v);
+}
+
+template <class V, class T>
+inline V load_group_partial(const T* p, int n) {
+  if constexpr (std::is_same_v<Scalar<V>, T>) {
+    V v = V{} + T(1);
+    std::memcpy(&v, p, sizeof(T) * unsigned(n));
+    return v;
+  } else {
+    return load_partial(p, n);
+  }
+}
+
+template <class V, class T>
+inline void store_group_partial(T* p, V v, int n) {
+  if constexpr (std::is_same_v<Scalar<V>, T>)
+    std::memcpy(p, &v, sizeof(T) * unsigned(n));
+  else
+    store_partial(p, v, n);
+}
+
+/// c v for a lattice velocity component c in {-1, 0, 1}, known at compile time.
+template <int c, class V>
+[[gnu::always_inline]] inline V times(V v) {
+  if constexpr (c == 1) return v;
+  if constexpr (c == -1) return -v;
+  return V{};
+}
+
+template <int c, class V>
+[[gnu::always_inline]] inline V add(V a, V v) {
   if constexpr (c == 0) return a;
   return a + times<c>(v);
 }
 
-/// Plain BGK (Eqs. 10-11 without forcing) of kLanes cells in f.
-template <std::size_t... Q>
-[[gnu::always_inline]] inline void bgk(Lanes (&f)[L::Q], double omega, std::index_sequence<Q...>) {
-  Lanes rho = f[0], jx{}, jy{}, jz{};
+/// Plain BGK (Eqs. 10-11 without forcing) of a group of cells in f, in the arithmetic of V.
+template <class V, std::size_t... Q>
+[[gnu::always_inline]] inline void bgk(V (&f)[L::Q], Scalar<V> omega, std::index_sequence<Q...>) {
+  using S = Scalar<V>;
+  V rho = f[0], jx{}, jy{}, jz{};
   ((rho += f[Q + 1], jx = add<L::cx[Q + 1]>(jx, f[Q + 1]), jy = add<L::cy[Q + 1]>(jy, f[Q + 1]),
     jz = add<L::cz[Q + 1]>(jz, f[Q + 1])),
    ...);
-  const Lanes inv = 1.0 / rho;
-  const Lanes ux = jx * inv, uy = jy * inv, uz = jz * inv;
-  const Lanes base = 1.0 - 1.5 * (ux * ux + uy * uy + uz * uz);
-  f[0] += omega * (L::w[0] * rho * base - f[0]);
+  const V inv = S(1) / rho;
+  const V ux = jx * inv, uy = jy * inv, uz = jz * inv;
+  const V base = S(1) - S(1.5) * (ux * ux + uy * uy + uz * uz);
+  f[0] += omega * (S(L::w[0]) * rho * base - f[0]);
   const auto relax = [&](auto qc) __attribute__((always_inline)) {
     constexpr int q = decltype(qc)::value;
-    const Lanes cu = add<L::cz[q]>(add<L::cy[q]>(times<L::cx[q]>(ux), uy), uz);
-    f[q] += omega * (L::w[q] * rho * (base + cu * (3.0 + 4.5 * cu)) - f[q]);
+    const V cu = add<L::cz[q]>(add<L::cy[q]>(times<L::cx[q]>(ux), uy), uz);
+    f[q] += omega * (S(L::w[q]) * rho * (base + cu * (S(3) + S(4.5) * cu)) - f[q]);
   };
   (relax(std::integral_constant<int, int(Q) + 1>{}), ...);
 }
 
-template <class T>
+/// The peer pattern on populations stored as T, computed in groups V.
+template <class T, class V>
 void peer(BasicPopulationField<T>& field, double tau, int steps) {
+  constexpr int kGroup = int(sizeof(V) / sizeof(Scalar<V>));
   const GridLayout& lay = field.layout();
   const int nx = lay.nx(), ny = lay.ny();
   const std::ptrdiff_t rows = std::ptrdiff_t(ny) * lay.nz();
   const std::ptrdiff_t stride = std::ptrdiff_t(lay.stride());
-  const double omega = 1.0 / tau;
+  const Scalar<V> omega = Scalar<V>(1.0 / tau);
   // Even step: population q of a cell at slot q, stored back at slot opp q of the same cell.
   // Odd step: population q read at slot opp q of the cell at -c_q (where the even step left
   // it), written to slot q of the cell at +c_q (where the next even step finds it).
@@ -88,20 +142,20 @@ void peer(BasicPopulationField<T>& field, double tau, int steps) {
 #pragma omp for schedule(static)
     for (std::ptrdiff_t r = 0; r < rows; ++r) {
       T* const c = f0 + lay.index(0, int(r % ny), int(r / ny));
-      Lanes f[L::Q];
+      V f[L::Q];
       int x = 0;
-      for (; x + kLanes <= nx; x += kLanes) {
+      for (; x + kGroup <= nx; x += kGroup) {
 #pragma GCC unroll 19
-        for (int q = 0; q < L::Q; ++q) f[q] = load(c + rd[q] + x);
+        for (int q = 0; q < L::Q; ++q) f[q] = load_group<V>(c + rd[q] + x);
         bgk(f, omega, pairs);
 #pragma GCC unroll 19
-        for (int q = 0; q < L::Q; ++q) store_unaligned(c + wr[q] + x, f[q]);
+        for (int q = 0; q < L::Q; ++q) store_group(c + wr[q] + x, f[q]);
       }
       if (x < nx) {
         const int n = nx - x;
-        for (int q = 0; q < L::Q; ++q) f[q] = load_partial(c + rd[q] + x, n);
+        for (int q = 0; q < L::Q; ++q) f[q] = load_group_partial<V>(c + rd[q] + x, n);
         bgk(f, omega, pairs);
-        for (int q = 0; q < L::Q; ++q) store_partial(c + wr[q] + x, f[q], n);
+        for (int q = 0; q < L::Q; ++q) store_group_partial(c + wr[q] + x, f[q], n);
       }
     }
   }
@@ -110,6 +164,6 @@ void peer(BasicPopulationField<T>& field, double tau, int steps) {
 }  // namespace
 
 extern const BenchKernels bench_kernel_table;
-const BenchKernels bench_kernel_table{&copy, &peer<double>, &peer<float>};
+const BenchKernels bench_kernel_table{&copy, &peer<double, Lanes>, &peer<float, Lanes>, &peer<float, Floats>};
 
 }  // namespace cosim::fluid::COSIM_ISA_NS

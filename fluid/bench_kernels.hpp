@@ -25,6 +25,9 @@ struct BenchKernels {
   /// neighbours' slots and writes the collided ones back to them.
   void (*peer_double)(PopulationField& f, double tau, int steps);
   void (*peer_single)(PopulationFieldSingle& f, double tau, int steps);
+  /// peer_single computed in float groups twice as wide (the project's single store computes
+  /// in double, fluid/lanes.hpp): how fast the single store would go with float arithmetic.
+  void (*peer_single_float)(PopulationFieldSingle& f, double tau, int steps);
 };
 
 /// The yardsticks of the active kernel level (fluid/kernel_dispatch.hpp).
