@@ -4,7 +4,8 @@
 // roofline reached; the immersed boundary of the paper's sheet (200 markers: interpolation,
 // spreading and a step with the spread forces) timed on its own; double or single precision
 // store; optionally the peer pattern (--peer-pattern: a minimal in-place AA-pattern D3Q19 BGK
-// kernel, fluid/bench_kernels.hpp) on the same grid in the same run. Prints the CPU model and
+// kernel, fluid/bench_kernels.hpp; with the single store also in float arithmetic) on the same
+// grid in the same run. Prints the CPU model and
 // the kernel level it ran (fluid/kernel_dispatch.hpp), then a plain table of medians; see
 // docs/performance.md.
 #include <omp.h>
@@ -460,7 +461,8 @@ int main(int argc, char** argv) {
   bool no_ib = false;
   app.add_flag("--no-ib", no_ib, "skip the immersed-boundary columns");
   app.add_flag("--peer-pattern", opt.peer,
-               "also run the peer pattern, a minimal in-place (AA) D3Q19 BGK kernel, on the same grid");
+               "also run the peer pattern, a minimal in-place (AA) D3Q19 BGK kernel, on the same grid\n"
+               "(single store: also in float arithmetic, peer f32)");
   std::string level;
   app.add_option("--level", level,
                  "kernel instruction-set level to run (default: the highest this CPU runs, or "
