@@ -7,7 +7,7 @@
 set -euo pipefail
 . "$(dirname "${BASH_SOURCE[0]}")/help.sh" && answer_help "${BASH_SOURCE[0]}" "$@"
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
-. "$root/launch/build-dir.sh"
+. "$root/launch/folders.sh"
 [ "${1:-}" = "--no-build" ] || bash "$root/launch/build.sh" >/dev/null
 cpp=$("$bin/examples/spring_sheet/bench_step")
 py=$(PYTHONPATH="$bin/sdk/python:$root/examples/python_sheet" /usr/bin/python3 "$root/examples/python_sheet/bench_step.py")

@@ -8,14 +8,15 @@
 #   parallel wall / max(fluid alone, solid alone) the parallel scheme's goal: <= 1.10
 #   bash launch/bench-coupled.sh [--no-build] [--scenes "coupled_small coupled_paper_grid"]
 #                                [--propagation two-grid|in-place]
-# --propagation sets the scenes' [run] propagation (default: theirs, two-grid); outputs in
-# out/bench/SCENE/ (with --propagation: out/bench/SCENE_PROPAGATION/).
+# --propagation sets the scenes' [run] propagation (default: theirs, two-grid). Each call
+# writes its runs to a folder of its own, out/bench/DATE-TIME/SCENE/ (launch/folders.sh; with --propagation:
+# SCENE_PROPAGATION/), printed on the first line; earlier calls' folders are kept.
 # The fluid runs with OpenMP's default threads unless OMP_NUM_THREADS is set; set
 # OMP_WAIT_POLICY=passive so that its idle threads do not spin on the solid's core.
 set -euo pipefail
 . "$(dirname "${BASH_SOURCE[0]}")/help.sh" && answer_help "${BASH_SOURCE[0]}" "$@"
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
-. "$root/launch/build-dir.sh"
+. "$root/launch/folders.sh"
 build=1
 scenes="coupled_small coupled_paper_grid"
 propagation=""
@@ -39,15 +40,16 @@ fi
 field() {  # field FILE REGEX: the number captured by the first (..) of the regex
   sed -n "s/$2/\1/p" "$1" | head -1
 }
-echo "bench-coupled: propagation ${propagation:-of the scenes}; $(getconf _NPROCESSORS_ONLN) cores, OMP_NUM_THREADS=${OMP_NUM_THREADS:-default}," \
+bench_root=$(new_folder "$root/out/bench")
+mkdir -p "$bench_root"
+echo "bench-coupled: runs in $bench_root; propagation ${propagation:-of the scenes}; $(getconf _NPROCESSORS_ONLN) cores, OMP_NUM_THREADS=${OMP_NUM_THREADS:-default}," \
   "OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-default}; load average $(cut -d' ' -f1-3 /proc/loadavg)"
 printf '%-20s %-8s %13s %5s %6s | %13s %10s %10s | %13s %10s | %9s\n' scene scheme grid CGPs steps \
   "fluid compute" "wait" "publish" "solid compute" "wait" "wall/step"
 declare -A wall fluid_alone solid_alone
 for scene in $scenes; do
   for scheme in serial parallel; do
-    out="$root/out/bench/$scene${propagation:+_$propagation}/$scheme"
-    rm -rf "$out"
+    out="$bench_root/$scene${propagation:+_$propagation}/$scheme"
     mkdir -p "$out"
     # The scene with its scheme (the file both servers read; the replay needs its bytes).
     run_line="[run]"
@@ -75,7 +77,6 @@ for scene in $scenes; do
       # Each side alone: cosim-replay runs it against the log with the peer in-process.
       for side in fluid solid; do
         rdir="$out/../alone_$side"
-        rm -rf "$rdir"
         "$bin/tools/replay/cosim-replay" "$out/traffic.lcmlog" --side $side --scene "$out/../$scheme.toml" \
           --output "$rdir" --quiet >/dev/null
         r="$rdir/$side.log"

@@ -1,4 +1,4 @@
-"""The build folder whose executables the launch scripts run (launch/build-dir.sh):
+"""The build folder whose executables the launch scripts run (launch/folders.sh):
 $COSIM_BUILD_DIR where it is set and not empty, else ROOT/build. The studies import
 build_dir(); run as a script it prints the folder.
 

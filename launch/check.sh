@@ -14,7 +14,7 @@
 set -euo pipefail
 . "$(dirname "${BASH_SOURCE[0]}")/help.sh" && answer_help "${BASH_SOURCE[0]}" "$@"
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
-. "$root/launch/build-dir.sh"
+. "$root/launch/folders.sh"
 fluid=${COSIM_FLUID_EXE:-$bin/fluid/fluid}
 solid=${COSIM_SOLID_EXE:-$bin/solid/solid}
 

@@ -5,7 +5,7 @@
 set -uo pipefail
 . "$(dirname "${BASH_SOURCE[0]}")/help.sh" && answer_help "${BASH_SOURCE[0]}" "$@"
 root=$1 scene=$2 output=$3 prefix=$4 log=$5 quiet=$6
-. "$root/launch/build-dir.sh"
+. "$root/launch/folders.sh"
 
 # The survivor's grace: the scene's longer timeout ([coupling] handshake_timeout_s, default
 # 120 s; peer_timeout_s, default 30 s), within which it notices its peer is gone, plus 30 s

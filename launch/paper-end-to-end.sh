@@ -10,11 +10,13 @@
 #                                   [--precisions "double single"]
 #                                   [--propagations "two-grid in-place"] [--scene FILE]
 # Defaults: the serial scheme (the paper's) in both stores, the scene's propagation (two-grid),
-# about 7 minutes here. Outputs in out/paper-end-to-end/SCHEME_PRECISION/ (with --propagations:
+# about 7 minutes here. Outputs in out/paper-end-to-end/DATE-TIME/SCHEME_PRECISION/, a folder of
+# each call's own (launch/folders.sh; earlier calls' are kept; with --propagations:
 # SCHEME_PRECISION_PROPAGATION/). OMP_WAIT_POLICY=passive is set unless given.
 set -euo pipefail
 . "$(dirname "${BASH_SOURCE[0]}")/help.sh" && answer_help "${BASH_SOURCE[0]}" "$@"
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+. "$root/launch/folders.sh"
 build=1
 schemes="serial"
 precisions="double single"
@@ -46,23 +48,24 @@ if [ $build -eq 1 ]; then
   bash "$root/launch/build.sh" >/dev/null
 fi
 export OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-passive}
+runs=$(new_folder "$root/out/paper-end-to-end")
+mkdir -p "$runs"
 field() {  # field FILE REGEX: the number captured by the first (..) of the regex
   sed -n "s/$2/\1/p" "$1" | head -1
 }
-echo "paper-end-to-end: $(basename "$scene"), $(getconf _NPROCESSORS_ONLN) cores, OMP_NUM_THREADS=${OMP_NUM_THREADS:-default}," \
+echo "paper-end-to-end: $(basename "$scene") into $runs, $(getconf _NPROCESSORS_ONLN) cores, OMP_NUM_THREADS=${OMP_NUM_THREADS:-default}," \
   "OMP_WAIT_POLICY=$OMP_WAIT_POLICY; $(git -C "$root" rev-parse --short HEAD 2>/dev/null || echo '?'); $(date -u '+%Y-%m-%d %H:%M UTC')"
 printf '%-9s %-9s %-9s %9s | %13s %10s %10s | %13s %10s | %s\n' scheme store propag. "wall" \
   "fluid compute" "wait" "publish" "solid compute" "wait" "load average before"
 for scheme in $schemes; do
   for precision in $precisions; do
    for propagation in ${propagations:-scene}; do
-    out="$root/out/paper-end-to-end/${scheme}_$precision"
+    out="$runs/${scheme}_$precision"
     run_line="[run]\nprecision = \"$precision\""
     if [ "$propagation" != scene ]; then
       out="${out}_$propagation"
       run_line="$run_line\npropagation = \"$propagation\""
     fi
-    rm -rf "$out"
     mkdir -p "$out"
     sed -e "s/^\[coupling\]\$/[coupling]\nscheme = \"$scheme\"/" -e "s/^\[run\]\$/$run_line/" \
       "$scene" > "$out.toml"
@@ -86,7 +89,7 @@ for scheme in $schemes; do
   for propagation in ${propagations:-scene}; do
     suffix=""
     [ "$propagation" = scene ] || suffix="_$propagation"
-    d="$root/out/paper-end-to-end/${scheme}_double$suffix" s="$root/out/paper-end-to-end/${scheme}_single$suffix"
+    d="$runs/${scheme}_double$suffix" s="$runs/${scheme}_single$suffix"
     if [ -f "$d/solid.h5" ] && [ -f "$s/solid.h5" ]; then
       echo
       echo "$scheme scheme${suffix:+, ${propagation}}: the single store against the double one (solid.h5):"

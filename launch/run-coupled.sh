@@ -51,7 +51,7 @@
 # bit for bit (DESIGN 8, docs/scaling.md). A checkpoint restarts on any number of ranks.
 #
 # The servers are build/fluid/fluid and build/solid/solid, or those of $COSIM_BUILD_DIR where it
-# is set (launch/build-dir.sh: e.g. a second build for x86-64-v3 beside build/).
+# is set (launch/folders.sh: e.g. a second build for x86-64-v3 beside build/).
 #
 # --solid-cmd replaces the solid server with another solid process that speaks the
 # protocol (it gets the same arguments: SCENE --output DIR --channel-prefix P [--quiet],
@@ -76,7 +76,7 @@
 set -euo pipefail
 . "$(dirname "${BASH_SOURCE[0]}")/help.sh" && answer_help "${BASH_SOURCE[0]}" "$@"
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
-. "$root/launch/build-dir.sh"
+. "$root/launch/folders.sh"
 
 usage() { echo "usage: bash launch/run-coupled.sh SCENE.toml [--output DIR] [--log] [--no-build] [--quiet] [--solid-cmd CMD] [--extra CMD] [--restart PATH] [--time-ratio N | --new-time-ratio N] [--ranks N]" >&2; exit 2; }
 [ $# -ge 1 ] || usage
@@ -139,13 +139,7 @@ with h5py.File(sys.argv[1], "r") as f:
 # Whether a folder holds a run's outputs.
 holds_run() { [ -f "$1/run.id" ] || [ -f "$1/monitor.h5" ] || [ -f "$1/solid.h5" ] || [ -d "$1/checkpoints" ]; }
 # A new folder out/<scene name>/<UTC date-time>[-K] (COSIM_OUTPUT_ROOT instead of out/).
-new_folder() {
-  local base d k=2
-  base=${COSIM_OUTPUT_ROOT:-$root/out}/$name/$(date -u +%Y%m%d-%H%M%S)
-  d=$base
-  while [ -e "$d" ]; do d=$base-$k; k=$((k + 1)); done
-  echo "$d"
-}
+run_folder() { new_folder "${COSIM_OUTPUT_ROOT:-$root/out}/$name"; }
 
 export COSIM_FLUID_RESTART="" COSIM_SOLID_RESTART="" COSIM_NEW_TIME_RATIO=""
 run_id=""
@@ -178,12 +172,12 @@ if [ -n "$restart" ]; then
     if [ "$(basename "$ckdir")" = checkpoints ] && [ -f "$parent/run.id" ] && [ "$(cat "$parent/run.id")" = "$run_id" ]; then
       output=$parent
     else
-      output=$(new_folder)
+      output=$(run_folder)
     fi
   fi
   [ $new_ratio -eq 1 ] && COSIM_NEW_TIME_RATIO=1
 fi
-output=${output:-$(new_folder)}
+output=${output:-$(run_folder)}
 if [ -d "$output" ] && holds_run "$output"; then
   if [ -z "$restart" ]; then
     refuse "--output $output: holds an earlier run$([ -f "$output/run.id" ] && echo " ($(cat "$output/run.id"))") (allowed: a new or empty folder, e.g. the default out/$name/DATE-TIME, or --restart $output to continue that run)"

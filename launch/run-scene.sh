@@ -9,7 +9,7 @@
 set -euo pipefail
 . "$(dirname "${BASH_SOURCE[0]}")/help.sh" && answer_help "${BASH_SOURCE[0]}" "$@"
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
-. "$root/launch/build-dir.sh"
+. "$root/launch/folders.sh"
 scene=${1:-$root/scenes/channel_reduced.toml}
 [ $# -gt 0 ] && shift
 bash "$root/launch/bootstrap.sh"

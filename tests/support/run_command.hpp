@@ -40,7 +40,7 @@ inline std::filesystem::path fresh_scratch(const std::string& name) {
   return dir;
 }
 
-/// The build folder whose executables the launch scripts run (launch/build-dir.sh):
+/// The build folder whose executables the launch scripts run (launch/folders.sh):
 /// $COSIM_BUILD_DIR (CTest sets it to the test's own build, tests/CMakeLists.txt), else
 /// SOURCE/build.
 inline std::filesystem::path launcher_build(const std::filesystem::path& source) {

@@ -1,0 +1,24 @@
+# Sourced by the launch scripts that build, run or write, after `root` is set: where things go.
+#
+# The build folder: sets `bin` to it and exports it as COSIM_BUILD_DIR, so that the scripts
+# they start use the same one. It is $COSIM_BUILD_DIR (absolute, or relative to the current
+# folder) where that is set and not empty, else ROOT/build: e.g.
+#
+#   COSIM_BUILD_DIR=build-v3 bash launch/build.sh -DCOSIM_NATIVE=OFF -DCOSIM_ARCH=x86-64-v3
+#   COSIM_BUILD_DIR=build-v3 bash launch/run-coupled.sh SCENE.toml --no-build
+#
+# builds a second, AVX2 binary beside build/ and runs a scene with it (launch/run-tests.sh
+# does so for its x86-64-v3 pass).
+bin=${COSIM_BUILD_DIR:-$root/build}
+case $bin in /*) ;; *) bin=$PWD/$bin ;; esac
+export COSIM_BUILD_DIR=$bin
+
+# new_folder PARENT: prints PARENT/<UTC date-time>, or PARENT/<UTC date-time>-K where that
+# exists already, a folder no earlier call used (nothing a user ran before is overwritten).
+new_folder() {
+  local base d k=2
+  base=$1/$(date -u +%Y%m%d-%H%M%S)
+  d=$base
+  while [ -e "$d" ]; do d=$base-$k; k=$((k + 1)); done
+  echo "$d"
+}
