@@ -251,6 +251,25 @@ inline void store_outflow_ghost(const Lanes (&f)[L::Q], int lane, T* g, std::ptr
     if (L::cx[q] == inward) g[q * stride] = ghost[q];
 }
 
+/// How far ahead of its group, in bytes along x, a kernel prefetches each of the 19 slots it
+/// reads (8 cache lines): the cache's own prefetchers leave it waiting on memory. Measured on
+/// the AMD EPYC of docs/performance.md (AVX-512), interleaved runs of `bench --grids paper box
+/// --threads 2 --precision double single --no-ib --repeat 3 --propagation ...` with and
+/// without: the in-place step with the double store from 66-84 % of the same-run roofline to
+/// 86-94 % (256 and 128 bytes ahead: 64-104 %), with the single store from 27-48 % to
+/// 36-65 %, and with --level x86-64-v3 the double store's box from 54-58 % to 80-89 %; the
+/// two-grid step from 59-74 to 71-100 MLUPS (double) and from 70-83 to 95-126 (single).
+/// Prefetches change no value: the same bits.
+constexpr int kPrefetchBytes = 512;
+
+/// Asks for the line kPrefetchBytes past p (a read slot of the group at p). The address is
+/// formed as an integer: near the field's end it lies past the allocation, and a prefetch
+/// never faults.
+template <class T>
+[[gnu::always_inline]] inline void prefetch_ahead(const T* p) {
+  __builtin_prefetch(reinterpret_cast<const void*>(reinterpret_cast<std::uintptr_t>(p) + kPrefetchBytes));
+}
+
 /// row(r) for the rows r = 0 .. rows - 1, shared among the threads of the enclosing parallel
 /// region as `schedule` says (RowSchedule::Dynamic: 64 chunks, see stream_collide.hpp); no
 /// barrier at the end.
@@ -320,6 +339,8 @@ void update_rows(const BasicPopulationField<T>& src, BasicPopulationField<T>& ds
           for (int g = 0; g < kLineGroups; ++g) {
             const int xg = x + g * kLanes;
 #pragma GCC unroll 19
+            for (int q = 0; q < L::Q; ++q) prefetch_ahead(s + pull[q] + xg);
+#pragma GCC unroll 19
             for (int q = 0; q < L::Q; ++q) f[q] = load(s + pull[q] + xg);
             collide<kForce>(f, k, ex);
             edges(xg, kLanes);
@@ -388,6 +409,8 @@ void update_rows(const BasicPopulationField<T>& src, BasicPopulationField<T>& ds
       }
       for (; x + kLanes <= nx; x += kLanes) {
 #pragma GCC unroll 19
+        for (int q = 0; q < L::Q; ++q) prefetch_ahead(s + pull[q] + x);
+#pragma GCC unroll 19
         for (int q = 0; q < L::Q; ++q) f[q] = load(s + pull[q] + x);
         collide<kForce>(f, k, ex);
         edges(x, kLanes);
@@ -415,14 +438,6 @@ void update_rows(const BasicPopulationField<T>& src, BasicPopulationField<T>& ds
   }
 }
 
-/// How far ahead of its group, in bytes along x, the in-place kernel prefetches each of the
-/// 19 slots it reads (8 cache lines). Measured on the AMD EPYC of docs/performance.md
-/// (AVX-512), interleaved runs of `bench --grids paper box --threads 2 --precision double
-/// single --no-ib --repeat 3 --propagation in-place` with and without: the double store's
-/// in-place step from 66-84 % of the roofline to 86-94 % (256 and 128 bytes ahead: 64-104 %),
-/// the single store's from 27-48 % to 36-65 %; with --level x86-64-v3 the double store's box
-/// step from 54-58 % to 80-89 %. Prefetches change no value: the same bits.
-constexpr int kInPlacePrefetchBytes = 512;
 
 /// One in-place step (stream_collide_in_place in stream_collide.hpp) over the interior,
 /// row by row (OpenMP), kLanes cells of x at a time. Each cell x reads its 19 pulled
@@ -454,12 +469,6 @@ void update_in_place(BasicPopulationField<T>& f, bool from_canonical, double tau
     }
   }
   T* const f0 = f.q(0);
-  // Each group asks for its 19 read streams kInPlacePrefetchBytes ahead (the cache's
-  // prefetchers alone leave the in-place kernel waiting on memory). The address is formed as
-  // an integer: near the field's end it lies past the allocation (a prefetch never faults).
-  const auto prefetch = [](const T* p) __attribute__((always_inline)) {
-    __builtin_prefetch(reinterpret_cast<const void*>(reinterpret_cast<std::uintptr_t>(p) + kInPlacePrefetchBytes));
-  };
 
 #pragma omp parallel
   {
@@ -471,7 +480,7 @@ void update_in_place(BasicPopulationField<T>& f, bool from_canonical, double tau
       int x = 0;
       for (; x + kLanes <= nx; x += kLanes) {
 #pragma GCC unroll 19
-        for (int q = 0; q < L::Q; ++q) prefetch(c + rd[q] + x);
+        for (int q = 0; q < L::Q; ++q) prefetch_ahead(c + rd[q] + x);
 #pragma GCC unroll 19
         for (int q = 0; q < L::Q; ++q) v[q] = load(c + rd[q] + x);
         collide<kForce>(v, k, ex);
