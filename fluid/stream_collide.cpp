@@ -15,18 +15,6 @@
 #include "fluid/kernel_dispatch.hpp"
 #include "fluid/lanes.hpp"
 
-
-
-
-
-
-
-
-
-
-
-
-
 namespace cosim::fluid::COSIM_ISA_NS {
 
 namespace {
@@ -437,7 +425,6 @@ void update_rows(const BasicPopulationField<T>& src, BasicPopulationField<T>& ds
     }
   }
 }
-
 
 /// One in-place step (stream_collide_in_place in stream_collide.hpp) over the interior,
 /// row by row (OpenMP), kLanes cells of x at a time. Each cell x reads its 19 pulled

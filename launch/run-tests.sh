@@ -14,9 +14,10 @@
 set -euo pipefail
 . "$(dirname "${BASH_SOURCE[0]}")/help.sh" && answer_help "${BASH_SOURCE[0]}" "$@"
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+. "$root/launch/folders.sh"
 bash "$root/launch/bootstrap.sh"
 bash "$root/launch/build.sh" -DCOSIM_WERROR=ON
-cd "$root/build"
+cd "$bin"
 status=0
 jobs=${COSIM_TEST_JOBS:-2}
 if ! [[ $jobs =~ ^[1-9][0-9]{0,2}$ ]]; then
