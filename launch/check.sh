@@ -9,8 +9,9 @@
 #
 # --verbose prints each side's whole header (the lattice units, the sheets, the model).
 # Uses build/fluid/fluid and build/solid/solid ($COSIM_BUILD_DIR for build/ where set,
-# launch/folders.sh; bash launch/build.sh first; nothing is built or installed here). Exit status: 0 every scene passed; 2 a scene was refused (or bad
-# arguments); 1 the executables are missing.
+# launch/folders.sh; bash launch/build.sh first; nothing is built or installed here).
+# Exit status: 0 every scene passed; 2 a scene was refused (or bad arguments); 1 the
+# executables are missing.
 set -euo pipefail
 . "$(dirname "${BASH_SOURCE[0]}")/help.sh" && answer_help "${BASH_SOURCE[0]}" "$@"
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
