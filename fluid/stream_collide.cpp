@@ -247,15 +247,24 @@ inline void store_outflow_ghost(const Lanes (&f)[L::Q], int lane, T* g, std::ptr
 /// 86-94 % (256 and 128 bytes ahead: 64-104 %), with the single store from 27-48 % to
 /// 36-65 %, and with --level x86-64-v3 the double store's box from 54-58 % to 80-89 %; the
 /// two-grid step from 59-74 to 71-100 MLUPS (double) and from 70-83 to 95-126 (single).
+/// Those runs asked on every group; asking once per line (prefetch_ahead) measured the same
+/// within the noise, both levels, with fewer instructions where a group is half a line.
 /// Prefetches change no value: the same bits.
 constexpr int kPrefetchBytes = 512;
 
-/// Asks for the line kPrefetchBytes past p (a read slot of the group at p). The address is
-/// formed as an integer: near the field's end it lies past the allocation, and a prefetch
-/// never faults.
+/// Asks for the lines kPrefetchBytes past the 19 read slots base + slot[q] + x of the group
+/// of cells from x on, once per line of x: a group narrower than a line (floats, or doubles
+/// below AVX-512) asks only where x starts a line (every row starts at x = 0), so no line is
+/// asked for twice. The address is formed as an integer: near the field's end it lies past
+/// the allocation, and a prefetch never faults.
 template <class T>
-[[gnu::always_inline]] inline void prefetch_ahead(const T* p) {
-  __builtin_prefetch(reinterpret_cast<const void*>(reinterpret_cast<std::uintptr_t>(p) + kPrefetchBytes));
+[[gnu::always_inline]] inline void prefetch_ahead(const T* base, const std::ptrdiff_t (&slot)[L::Q], int x) {
+  constexpr int kLineCells = GridLayout::kLineBytes / int(sizeof(T));
+  if constexpr (kLanes < kLineCells)
+    if (x % kLineCells != 0) return;
+#pragma GCC unroll 19
+  for (int q = 0; q < L::Q; ++q)
+    __builtin_prefetch(reinterpret_cast<const void*>(reinterpret_cast<std::uintptr_t>(base + slot[q] + x) + kPrefetchBytes));
 }
 
 /// row(r) for the rows r = 0 .. rows - 1, shared among the threads of the enclosing parallel
@@ -326,8 +335,7 @@ void update_rows(const BasicPopulationField<T>& src, BasicPopulationField<T>& ds
         for (; x + kLineCells <= nx; x += kLineCells) {
           for (int g = 0; g < kLineGroups; ++g) {
             const int xg = x + g * kLanes;
-#pragma GCC unroll 19
-            for (int q = 0; q < L::Q; ++q) prefetch_ahead(s + pull[q] + xg);
+            prefetch_ahead(s, pull, xg);
 #pragma GCC unroll 19
             for (int q = 0; q < L::Q; ++q) f[q] = load(s + pull[q] + xg);
             collide<kForce>(f, k, ex);
@@ -396,8 +404,7 @@ void update_rows(const BasicPopulationField<T>& src, BasicPopulationField<T>& ds
         }
       }
       for (; x + kLanes <= nx; x += kLanes) {
-#pragma GCC unroll 19
-        for (int q = 0; q < L::Q; ++q) prefetch_ahead(s + pull[q] + x);
+        prefetch_ahead(s, pull, x);
 #pragma GCC unroll 19
         for (int q = 0; q < L::Q; ++q) f[q] = load(s + pull[q] + x);
         collide<kForce>(f, k, ex);
@@ -466,8 +473,7 @@ void update_in_place(BasicPopulationField<T>& f, bool from_canonical, double tau
       Lanes v[L::Q];
       int x = 0;
       for (; x + kLanes <= nx; x += kLanes) {
-#pragma GCC unroll 19
-        for (int q = 0; q < L::Q; ++q) prefetch_ahead(c + rd[q] + x);
+        prefetch_ahead(c, rd, x);
 #pragma GCC unroll 19
         for (int q = 0; q < L::Q; ++q) v[q] = load(c + rd[q] + x);
         collide<kForce>(v, k, ex);
