@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Started by run-coupled.sh (inside the private network namespace when root): sets up the
-# loopback for multicast, starts fluid, solid and optionally lcm-logger, and supervises them.
+# loopback for multicast, starts fluid, solid and optionally cosim-record, and supervises them.
 #   bash launch/coupled-inner.sh ROOT SCENE OUTPUT PREFIX LOG QUIET
 set -uo pipefail
 . "$(dirname "${BASH_SOURCE[0]}")/help.sh" && answer_help "${BASH_SOURCE[0]}" "$@"
@@ -52,15 +52,9 @@ fi
 url=$(sed -n 's/^[[:space:]]*lcm_url[[:space:]]*=[[:space:]]*"\(.*\)".*/\1/p' "$scene" | head -1)
 url=${url:-udpm://239.255.76.67:7667?ttl=0}
 export COSIM_CHANNEL_PREFIX=$prefix COSIM_LCM_URL=$url
-logger_pid=""
+. "$root/launch/traffic-log.sh"
 if [ "$log" -eq 1 ]; then
-  lcm-logger -f -c "${prefix}.*" --lcm-url="$url" "$output/traffic.lcmlog" >"$output/logger.log" 2>&1 &
-  logger_pid=$!
-  sleep 0.3
-  if ! kill -0 $logger_pid 2>/dev/null; then
-    echo "run-coupled: lcm-logger did not start: $(head -1 "$output/logger.log")" >&2
-    exit 1
-  fi
+  start_traffic_log "$output" "${prefix}.*" "$url" || exit 1
 fi
 
 extra_pid=""
@@ -143,7 +137,7 @@ if ! wait_up_to $b "$grace"; then
 fi
 echo $s_other >"$output/$other.exit"
 wait $watcher 2>/dev/null
-[ -n "$logger_pid" ] && kill -INT $logger_pid 2>/dev/null && wait $logger_pid 2>/dev/null
+stop_traffic_log "$output"
 [ -n "$extra_pid" ] && kill -TERM $extra_pid 2>/dev/null && wait $extra_pid 2>/dev/null
 
 # The documented codes 0-4 only: a server killed by a signal (128 + N), or any other

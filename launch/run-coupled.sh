@@ -62,7 +62,8 @@
 # As root, both processes run in a private network namespace (unshare -n; lo up with
 # multicast, 224.0.0.0/4 routed to lo), so no packet leaves this machine; otherwise they
 # run on the host with the scene's ttl=0 URL. Each run gets its own token and channel
-# prefix. --log records every channel of the run with lcm-logger into OUTPUT/traffic.lcmlog.
+# prefix. --log records every channel of the run with cosim-record (docs/logs.md) into
+# OUTPUT/traffic.lcmlog, appended to by a restart (its lines: OUTPUT/record.log).
 # When one process dies, the other is given time to notice and stop by itself (it writes
 # its checkpoint, its output and the reason): the scene's longer timeout (handshake_timeout_s
 # or peer_timeout_s, [coupling]) plus 30 s to write (COSIM_SURVIVOR_GRACE_S overrides it);
@@ -122,6 +123,8 @@ if [ $build -eq 1 ]; then
   bash "$root/launch/build.sh" >/dev/null
 fi
 [ -x "$bin/fluid/fluid" ] || refuse "$bin/fluid/fluid is missing: build first (bash launch/build.sh, or drop --no-build)"
+[ $log -eq 0 ] || [ -x "$bin/tools/record/cosim-record" ] ||
+  refuse "--log: $bin/tools/record/cosim-record is missing: build first (bash launch/build.sh, or drop --no-build)"
 if [ -n "$ranks" ]; then
   grep -q "COSIM_HAVE_MPI:INTERNAL=\(ON\|TRUE\|1\)" "$bin/CMakeCache.txt" 2>/dev/null ||
     refuse "--ranks $ranks: this build has no MPI (install libopenmpi-dev and openmpi-bin, then rebuild)"
@@ -262,7 +265,7 @@ while :; do
   why=$(grep -hE 'coupled run stopped|handshake refused|watchdog [a-z_]+ at step' "$output/fluid.log" "$output/solid.log" 2>/dev/null | tail -1 | cut -c1-300)
   kept=$output/retry_$retries
   mkdir -p "$kept"
-  for f in fluid.log solid.log fluid.exit solid.exit logger.log extra.log traffic.lcmlog; do
+  for f in fluid.log solid.log fluid.exit solid.exit record.log extra.log traffic.lcmlog; do
     [ -f "$output/$f" ] && mv "$output/$f" "$kept/"
   done
   from=$(newest_pair "$output/checkpoints" "$before")

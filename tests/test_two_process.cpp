@@ -56,7 +56,7 @@ TEST(TwoProcess, TwoProcessRunCompletes) {
   EXPECT_EQ(slurp(out / "solid.exit"), "0\n");
   EXPECT_TRUE(fs::exists(out / "monitor.h5"));
   EXPECT_TRUE(fs::exists(out / "solid.h5"));
-  // --log: lcm-logger recorded the run's channels (every LB step in both directions).
+  // --log: cosim-record recorded the run's channels (every LB step in both directions).
   ASSERT_TRUE(fs::exists(out / "traffic.lcmlog")) << slurp(out / "launcher.log");
   EXPECT_GT(fs::file_size(out / "traffic.lcmlog"), 200u * 2u * 100u);
   EXPECT_NE(slurp(out / "fluid.log").find("coupled run done, 200 LB steps"), std::string::npos)

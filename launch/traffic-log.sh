@@ -1,0 +1,37 @@
+# Sourced by launch/coupled-inner.sh (after folders.sh): records a run's LCM traffic with
+# cosim-record (tools/record, docs/logs.md "Recording") into OUTPUT/traffic.lcmlog, appended to
+# (a restart's traffic goes after the run's it continues); its own lines go to OUTPUT/record.log.
+
+traffic_log_pid=""
+
+# start_traffic_log OUTPUT CHANNEL_REGEX LCM_URL: 0 once the recorder listens (its subscription
+# made: for udpm://, the multicast group joined; messages sent before would be missed), else
+# 1 with the reason on stderr.
+start_traffic_log() {
+  local output=$1 channels=$2 url=$3 k
+  "$bin/tools/record/cosim-record" "$output/traffic.lcmlog" --channels "$channels" --lcm-url "$url" \
+    >>"$output/record.log" 2>&1 &
+  traffic_log_pid=$!
+  for ((k = 0; k < 200; k++)); do
+    if ! kill -0 "$traffic_log_pid" 2>/dev/null; then
+      echo "run-coupled: cosim-record did not start: $(tail -1 "$output/record.log")" >&2
+      traffic_log_pid=""
+      return 1
+    fi
+    grep -q "^cosim-record: recording " "$output/record.log" && return 0
+    sleep 0.05
+  done
+  echo "run-coupled: cosim-record not listening after 10 s; the log may lack the run's first messages" >&2
+}
+
+# stop_traffic_log OUTPUT: once the servers have ended, asks the recorder to stop; it writes
+# what is still on its way first (at most 30 s) and says so on failure.
+stop_traffic_log() {
+  local output=$1 s
+  [ -n "$traffic_log_pid" ] || return 0
+  kill -INT "$traffic_log_pid" 2>/dev/null
+  wait "$traffic_log_pid"
+  s=$?
+  [ $s -eq 0 ] || echo "run-coupled: cosim-record exited $s: $(tail -1 "$output/record.log")" >&2
+  traffic_log_pid=""
+}
