@@ -99,7 +99,7 @@ std::int64_t udp_receive_backlog() {
       if (!inodes.contains(inode)) continue;
       const auto colon = queues.find(':');
       if (colon == std::string::npos) continue;
-      bytes += std::stoll(queues.substr(colon + 1), nullptr, 16);
+      bytes += std::strtoll(queues.c_str() + colon + 1, nullptr, 16);
     }
   }
   return bytes;
