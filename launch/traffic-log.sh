@@ -9,7 +9,9 @@ traffic_log_pid=""
 # 1 with the reason on stderr.
 start_traffic_log() {
   local output=$1 channels=$2 url=$3 k
-  "$bin/tools/record/cosim-record" "$output/traffic.lcmlog" --channels "$channels" --lcm-url "$url" \
+  # In a session of its own, as the servers (a Ctrl-C at the terminal reaches the launcher,
+  # which stops the recorder only after the servers have ended and said so).
+  setsid "$bin/tools/record/cosim-record" "$output/traffic.lcmlog" --channels "$channels" --lcm-url "$url" \
     >>"$output/record.log" 2>&1 &
   traffic_log_pid=$!
   for ((k = 0; k < 200; k++)); do
