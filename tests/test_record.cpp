@@ -211,6 +211,7 @@ TEST(Record, RefusesBadInput) {
        "ttl=1"},
       {quoted((dir / "a.lcmlog").string()) + " --channels 'COSIM_.*' --lcm-url memq://", "memq://"},
       {quoted((dir / "a.lcmlog").string()) + " --channels ''", "--channels"},
+      {quoted((dir / "a.lcmlog").string()) + " --channels 'COSIM_(.*'", "not a regular expression"},
       {quoted((dir / "a.lcmlog").string()), "--channels"},
       {quoted((dir / "a.lcmlog").string()) + " --channels 'COSIM_.*' --chanels x", "did you mean"},
       {quoted((dir / "a.lcmlog").string()) + " --channels 'COSIM_.*' --receive-buffer -5", "--receive-buffer -5"},

@@ -60,8 +60,8 @@ int main_impl(int argc, char** argv) {
                  options.receive_buffer_bytes);
     return ec::bad_input;
   }
-  if (channels.empty()) {
-    std::fprintf(stderr, "cosim-record: --channels \"\": give the run's channels, e.g. 'COSIM_1a2b3c4d_.*'\n");
+  if (const std::string why = cosim::record::channels_problem(channels); !why.empty()) {
+    std::fprintf(stderr, "cosim-record: %s\n", one_line(why).c_str());
     return ec::bad_input;
   }
   if (const std::string why = cosim::record::append_problem(log_path); !why.empty()) {

@@ -1,5 +1,7 @@
 #include "tools/record/recorder.hpp"
 
+#include <glib.h>
+#include <lcm/lcm.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
@@ -35,7 +37,8 @@ struct Sink {
   std::string error;  ///< the first write error; recording ends with it
 };
 
-void on_message(const lcm::ReceiveBuffer* rbuf, const std::string& channel, Sink* sink) {
+void on_message(const lcm_recv_buf_t* rbuf, const char* channel, void* user) {
+  auto* sink = static_cast<Sink*>(user);
   if (!sink->error.empty()) return;
   lcm::LogEvent ev{};
   ev.timestamp = rbuf->recv_utime;
@@ -48,7 +51,7 @@ void on_message(const lcm::ReceiveBuffer* rbuf, const std::string& channel, Sink
     return;
   }
   ++sink->result->events;
-  sink->result->bytes += 4 + 8 + 8 + 4 + 4 + static_cast<std::int64_t>(channel.size()) + rbuf->data_size;
+  sink->result->bytes += 4 + 8 + 8 + 4 + 4 + static_cast<std::int64_t>(ev.channel.size()) + rbuf->data_size;
   if (sink->stopping) ++sink->result->after_stop;
 }
 
@@ -66,6 +69,23 @@ std::map<int, std::string> own_sockets() {
 }
 
 }  // namespace
+
+std::string channels_problem(const std::string& channels) {
+  if (channels.empty()) return "--channels \"\": give the run's channels, e.g. 'COSIM_1a2b3c4d_.*'";
+  // As lcm_subscribe compiles it (GLib's regex, anchored at both ends).
+  GError* error = nullptr;
+  GRegex* regex = g_regex_new(("^" + channels + "$").c_str(), GRegexCompileFlags(0), GRegexMatchFlags(0), &error);
+  if (regex != nullptr) {
+    g_regex_unref(regex);
+    return "";
+  }
+  std::string why = "--channels \"" + channels + "\": not a regular expression LCM takes";
+  if (error != nullptr) {
+    why += std::string(" (") + error->message + ")";
+    g_error_free(error);
+  }
+  return why;
+}
 
 std::string append_problem(const std::string& path) {
   std::error_code ec;
@@ -124,6 +144,7 @@ std::int64_t enlarge_udp_receive_buffers(int bytes) {
 RecordResult record(lcm::LCM& bus, const RecordOptions& options, const std::function<bool()>& stop_requested,
                     const std::function<void(std::int64_t receive_buffer_bytes)>& on_ready) {
   using Clock = std::chrono::steady_clock;
+  if (const std::string why = channels_problem(options.channels); !why.empty()) throw RecordError(why);
   if (const std::string why = append_problem(options.log_path); !why.empty()) throw RecordError(why);
   lcm::LogFile log(options.log_path, "a");
   if (!log.good())
@@ -131,10 +152,11 @@ RecordResult record(lcm::LCM& bus, const RecordOptions& options, const std::func
 
   RecordResult result;
   Sink sink{&log, options.log_path, &result, false, {}};
-  lcm::Subscription* sub = bus.subscribeFunction(options.channels, &on_message, &sink);
+  // LCM's C interface: its C++ wrapper hides a failed subscription behind a non-null object.
+  lcm_subscription_t* sub = lcm_subscribe(bus.getUnderlyingLCM(), options.channels.c_str(), &on_message, &sink);
   if (sub == nullptr) throw std::runtime_error("cannot subscribe to channels \"" + options.channels + "\"");
   // No limit on the messages LCM holds for us: its default (30) drops the rest when we lag.
-  sub->setQueueCapacity(0);
+  lcm_subscription_set_queue_capacity(sub, 0);
   result.receive_buffer_bytes = enlarge_udp_receive_buffers(options.receive_buffer_bytes);
   on_ready(result.receive_buffer_bytes);
 
@@ -158,7 +180,7 @@ RecordResult record(lcm::LCM& bus, const RecordOptions& options, const std::func
     quiet_rounds = (got == 0 && udp_receive_backlog() == 0) ? quiet_rounds + 1 : 0;
   }
   result.drain_s = std::chrono::duration<double>(Clock::now() - stop_at).count();
-  bus.unsubscribe(sub);
+  lcm_unsubscribe(bus.getUnderlyingLCM(), sub);
   if (!sink.error.empty()) throw RecordError(sink.error);
   return result;
 }

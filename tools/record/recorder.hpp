@@ -55,6 +55,10 @@ class RecordError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// Why `channels` is not a channel pattern LCM's subscribe takes (GLib's regular expressions,
+/// anchored), or "" if it is one.
+std::string channels_problem(const std::string& channels);
+
 /// Why `path` may not be appended to, or "" if it may: a missing or empty file, or one
 /// starting with LCM's event magic (0xEDA1DA01). A file of another kind is refused, not
 /// overwritten.
@@ -74,7 +78,7 @@ std::int64_t enlarge_udp_receive_buffers(int bytes);
 /// receiving until the bus is quiet (RecordOptions::quiet). `on_ready` is called once the
 /// subscription is made (for the udpm provider: the multicast group joined) and the receive
 /// buffers enlarged (with the smallest granted), before the first message.
-/// @throws RecordError (opening, appending, writing), std::runtime_error (LCM).
+/// @throws RecordError (channels, opening, appending, writing), std::runtime_error (LCM).
 RecordResult record(lcm::LCM& bus, const RecordOptions& options, const std::function<bool()>& stop_requested,
                     const std::function<void(std::int64_t receive_buffer_bytes)>& on_ready);
 
