@@ -8,7 +8,9 @@ traffic_log_pid=""
 # made: for udpm://, the multicast group joined; messages sent before would be missed), else
 # 1 with the reason on stderr.
 start_traffic_log() {
-  local output=$1 channels=$2 url=$3 k
+  local output=$1 channels=$2 url=$3 k from=0
+  # A restart appends to record.log: look for this recorder's line past what was there.
+  [ -f "$output/record.log" ] && from=$(stat -c %s "$output/record.log")
   # In a session of its own, as the servers (a Ctrl-C at the terminal reaches the launcher,
   # which stops the recorder only after the servers have ended and said so).
   setsid "$bin/tools/record/cosim-record" "$output/traffic.lcmlog" --channels "$channels" --lcm-url "$url" \
@@ -20,7 +22,7 @@ start_traffic_log() {
       traffic_log_pid=""
       return 1
     fi
-    grep -q "^cosim-record: recording " "$output/record.log" && return 0
+    tail -c +$((from + 1)) "$output/record.log" | grep -q "^cosim-record: recording " && return 0
     sleep 0.05
   done
   echo "run-coupled: cosim-record not listening after 10 s; the log may lack the run's first messages" >&2

@@ -431,14 +431,22 @@ TEST(RunData, ContinueFinishedRun) {
   const fs::path dir = scratch("continue");
   const fs::path scene = small_scene(dir, 60);
   const fs::path run = dir / "run", longer = dir / "longer";
-  expect_done(run, run_launcher(kSource, scene, run));
+  expect_done(run, run_launcher(kSource, scene, run, "--log"));
+  const std::string traffic = slurp(run / "traffic.lcmlog");
+  ASSERT_FALSE(traffic.empty()) << logs(run);
   // The same scene, 100 LB steps: from step 0, and the finished run continued from its last
   // checkpoint (40) in its own folder.
   const fs::path scene100 = small_scene(dir, 100, {}, "small100");
   expect_done(longer, run_launcher(kSource, scene100, longer));
   const std::string log = (dir / "continue.log").string();
-  ASSERT_EQ(launch(scene100, "--restart " + quoted(run.string()), log), 0) << slurp(log) << logs(run);
+  ASSERT_EQ(launch(scene100, "--restart " + quoted(run.string()) + " --log", log), 0) << slurp(log) << logs(run);
   EXPECT_NE(slurp(log).find("restarting run"), std::string::npos) << slurp(log);
+  // The continuation's traffic goes after the first run's, which stays as it was.
+  const std::string both = slurp(run / "traffic.lcmlog");
+  EXPECT_GT(both.size(), traffic.size());
+  EXPECT_EQ(both.compare(0, traffic.size(), traffic), 0) << "the first run's log was overwritten";
+  const std::string recorder = slurp(run / "record.log");
+  EXPECT_NE(recorder.find("cosim-record: recording "), recorder.rfind("cosim-record: recording ")) << recorder;
   for (const char* f : {"monitor.h5", "solid.h5", "fields_000080.h5", "fields_000100.h5"})
     EXPECT_EQ(compare_h5(longer, run, f), "") << f;
   // The first attempt's provenance and scene copy are kept; the continuation's are beside them.
