@@ -3,15 +3,18 @@
 // and none left unwritten when it is stopped.
 //
 // Why not lcm-logger (Debian's liblcm-bin, LCM 1.3.1), which launch/run-coupled.sh --log used
-// before: two of its ways lose messages of a run, and the log is what a user replays.
+// before: three of its ways lose messages of a run, and the log is what a user replays
+// (measured by launch/record-under-load.sh, docs/logs.md).
 // - It subscribes with LCM's default queue of 30 messages: when its main thread falls behind
 //   (a busy machine), LCM's receive thread drops every further message of the subscription,
-//   from the middle of the run (a stopped logger kept steps 0..18 of 30 and the stop_t).
+//   from the middle of the run (at nice 19 beside busy loops it kept solid_state_t steps
+//   0..13 of 0..29 in one run of five).
 // - At SIGINT it discards the messages it has received and not yet written; its writer
 //   fsyncs at every flush, so on a busy machine the run's last steps were lost (CI:
 //   Replay.ReplayReproducesParallelScheme read a log without steps 28 and 29).
-// The recorder subscribes with no queue limit, writes each message at once, and when asked
-// to stop keeps receiving until the bus has been quiet (below).
+// - Its -f truncated the log of the run a restart continued.
+// The recorder subscribes with no queue limit, writes each message at once, appends, and when
+// asked to stop keeps receiving until the bus has been quiet (below).
 #pragma once
 
 #include <chrono>
