@@ -34,8 +34,12 @@ stop_traffic_log() {
   local output=$1 s
   [ -n "$traffic_log_pid" ] || return 0
   kill -INT "$traffic_log_pid" 2>/dev/null
-  wait "$traffic_log_pid"
-  s=$?
+  # A trapped signal interrupts wait (status > 128) while the recorder still drains: again.
+  s=0
+  while kill -0 "$traffic_log_pid" 2>/dev/null; do
+    wait "$traffic_log_pid"
+    s=$?
+  done
   [ $s -eq 0 ] || echo "run-coupled: cosim-record exited $s: $(tail -1 "$output/record.log")" >&2
   traffic_log_pid=""
 }
