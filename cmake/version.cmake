@@ -1,6 +1,6 @@
 # Run at build time (cmake -P, from the cosim_version_header target): writes the version
 # header OUT from `git describe` and `git rev-parse HEAD` of SOURCE_DIR. The header is
-# rewritten only when its text changes, so a commit recompiles protocol/version.cpp (and
+# rewritten only when its text changes, so a commit recompiles common/run/version.cpp (and
 # nothing else). Outside a git checkout (a source tarball) the commit reads "unknown".
 #   cmake -DSOURCE_DIR=... -DOUT=... -DPROJECT_VERSION=... -P cmake/version.cmake
 find_program(GIT git)

@@ -701,7 +701,7 @@ def knob_time_ratio(plan: Plan) -> Knob:
         _order_remark(k, "against the largest A_T. Velocity Verlet alone is second order in dt_CG, but the "
                          "fluid's reaction on a CGP, -g dA with g = 2 rho (U_B - u), depends on the CGP's "
                          "velocity U_B and is taken with the velocity at the start of each substep "
-                         "(`solid/solid_coupler.hpp`), which is first order")]
+                         "(`solid/coupling/solid_coupler.hpp`), which is first order")]
     return knob
 
 

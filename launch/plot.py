@@ -10,7 +10,7 @@ RUN_DIR is a coupled run's output folder (launch/run-coupled.sh --output): solid
 required, monitor.h5 and field snapshots (fields_NNNNNN.h5) are plotted when present. With
 several runs every time series has one line per run (and per sheet, G1 solid, G2 dashed),
 labelled by a parameter of the run read from its outputs (the scene copy in solid.h5's
-`scene_toml` attribute, protocol/provenance.hpp: [fluid] reynolds, the sheets' theta_deg and
+`scene_toml` attribute, common/run/provenance.hpp: [fluid] reynolds, the sheets' theta_deg and
 base_um): --label re (Re), angle (theta), ds (span-wise gap between the sheets' bases), name
 (the run's folder); by default the one that differs between the runs. Titles say what was
 run (Re, angle, sheets, model), never a file name. One run with two sheets: G1 red, G2 blue,
@@ -99,7 +99,7 @@ PAPER_VORTICITY_TIMES_US = (13.4,)           # Fig. 9
 def scene_metadata(scene_toml):
     """{'re': 40, 'angle': 90, 'ds': 4.1} from the run's copy of its scene (solid.h5's
     scene_toml attribute): [fluid] reynolds, the sheets' common theta_deg (90 when not given,
-    solid/sheet_spec.hpp), and for two sheets the span-wise distance of their bases."""
+    solid/model/sheet_spec.hpp), and for two sheets the span-wise distance of their bases."""
     try:
         d = tomllib.loads(scene_toml)
     except tomllib.TOMLDecodeError:
@@ -188,7 +188,7 @@ class Run:
         path = os.path.join(self.dir, "solid.h5")
         with open_h5(path) as f:
             self.scene = text_attr(f.attrs, "scene", path)
-            # What was run, from the run's own copy of its scene (protocol/provenance.hpp);
+            # What was run, from the run's own copy of its scene (common/run/provenance.hpp);
             # outputs written before it carry none, and are labelled by their folder.
             self.params = scene_metadata(text_attr(f.attrs, "scene_toml", path)) if "scene_toml" in f.attrs else {}
             self.model = text_attr(f.attrs, "model", path) if "model" in f.attrs else "?"

@@ -34,7 +34,7 @@
 # $COSIM_RUN_LABEL when set), the line "fluid: sheet released at step N", and the fluid's
 # header, warnings and closing summary; its monitor rows stay in OUTPUT/fluid.log. --quiet
 # shows only the closing summary. The output folder gets scene.toml (a copy of the scene)
-# and provenance_fluid.toml, provenance_solid.toml (protocol/provenance.hpp).
+# and provenance_fluid.toml, provenance_solid.toml (common/run/provenance.hpp).
 #
 # The stability watchdog (DESIGN 6, docs/stability.md): when a sentinel stops the run and
 # the scene's [watchdog] retry = true, the fluid prints "fluid: watchdog retry: time_ratio

@@ -4,7 +4,7 @@
 # a higher level than x86-64-v3 (AVX2), the kernel, precision and reproducibility tests again
 # on a second build for an AVX2 CPU: everything compiled with -march=x86-64-v3 into
 # build-x86-64-v3/ (launch/folders.sh; only those tests and the servers they run) and the
-# fluid kernel forced to that level (COSIM_KERNEL_LEVEL, fluid/kernel_dispatch.hpp): the
+# fluid kernel forced to that level (COSIM_KERNEL_LEVEL, fluid/collision/kernel_dispatch.hpp): the
 # code an AVX2-only CPU runs, every bit-identity test on it.
 # Two tests run at a time (COSIM_TEST_JOBS, default 2): on CI's 2 cores both are shared, the
 # busy machine every test is sized for (each well inside its timeout there), and the suite

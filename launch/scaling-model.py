@@ -6,7 +6,7 @@
 
 Per step a rank updates its slab (the thickest slab sets the pace: ceil(nz / N) planes) at
 R MLUPS, then exchanges its halo: 5 populations of one plane (with ghosts and row padding,
-fluid/grid_layout.hpp, double store) to each of its two neighbours, 10 messages of P bytes,
+fluid/lattice/grid_layout.hpp, double store) to each of its two neighbours, 10 messages of P bytes,
 counted one after another (no overlap with the bulk, no concurrency between messages):
 T_comm = 10 (A + P / B). Efficiency = T_1 / (N T_N) with T_1 = cells / R. The gather of the
 grid to rank 0 for a snapshot is printed apart (19 values per cell through one link at B)."""

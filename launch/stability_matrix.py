@@ -392,7 +392,7 @@ def write_doc(results, doc, figs, command, short, total_wall):
                  (' ' + by['stiff_solid']['retries'][0] if by['stiff_solid']['retries'] else ''))
     if 'colliding_sheets_stiff' in by:
         L.append('- **A retry is not a cure for everything**: with eps = 1e7 eV the Lennard-Jones force '
-                 'jumps from 0 to 24 eps / sigma where two CGPs come within sigma (solid/lj_contact.hpp), '
+                 'jumps from 0 to 24 eps / sigma where two CGPs come within sigma (solid/contact/lj_contact.hpp), '
                  'a kick proportional to dt_CG; each retry halves dt_CG and the speed at the trip, but '
                  'the speed stays above the limit (the reasons below), and the run ends stopped.')
     if by.get('flutter_30deg', {}).get('margins'):

@@ -11,7 +11,7 @@
 #include <string>
 #include <string_view>
 
-#include "protocol/text.hpp"
+#include "common/text/text.hpp"
 
 namespace cosim::protocol {
 

@@ -12,8 +12,8 @@
 #include <stdexcept>
 #include <string>
 
-#include "protocol/checkpoint_file.hpp"
-#include "protocol/checksum.hpp"
+#include "common/run/checkpoint_file.hpp"
+#include "common/run/checksum.hpp"
 #include "protocol/handshake.hpp"
 
 namespace cosim::protocol {

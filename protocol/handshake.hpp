@@ -38,7 +38,7 @@ struct Hello {
   double stable_dt_cg_s = 0.0;       ///< the solid model's stable substep (2 / omega_max)
   int num_cgps = 0;                  ///< CGPs (markers) the solid will exchange
   /// The CGP with the smallest mass per area: its mass and surface element dA (Eq. 19), for
-  /// the added-mass check (protocol/watchdog.hpp); 0 and 0: not reported.
+  /// the added-mass check (common/watchdog/watchdog.hpp); 0 and 0: not reported.
   double light_cgp_mass_kg = 0.0;
   double light_cgp_area_m2 = 0.0;
 };

@@ -1,5 +1,5 @@
 // The solid library's run (sdk/include/cosim/solid.hpp): the solid server's scene reader,
-// session (solid/solid_peer.hpp over protocol/session/) and coupling scheme's message order
+// session (solid/coupled/solid_peer.hpp over protocol/session/) and coupling scheme's message order
 // (solid/schemes/) around a user's Solid. Protocol state lives there; this file only wires it
 // to the user's interface: the command line, the hello_t, the lock-step loop, the ending.
 #include "cosim/solid.hpp"
@@ -22,22 +22,22 @@
 #include <utility>
 #include <vector>
 
-#include "protocol/checkpoint_file.hpp"
+#include "common/run/checkpoint_file.hpp"
 #include "protocol/checkpoint_identity.hpp"
-#include "protocol/cli_parse.hpp"
+#include "common/text/cli_parse.hpp"
 #include "protocol/fault_injection.hpp"
 #include "protocol/hello_lcm.hpp"
 #include "protocol/session/announcement.hpp"
-#include "protocol/session/exit_codes.hpp"
-#include "protocol/text.hpp"
+#include "common/run/exit_codes.hpp"
+#include "common/text/text.hpp"
 #include "protocol/units.hpp"
-#include "solid/coupled_solid.hpp"
-#include "solid/fluid_state_check.hpp"
+#include "solid/coupled/coupled_solid.hpp"
+#include "solid/coupling/fluid_state_check.hpp"
 #include "solid/schemes/scheme_context.hpp"
 #include "solid/schemes/solid_scheme.hpp"
-#include "solid/solid_coupler.hpp"
-#include "solid/solid_peer.hpp"
-#include "solid/solid_scene.hpp"
+#include "solid/coupling/solid_coupler.hpp"
+#include "solid/coupled/solid_peer.hpp"
+#include "solid/config/solid_scene.hpp"
 
 namespace cosim::sdk {
 

@@ -7,9 +7,9 @@
 #include <stdexcept>
 #include <string>
 
-#include "fluid/scene_config.hpp"
+#include "fluid/config/scene_config.hpp"
 #include "protocol/units.hpp"
-#include "solid/solid_scene.hpp"
+#include "solid/config/solid_scene.hpp"
 
 namespace cosim::test {
 

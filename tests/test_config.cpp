@@ -14,10 +14,10 @@
 #include <vector>
 
 #include "support/run_command.hpp"
-#include "fluid/scene_config.hpp"
+#include "fluid/config/scene_config.hpp"
 #include "protocol/config/scene_sections.hpp"
 #include "protocol/lcm_url.hpp"
-#include "solid/solid_scene.hpp"
+#include "solid/config/solid_scene.hpp"
 
 namespace {
 

@@ -9,7 +9,7 @@
 #include <fstream>
 #include <string>
 
-#include "solid/model_registry.hpp"
+#include "solid/model/model_registry.hpp"
 #include "tests/support/run_command.hpp"
 
 namespace {

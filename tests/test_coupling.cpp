@@ -7,12 +7,12 @@
 #include <cstdio>
 #include <vector>
 
-#include "fluid/fluid_solver.hpp"
-#include "fluid/immersed_boundary.hpp"
+#include "fluid/solver/fluid_solver.hpp"
+#include "fluid/ib/immersed_boundary.hpp"
 #include "protocol/units.hpp"
-#include "solid/aitken_relaxation.hpp"
-#include "solid/elastic_sheet_model.hpp"
-#include "solid/solid_coupler.hpp"
+#include "solid/coupling/aitken_relaxation.hpp"
+#include "solid/models/elastic_sheet/elastic_sheet_model.hpp"
+#include "solid/coupling/solid_coupler.hpp"
 #include "support/in_process_coupling.hpp"
 
 namespace {
@@ -84,7 +84,7 @@ TEST(Coupling, ImpulseLedgerBalances) {
 
 }  // namespace
 
-// Aitken's relaxation (solid/aitken_relaxation.hpp) on a linear map x -> lambda x + b with
+// Aitken's relaxation (solid/coupling/aitken_relaxation.hpp) on a linear map x -> lambda x + b with
 // one eigenvalue, as the added-mass feedback of a uniform sheet would give: the second
 // factor is 1 / (1 - lambda) and the iterate after it is the fixed point b / (1 - lambda), to
 // round-off, for a divergent plain iteration (lambda = -5) and a slow one (lambda = 0.9).

@@ -13,8 +13,8 @@
 #include <string>
 #include <vector>
 
-#include "fluid/fluid_solver.hpp"
-#include "fluid/immersed_boundary.hpp"
+#include "fluid/solver/fluid_solver.hpp"
+#include "fluid/ib/immersed_boundary.hpp"
 
 namespace {
 

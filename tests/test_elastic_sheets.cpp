@@ -13,9 +13,9 @@
 #include <Eigen/Geometry>
 
 #include "protocol/units.hpp"
-#include "solid/elastic_sheet_model.hpp"
-#include "solid/model_registry.hpp"
-#include "solid/sheet_forces.hpp"
+#include "solid/models/elastic_sheet/elastic_sheet_model.hpp"
+#include "solid/model/model_registry.hpp"
+#include "solid/models/elastic_sheet/sheet_forces.hpp"
 #include "support/corotational_reference.hpp"
 
 namespace {

@@ -8,7 +8,7 @@
 #include <numbers>
 #include <vector>
 
-#include "solid/force_constant_model.hpp"
+#include "solid/rcgp/force_constant_model.hpp"
 
 namespace {
 

@@ -8,11 +8,11 @@
 #include <random>
 #include <vector>
 
-#include "fluid/d3q19.hpp"
-#include "fluid/delta_kernel.hpp"
-#include "fluid/equilibrium.hpp"
-#include "fluid/fluid_solver.hpp"
-#include "fluid/immersed_boundary.hpp"
+#include "fluid/lattice/d3q19.hpp"
+#include "fluid/ib/delta_kernel.hpp"
+#include "fluid/lattice/equilibrium.hpp"
+#include "fluid/solver/fluid_solver.hpp"
+#include "fluid/ib/immersed_boundary.hpp"
 
 namespace {
 

@@ -1,5 +1,5 @@
 // The fluid kernel of every instruction-set level built into the binary
-// (fluid/kernel_dispatch.hpp): each level the CPU runs gives the same bits run after run, and
+// (fluid/collision/kernel_dispatch.hpp): each level the CPU runs gives the same bits run after run, and
 // the same bits as the lowest level, on every boundary kind, with forced cells, both stores,
 // ordinary and non-temporal stores, the outflow ghosts the kernel writes and the watchdog's
 // extrema.
@@ -11,10 +11,10 @@
 #include <string>
 #include <vector>
 
-#include "fluid/d3q19.hpp"
-#include "fluid/fluid_solver.hpp"
-#include "fluid/kernel_dispatch.hpp"
-#include "fluid/stream_collide.hpp"
+#include "fluid/lattice/d3q19.hpp"
+#include "fluid/solver/fluid_solver.hpp"
+#include "fluid/collision/kernel_dispatch.hpp"
+#include "fluid/collision/stream_collide.hpp"
 #include "support/boundary_grids.hpp"
 
 namespace {

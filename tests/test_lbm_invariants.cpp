@@ -14,12 +14,12 @@
 #include <utility>
 #include <vector>
 
-#include "fluid/bgk_guo.hpp"
-#include "fluid/d3q19.hpp"
-#include "fluid/equilibrium.hpp"
-#include "fluid/fluid_solver.hpp"
-#include "fluid/kernel_dispatch.hpp"
-#include "fluid/stream_collide.hpp"
+#include "fluid/collision/bgk_guo.hpp"
+#include "fluid/lattice/d3q19.hpp"
+#include "fluid/lattice/equilibrium.hpp"
+#include "fluid/solver/fluid_solver.hpp"
+#include "fluid/collision/kernel_dispatch.hpp"
+#include "fluid/collision/stream_collide.hpp"
 #include "support/boundary_grids.hpp"
 
 namespace {

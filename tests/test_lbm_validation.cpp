@@ -7,7 +7,7 @@
 #include <numbers>
 #include <vector>
 
-#include "fluid/fluid_solver.hpp"
+#include "fluid/solver/fluid_solver.hpp"
 
 namespace {
 

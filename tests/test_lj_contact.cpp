@@ -16,7 +16,7 @@
 #include <Eigen/Geometry>
 
 #include "protocol/units.hpp"
-#include "solid/lj_contact.hpp"
+#include "solid/contact/lj_contact.hpp"
 
 namespace {
 

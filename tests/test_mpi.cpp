@@ -90,7 +90,7 @@ TEST(Mpi, MpiFluidMatchesSerialBitForBit) {
   {
     // Copy-type x and y faces (periodic) driven by a body force, the single store's compact
     // rows (nx = 32): a block's step sends its edge planes with their x and y ghosts while it
-    // collides its interior planes (fluid/overlapped_step.cpp).
+    // collides its interior planes (fluid/solver/overlapped_step.cpp).
     SCOPED_TRACE("periodic x and y, single store, compact rows");
     fs::create_directories(dir / "periodic_xy");
     const fs::path xy = variant(channel, dir / "periodic_xy",

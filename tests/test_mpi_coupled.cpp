@@ -20,7 +20,7 @@
 #include <utility>
 #include <vector>
 
-#include "fluid/decomposition.hpp"
+#include "fluid/domain/decomposition.hpp"
 #include "support/run_command.hpp"
 #include "support/run_compare.hpp"
 

@@ -17,11 +17,11 @@
 #include <string>
 #include <vector>
 
-#include "fluid/d3q19.hpp"
-#include "fluid/field_writer.hpp"
-#include "fluid/flow_monitor.hpp"
-#include "fluid/fluid_solver.hpp"
-#include "fluid/monitor_log.hpp"
+#include "fluid/lattice/d3q19.hpp"
+#include "fluid/io/field_writer.hpp"
+#include "fluid/observables/flow_monitor.hpp"
+#include "fluid/solver/fluid_solver.hpp"
+#include "fluid/io/monitor_log.hpp"
 
 namespace {
 

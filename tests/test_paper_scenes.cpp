@@ -7,10 +7,10 @@
 #include <set>
 #include <string>
 
-#include "fluid/scene_config.hpp"
+#include "fluid/config/scene_config.hpp"
 #include "protocol/units.hpp"
-#include "solid/sheet_spec.hpp"
-#include "solid/solid_scene.hpp"
+#include "solid/model/sheet_spec.hpp"
+#include "solid/config/solid_scene.hpp"
 
 namespace {
 

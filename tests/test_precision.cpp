@@ -11,10 +11,10 @@
 #include <random>
 #include <vector>
 
-#include "fluid/d3q19.hpp"
-#include "fluid/fluid_solver.hpp"
-#include "fluid/scene_config.hpp"
-#include "fluid/stream_collide.hpp"
+#include "fluid/lattice/d3q19.hpp"
+#include "fluid/solver/fluid_solver.hpp"
+#include "fluid/config/scene_config.hpp"
+#include "fluid/collision/stream_collide.hpp"
 
 namespace {
 
@@ -153,7 +153,7 @@ TEST(Precision, SinglePrecisionWithinTolerance) {
 TEST(Precision, SingleStoreStreamingMatchesCachedStores) {
   // The single store's non-temporal kernel writes whole 64-byte lines of 16 floats: each
   // row's last, partial line is assembled with its outflow ghost and streamed whole
-  // (fluid/stream_collide.cpp), on rows that own that line (GridLayout::row_values). Every
+  // (fluid/collision/stream_collide.cpp), on rows that own that line (GridLayout::row_values). Every
   // remainder of nx modulo 16, with outflow ghosts written by the kernel on either x face,
   // against the kernel with ordinary stores: the same arithmetic, so bit for bit.
   using L = D3Q19;

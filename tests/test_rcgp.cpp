@@ -10,7 +10,7 @@
 
 #include <Eigen/Dense>
 
-#include "solid/rcgp_construction.hpp"
+#include "solid/rcgp/rcgp_construction.hpp"
 
 namespace {
 

@@ -1,6 +1,6 @@
 // The HDF5 cache of the RCGP construction (DESIGN 4.3 item 9): keyed by the inputs' hash,
 // loaded bit for bit, rebuilt when corrupt, an error when it cannot be written.
-#include "solid/rcgp_cache.hpp"
+#include "solid/rcgp/rcgp_cache.hpp"
 
 #include <gtest/gtest.h>
 

@@ -18,7 +18,7 @@
 #include <thread>
 #include <vector>
 
-#include "fluid/grid_layout.hpp"
+#include "fluid/lattice/grid_layout.hpp"
 #include "support/run_compare.hpp"
 
 namespace {
@@ -71,7 +71,7 @@ TEST(Reproducibility, RunsAreBitIdentical) {
   expect_done(b, run_launcher(kSource, scene, b));
   std::size_t files = 0;
   EXPECT_EQ(compare_outputs(a, b, &files), "");
-  // The reductions do not depend on the number of threads either (fluid/flow_monitor.cpp
+  // The reductions do not depend on the number of threads either (fluid/observables/flow_monitor.cpp
   // adds its row sums in row order): one OpenMP thread gives the same bits.
   expect_done(one, run_launcher(kSource, scene, one, "", "OMP_NUM_THREADS=1"));
   EXPECT_EQ(compare_outputs(a, one), "") << "1 thread and the default differ";

@@ -1,4 +1,4 @@
-// Runs that keep their data (launch/run-coupled.sh, protocol/checkpoint_file.hpp,
+// Runs that keep their data (launch/run-coupled.sh, common/run/checkpoint_file.hpp,
 // protocol/checkpoint_identity.hpp): each run its own folder, restarts that refuse another
 // run's, scene's or A_T's checkpoint and corrupted ones, interrupts and killed peers that
 // leave checkpoints and rows, a full disk, XDMF indexes after a restart, and a finished run

@@ -16,7 +16,7 @@
 
 #include "support/run_command.hpp"
 #include "support/run_compare.hpp"
-#include "fluid/scene_config.hpp"
+#include "fluid/config/scene_config.hpp"
 
 namespace {
 

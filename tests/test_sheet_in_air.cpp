@@ -1,6 +1,6 @@
 // The sheet in air (issue 16): a coupled scene released from a held deflection in a fluid
 // at rest ([perturbation] in a coupled scene), and the readings of the paper's Eqs. 18-20
-// that [reaction] law chooses (solid/reaction_law.hpp). Both servers' real parsers and the
+// that [reaction] law chooses (solid/coupling/reaction_law.hpp). Both servers' real parsers and the
 // solid's real set-up (SolidRun), coupled in one process (tests/support/in_process_coupling.hpp).
 #include <gtest/gtest.h>
 
@@ -12,13 +12,13 @@
 #include <string>
 #include <vector>
 
-#include "fluid/scene_config.hpp"
+#include "fluid/config/scene_config.hpp"
 #include "protocol/config/reaction_settings.hpp"
 #include "protocol/units.hpp"
-#include "solid/reaction_law.hpp"
-#include "solid/sheet_spec.hpp"
-#include "solid/solid_run.hpp"
-#include "solid/solid_scene.hpp"
+#include "solid/coupling/reaction_law.hpp"
+#include "solid/model/sheet_spec.hpp"
+#include "solid/coupled/solid_run.hpp"
+#include "solid/config/solid_scene.hpp"
 #include "support/in_process_coupling.hpp"
 
 namespace {

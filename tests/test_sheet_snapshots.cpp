@@ -1,4 +1,4 @@
-// Snapshots of the sheets (solid/sheet_snapshots.hpp; the paper's section 3.2 and Fig. 11:
+// Snapshots of the sheets (solid/io/sheet_snapshots.hpp; the paper's section 3.2 and Fig. 11:
 // the CGPs coloured by their area strain): the writer with an rcgp model of one 5 x 10 sheet,
 // read back with the HDF5 C API and sheets.xmf checked as text; and [output] sheets_every as
 // the solid's scene parser reads it.
@@ -17,11 +17,11 @@
 #include <Eigen/Core>
 
 #include "protocol/units.hpp"
-#include "solid/model_registry.hpp"
-#include "solid/sheet_snapshots.hpp"
-#include "solid/sheet_spec.hpp"
-#include "solid/solid_config.hpp"
-#include "solid/solid_scene.hpp"
+#include "solid/model/model_registry.hpp"
+#include "solid/io/sheet_snapshots.hpp"
+#include "solid/model/sheet_spec.hpp"
+#include "solid/model/solid_config.hpp"
+#include "solid/config/solid_scene.hpp"
 #include "support/run_command.hpp"
 
 namespace {

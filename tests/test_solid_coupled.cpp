@@ -1,4 +1,4 @@
-// The solid server's coupled run (solid/coupled_solid.hpp) against a fake fluid written
+// The solid server's coupled run (solid/coupled/coupled_solid.hpp) against a fake fluid written
 // here, in one process over LCM's memq:// provider (protocol/README.md sections 5-9).
 //
 // memq:// keeps one queue per lcm_t, so the solid and the fake fluid share one bus: the solid
@@ -40,9 +40,9 @@
 #include "protocol/coupling_scheme.hpp"
 #include "protocol/handshake.hpp"
 #include "protocol/units.hpp"
-#include "solid/coupled_solid.hpp"
-#include "solid/sheet_spec.hpp"
-#include "solid/solid_scene.hpp"
+#include "solid/coupled/coupled_solid.hpp"
+#include "solid/model/sheet_spec.hpp"
+#include "solid/config/solid_scene.hpp"
 #include "support/run_command.hpp"
 
 namespace {

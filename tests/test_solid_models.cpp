@@ -10,10 +10,10 @@
 #include <vector>
 
 #include "protocol/units.hpp"
-#include "solid/model_registry.hpp"
-#include "solid/rigid_model.hpp"
-#include "solid/sheet_spec.hpp"
-#include "solid/velocity_verlet.hpp"
+#include "solid/model/model_registry.hpp"
+#include "solid/models/rigid/rigid_model.hpp"
+#include "solid/model/sheet_spec.hpp"
+#include "solid/model/velocity_verlet.hpp"
 
 namespace {
 

@@ -20,8 +20,8 @@
 
 #include "support/run_command.hpp"
 #include "protocol/units.hpp"
-#include "solid/model_registry.hpp"
-#include "solid/solid_scene.hpp"
+#include "solid/model/model_registry.hpp"
+#include "solid/config/solid_scene.hpp"
 
 namespace {
 

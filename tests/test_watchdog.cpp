@@ -1,5 +1,5 @@
-// The stability watchdog's transport-free parts (DESIGN 6; protocol/watchdog.hpp,
-// protocol/marker_watch.hpp, protocol/energy_watch.hpp): each sentinel trips on the state it
+// The stability watchdog's transport-free parts (DESIGN 6; common/watchdog/watchdog.hpp,
+// fluid/watchdog/marker_watch.hpp, solid/watchdog/energy_watch.hpp): each sentinel trips on the state it
 // guards with a diagnosis naming the step, the place and the values, and stays quiet on a
 // healthy one; the added-mass check warns for a sheet too light for its substeps and not
 // for the paper's.
@@ -9,10 +9,10 @@
 #include <string>
 #include <vector>
 
-#include "protocol/energy_watch.hpp"
-#include "protocol/marker_watch.hpp"
+#include "solid/watchdog/energy_watch.hpp"
+#include "fluid/watchdog/marker_watch.hpp"
 #include "protocol/units.hpp"
-#include "protocol/watchdog.hpp"
+#include "common/watchdog/watchdog.hpp"
 
 namespace {
 

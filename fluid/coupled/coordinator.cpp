@@ -12,8 +12,8 @@
 #include "protocol/message_checks.hpp"
 #include "protocol/session/announcement.hpp"
 #include "protocol/session/stop_rules.hpp"
-#include "protocol/text.hpp"
-#include "protocol/watchdog.hpp"
+#include "common/text/text.hpp"
+#include "common/watchdog/watchdog.hpp"
 #include "fluid/schemes/fluid_scheme.hpp"
 
 namespace cosim::fluid {
@@ -132,7 +132,7 @@ std::optional<Ending> Coordinator::handshake() {
   return std::nullopt;
 }
 
-/// The added-mass check at start-up (protocol/watchdog.hpp): one line with the lightest
+/// The added-mass check at start-up (common/watchdog/watchdog.hpp): one line with the lightest
 /// CGP's numbers, a warning when the substeps cannot resolve the fluid's reaction on it.
 void Coordinator::added_mass_check(int time_ratio) {
   const double m = solid_hello_->light_cgp_mass_kg, a = solid_hello_->light_cgp_area_m2;

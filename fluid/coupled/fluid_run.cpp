@@ -7,16 +7,16 @@
 #include <type_traits>
 
 #include "fluid/coupled/coordinator.hpp"
-#include "fluid/d3q19.hpp"
+#include "fluid/lattice/d3q19.hpp"
 #include "fluid/schemes/fluid_scheme.hpp"
-#include "protocol/checkpoint_file.hpp"
+#include "common/run/checkpoint_file.hpp"
 #include "protocol/checkpoint_identity.hpp"
 #include "protocol/handshake.hpp"
-#include "protocol/peak_memory.hpp"
-#include "protocol/progress.hpp"
-#include "protocol/provenance.hpp"
+#include "common/run/peak_memory.hpp"
+#include "common/run/progress.hpp"
+#include "common/run/provenance.hpp"
 #include "protocol/session/interrupt.hpp"
-#include "protocol/text.hpp"
+#include "common/text/text.hpp"
 
 namespace cosim::fluid {
 
@@ -129,7 +129,7 @@ std::int64_t FluidRun::start(std::optional<int>& failed) {
   return first_step;
 }
 
-// ---- the stability watchdog (DESIGN 6; protocol/watchdog.hpp) ----
+// ---- the stability watchdog (DESIGN 6; common/watchdog/watchdog.hpp) ----
 
 std::optional<int> FluidRun::check_positions(std::int64_t step, const std::vector<Vec3>& x) {
   const Clock::time_point w0 = Clock::now();

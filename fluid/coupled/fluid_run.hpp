@@ -11,17 +11,17 @@
 #include <vector>
 
 #include "cosimlcm/fluid_state_t.hpp"
-#include "fluid/coupled_fluid.hpp"
-#include "fluid/flow_monitor.hpp"
-#include "fluid/fluid_domain.hpp"
-#include "fluid/immersed_boundary.hpp"
-#include "fluid/monitor_log.hpp"
-#include "fluid/scene_config.hpp"
-#include "fluid/snapshots.hpp"
-#include "protocol/marker_watch.hpp"
-#include "protocol/progress.hpp"
-#include "protocol/session/exit_codes.hpp"
-#include "protocol/watchdog.hpp"
+#include "fluid/coupled/coupled_fluid.hpp"
+#include "fluid/observables/flow_monitor.hpp"
+#include "fluid/domain/fluid_domain.hpp"
+#include "fluid/ib/immersed_boundary.hpp"
+#include "fluid/io/monitor_log.hpp"
+#include "fluid/config/scene_config.hpp"
+#include "fluid/io/snapshots.hpp"
+#include "fluid/watchdog/marker_watch.hpp"
+#include "common/run/progress.hpp"
+#include "common/run/exit_codes.hpp"
+#include "common/watchdog/watchdog.hpp"
 
 namespace cosim::protocol {
 struct CheckpointIdentity;
@@ -66,7 +66,7 @@ class FluidRun {
   std::int64_t rigid_steps() const { return s_.coupling->rigid_steps; }
   std::int64_t checkpoint_every() const { return s_.coupling->checkpoint_every; }
 
-  // ---- the watchdog (DESIGN 6; protocol/watchdog.hpp) ----
+  // ---- the watchdog (DESIGN 6; common/watchdog/watchdog.hpp) ----
   /// How far each marker moved, how far apart they are (before the fluid at `step` is
   /// touched: it is kept, if healthy, as the checkpoint of a trip). The exit code of a trip.
   std::optional<int> check_positions(std::int64_t step, const std::vector<Vec3>& x);
@@ -130,7 +130,7 @@ class FluidRun {
   double mass0_ = 0.0;             ///< the fluid's mass at step 0 (for the drift)
   std::vector<FlowSummary> rows_;  ///< monitor.h5's rows so far (for checkpoints)
   Clock::time_point start_ = Clock::now();
-  protocol::ProgressClock clock_{s_.steps};          ///< rate and ETA (protocol/progress.hpp)
+  protocol::ProgressClock clock_{s_.steps};          ///< rate and ETA (common/run/progress.hpp)
   double progress_every_s_ = protocol::progress_every_s(1.0);
   bool released_ = false;                            ///< the release line was printed
 };

@@ -18,11 +18,11 @@
 #include <string>
 #include <vector>
 
-#include "fluid/fluid_domain.hpp"
+#include "fluid/domain/fluid_domain.hpp"
 #include "fluid/mpi/distributed_fluid.hpp"
 #include "fluid/mpi/mpi_world.hpp"
-#include "fluid/scene_config.hpp"
-#include "protocol/cli_parse.hpp"
+#include "fluid/config/scene_config.hpp"
+#include "common/text/cli_parse.hpp"
 
 namespace cosim::fluid::mpi {
 namespace {

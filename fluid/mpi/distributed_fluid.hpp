@@ -11,8 +11,8 @@
 #include <string>
 #include <vector>
 
-#include "fluid/decomposition.hpp"
-#include "fluid/fluid_domain.hpp"
+#include "fluid/domain/decomposition.hpp"
+#include "fluid/domain/fluid_domain.hpp"
 #include "fluid/mpi/mpi_world.hpp"
 #include "fluid/mpi/slab_halo.hpp"
 

@@ -12,7 +12,7 @@
 #include <span>
 #include <string>
 
-#include "fluid/fluid_domain.hpp"
+#include "fluid/domain/fluid_domain.hpp"
 #include "fluid/mpi/distributed_fluid.hpp"
 
 namespace cosim::fluid::mpi {

@@ -1,6 +1,6 @@
 #include "fluid/mpi/mpi_world.hpp"
 
-#include "fluid/decomposition.hpp"
+#include "fluid/domain/decomposition.hpp"
 
 #include <cstdlib>
 #include <stdexcept>

@@ -4,7 +4,7 @@
 #include <type_traits>
 #include <vector>
 
-#include "fluid/d3q19.hpp"
+#include "fluid/lattice/d3q19.hpp"
 #include "fluid/mpi/mpi_world.hpp"
 
 namespace cosim::fluid::mpi {

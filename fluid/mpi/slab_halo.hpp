@@ -1,4 +1,4 @@
-// The halo exchange between slabs along z over MPI (fluid/halo_exchange.hpp): a slab's edge
+// The halo exchange between slabs along z over MPI (fluid/domain/halo_exchange.hpp): a slab's edge
 // planes to the slabs below and above, each step.
 #pragma once
 
@@ -8,8 +8,8 @@
 #include <cstdint>
 #include <vector>
 
-#include "fluid/decomposition.hpp"
-#include "fluid/halo_exchange.hpp"
+#include "fluid/domain/decomposition.hpp"
+#include "fluid/domain/halo_exchange.hpp"
 
 namespace cosim::fluid::mpi {
 

@@ -13,7 +13,7 @@
 
 #include "cosimlcm/fluid_state_t.hpp"
 #include "cosimlcm/solid_state_t.hpp"
-#include "protocol/checkpoint_file.hpp"
+#include "common/run/checkpoint_file.hpp"
 #include "protocol/coupling_scheme.hpp"
 
 namespace cosim::fluid {

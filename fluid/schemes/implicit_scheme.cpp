@@ -14,7 +14,7 @@
 #include "fluid/coupled/fluid_run.hpp"
 #include "fluid/schemes/fluid_scheme.hpp"
 #include "protocol/message_checks.hpp"
-#include "protocol/text.hpp"
+#include "common/text/text.hpp"
 
 #include "protocol/session/interrupt.hpp"
 namespace cosim::fluid {

@@ -1,6 +1,6 @@
 // [reaction] of a coupled scene: which reading of the paper's Eqs. 18-20 gives the fluid's
 // force on the CGPs (and, with the opposite sign, the CGPs' impulse on the fluid). The
-// physics of each law is solid/reaction_law.hpp; the parser protocol/config/reaction_section.hpp.
+// physics of each law is solid/coupling/reaction_law.hpp; the parser protocol/config/reaction_section.hpp.
 // Transport-free and TOML-free.
 #pragma once
 
@@ -11,7 +11,7 @@ namespace cosim::protocol::config {
 
 enum class ReactionLaw {
   /// g = 2 rho (U_B - u): Eq. 18 read as f~_beta - f_beta, summed by Eq. 19 (Niu et al.
-  /// 2006; fluid/immersed_boundary.hpp derives it). The default.
+  /// 2006; fluid/ib/immersed_boundary.hpp derives it). The default.
   MomentumExchange,
   /// g = -2 rho u: the reaction with the boundary velocity U_B left out (the wall at rest
   /// of Eq. 14 with U_B = 0, whatever the CGP does).

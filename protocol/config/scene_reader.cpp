@@ -8,7 +8,7 @@
 #include <sstream>
 #include <system_error>
 
-#include "protocol/did_you_mean.hpp"
+#include "common/text/did_you_mean.hpp"
 
 namespace cosim::protocol::config {
 

@@ -4,7 +4,7 @@
 // typed values with one-line errors
 //   FILE[:LINE]: KEY = VALUE: what is wrong and what is allowed
 // naming a close known name when a key or section is misspelt ("did you mean ...").
-// The parsers built on it (fluid/scene_config.cpp, solid/solid_scene.cpp, the solid models'
+// The parsers built on it (fluid/config/scene_config.cpp, solid/config/solid_scene.cpp, the solid models'
 // options, protocol/config/coupling_config.cpp) turn a scene into plain typed structs: the
 // physics never sees a TOML table (STYLE).
 #pragma once

@@ -5,14 +5,14 @@ namespace cosim::protocol::config {
 const std::vector<SectionOwner>& scene_sections() {
   using enum Owner;
   static const std::vector<SectionOwner> table = {
-      // fluid/scene_config.cpp
+      // fluid/config/scene_config.cpp
       {"fluid", Fluid},
       {"inlet", Fluid},
       {"boundaries", Fluid},
       {"wall_velocity", Fluid},
       {"body_force", Fluid},
       // The fluid's in a coupled scene (the length of the run); a standalone solid scene has
-      // a [run] of its own (solid/solid_scene.cpp).
+      // a [run] of its own (solid/config/solid_scene.cpp).
       {"run", Fluid},
       // Both processes.
       {"scene", Both, false, {{"name", Both}, {"description", Both}}},
@@ -27,13 +27,13 @@ const std::vector<SectionOwner>& scene_sections() {
         {"sheets_every", Solid}}},
       {"coupling", Both},
       {"watchdog", Both},
-      // solid/solid_scene.cpp and the models' options (solid/model_registry.cpp).
+      // solid/config/solid_scene.cpp and the models' options (solid/model/model_registry.cpp).
       {"solid", Solid},
       {"sheet", Solid, true},
       {"contact", Solid},
       {"perturbation", Solid},
       {"load", Solid},
-      // protocol/config/reaction_section.cpp (the law of solid/reaction_law.hpp).
+      // protocol/config/reaction_section.cpp (the law of solid/coupling/reaction_law.hpp).
       {"reaction", Solid},
   };
   return table;

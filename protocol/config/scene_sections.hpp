@@ -5,7 +5,7 @@
 //
 // A section a solid model brings of its own is a row here with Owner::Solid (the fluid's
 // parser needs no change: it skips the solid's sections of a coupled scene and refuses them
-// in a fluid-only one); its keys are the solid's business (solid/model_registry.cpp).
+// in a fluid-only one); its keys are the solid's business (solid/model/model_registry.cpp).
 #pragma once
 
 #include <string_view>

@@ -1,6 +1,6 @@
 // The sections both processes read with the same rules (protocol/config/scene_sections.hpp):
 // [scene], [output] directory, [coupling] (a coupled scene) and [watchdog]
-// (protocol/watchdog.hpp). One parser each, for the fluid and the solid alike.
+// (common/watchdog/watchdog.hpp). One parser each, for the fluid and the solid alike.
 #pragma once
 
 #include <string>
@@ -9,7 +9,7 @@
 
 #include "protocol/config/coupling_settings.hpp"
 #include "protocol/config/scene_reader.hpp"
-#include "protocol/watchdog.hpp"
+#include "common/watchdog/watchdog.hpp"
 
 namespace cosim::protocol::config {
 

@@ -31,7 +31,7 @@
 #include "protocol/channels.hpp"
 #include "protocol/fault_injection.hpp"
 #include "protocol/message_checks.hpp"
-#include "protocol/session/exit_codes.hpp"
+#include "common/run/exit_codes.hpp"
 #include "protocol/step_sequencer.hpp"
 
 namespace cosim::protocol {

@@ -1,5 +1,5 @@
 // The implicit scheme, the solid's side (protocol/README.md section 13): each LB step is
-// iterated with Aitken's dynamic relaxation (solid/aitken_relaxation.hpp) until the fluid
+// iterated with Aitken's dynamic relaxation (solid/coupling/aitken_relaxation.hpp) until the fluid
 // sample the solid integrated with is the fluid before the step at the markers where that
 // step's impulses are spread; the fluid's reaction is integrated at the end velocity of
 // each substep (SolidCoupler::advance, implicit_reaction). Several messages per step: both
@@ -11,12 +11,12 @@
 #include <string>
 #include <utility>
 
-#include "protocol/text.hpp"
-#include "solid/aitken_relaxation.hpp"
+#include "common/text/text.hpp"
+#include "solid/coupling/aitken_relaxation.hpp"
 #include "solid/schemes/solid_scheme.hpp"
-#include "solid/solid_checkpoints.hpp"
-#include "solid/solid_peer.hpp"
-#include "solid/solid_run.hpp"
+#include "solid/coupled/solid_checkpoints.hpp"
+#include "solid/coupled/solid_peer.hpp"
+#include "solid/coupled/solid_run.hpp"
 
 namespace cosim::solid {
 

@@ -5,8 +5,8 @@
 #include <memory>
 
 #include "solid/schemes/solid_scheme.hpp"
-#include "solid/solid_peer.hpp"
-#include "solid/solid_run.hpp"
+#include "solid/coupled/solid_peer.hpp"
+#include "solid/coupled/solid_run.hpp"
 
 namespace cosim::solid {
 

@@ -1,8 +1,8 @@
 #include "solid/schemes/scheme_context.hpp"
 
-#include "solid/solid_checkpoints.hpp"
-#include "solid/solid_peer.hpp"
-#include "solid/solid_run.hpp"
+#include "solid/coupled/solid_checkpoints.hpp"
+#include "solid/coupled/solid_peer.hpp"
+#include "solid/coupled/solid_run.hpp"
 
 namespace cosim::solid {
 

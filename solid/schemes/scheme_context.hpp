@@ -10,8 +10,8 @@
 #include <Eigen/Core>
 
 #include "cosimlcm/fluid_state_t.hpp"
-#include "protocol/session/exit_codes.hpp"
-#include "solid/solid_coupler.hpp"
+#include "common/run/exit_codes.hpp"
+#include "solid/coupling/solid_coupler.hpp"
 
 namespace cosim::solid {
 

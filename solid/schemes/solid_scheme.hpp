@@ -21,11 +21,11 @@
 
 #include "cosimlcm/fluid_state_t.hpp"
 #include "cosimlcm/solid_state_t.hpp"
-#include "protocol/checkpoint_file.hpp"
+#include "common/run/checkpoint_file.hpp"
 #include "protocol/coupling_scheme.hpp"
-#include "protocol/session/exit_codes.hpp"
+#include "common/run/exit_codes.hpp"
 #include "solid/schemes/scheme_context.hpp"
-#include "solid/solid_model.hpp"
+#include "solid/model/solid_model.hpp"
 
 namespace cosim::solid {
 

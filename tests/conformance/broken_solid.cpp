@@ -29,8 +29,8 @@
 #include "protocol/channels.hpp"
 #include "protocol/hello_lcm.hpp"
 #include "protocol/session/announcement.hpp"
-#include "solid/solid_coupler.hpp"
-#include "solid/solid_scene.hpp"
+#include "solid/coupling/solid_coupler.hpp"
+#include "solid/config/solid_scene.hpp"
 
 using namespace cosim;
 using Clock = std::chrono::steady_clock;

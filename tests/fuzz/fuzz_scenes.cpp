@@ -12,8 +12,8 @@
 #include <fstream>
 #include <string>
 
-#include "fluid/scene_config.hpp"
-#include "solid/solid_scene.hpp"
+#include "fluid/config/scene_config.hpp"
+#include "solid/config/solid_scene.hpp"
 #include "tests/scene_invariants.hpp"
 
 namespace {

@@ -4,7 +4,7 @@
 
 #include <vector>
 
-#include "fluid/fluid_solver.hpp"
+#include "fluid/solver/fluid_solver.hpp"
 
 namespace cosim::test {
 

@@ -1,5 +1,5 @@
 // The corotational sheet force as it was evaluated one term at a time, before the terms
-// were batched by shape and stiffness (solid/sheet_forces.cpp): kept as the reference the
+// were batched by shape and stiffness (solid/models/elastic_sheet/sheet_forces.cpp): kept as the reference the
 // batched CorotationalSheetForce must match to round-off. Same physics (the U K U term of
 // Eq. 4 per term in its own rotated frame, F^int = -dE/dx of Eq. 20); see sheet_forces.hpp.
 #pragma once
@@ -10,7 +10,7 @@
 
 #include <Eigen/Dense>
 
-#include "solid/sheet_forces.hpp"
+#include "solid/models/elastic_sheet/sheet_forces.hpp"
 
 namespace cosim::solid::reference {
 

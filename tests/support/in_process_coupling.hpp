@@ -8,10 +8,10 @@
 
 #include <Eigen/Core>
 
-#include "fluid/fluid_solver.hpp"
-#include "fluid/immersed_boundary.hpp"
-#include "solid/solid_coupler.hpp"
-#include "solid/solid_model.hpp"
+#include "fluid/solver/fluid_solver.hpp"
+#include "fluid/ib/immersed_boundary.hpp"
+#include "solid/coupling/solid_coupler.hpp"
+#include "solid/model/solid_model.hpp"
 
 namespace cosim::test {
 

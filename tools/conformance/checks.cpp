@@ -5,7 +5,7 @@
 #include <map>
 #include <set>
 
-#include "protocol/text.hpp"
+#include "common/text/text.hpp"
 
 namespace cosim::conformance {
 

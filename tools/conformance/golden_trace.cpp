@@ -9,7 +9,7 @@
 #include <stdexcept>
 #include <vector>
 
-#include "protocol/text.hpp"
+#include "common/text/text.hpp"
 
 namespace cosim::conformance {
 

@@ -23,14 +23,14 @@
 #include <string>
 #include <vector>
 
-#include "protocol/cli_parse.hpp"
+#include "common/text/cli_parse.hpp"
 #include "protocol/lcm_url.hpp"
 #include "protocol/session/announcement.hpp"
-#include "protocol/session/exit_codes.hpp"
-#include "protocol/text.hpp"
+#include "common/run/exit_codes.hpp"
+#include "common/text/text.hpp"
 #include "protocol/units.hpp"
-#include "solid/solid_coupler.hpp"
-#include "solid/solid_scene.hpp"
+#include "solid/coupling/solid_coupler.hpp"
+#include "solid/config/solid_scene.hpp"
 #include "tools/conformance/checks.hpp"
 #include "tools/conformance/golden_trace.hpp"
 #include "tools/conformance/session.hpp"

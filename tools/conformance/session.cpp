@@ -8,7 +8,7 @@
 #include "cosimlcm/welcome_t.hpp"
 #include "protocol/hello_lcm.hpp"
 #include "protocol/message_checks.hpp"
-#include "protocol/text.hpp"
+#include "common/text/text.hpp"
 #include "tools/conformance/child_process.hpp"
 #include "tools/conformance/mock_fluid.hpp"
 

@@ -8,8 +8,8 @@
 
 #include "cosimlcm/fluid_state_t.hpp"
 #include "cosimlcm/solid_state_t.hpp"
-#include "protocol/hdf5_handle.hpp"
-#include "protocol/hdf5_quiet.hpp"
+#include "common/hdf5/hdf5_handle.hpp"
+#include "common/hdf5/hdf5_quiet.hpp"
 #include "tools/log/log_inspector.hpp"
 
 namespace cosim::logtool {

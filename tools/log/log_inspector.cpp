@@ -14,7 +14,7 @@
 #include "cosimlcm/solid_state_t.hpp"
 #include "cosimlcm/stop_t.hpp"
 #include "cosimlcm/welcome_t.hpp"
-#include "protocol/text.hpp"
+#include "common/text/text.hpp"
 
 namespace cosim::logtool {
 

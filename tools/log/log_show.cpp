@@ -8,7 +8,7 @@
 #include "cosimlcm/resend_t.hpp"
 #include "cosimlcm/solid_state_t.hpp"
 #include "cosimlcm/stop_t.hpp"
-#include "protocol/text.hpp"
+#include "common/text/text.hpp"
 #include "tools/log/log_inspector.hpp"
 
 namespace cosim::logtool {

@@ -11,8 +11,8 @@
 #include <cstdio>
 #include <string>
 
-#include "protocol/cli_parse.hpp"
-#include "protocol/text.hpp"
+#include "common/text/cli_parse.hpp"
+#include "common/text/text.hpp"
 #include "tools/log/log_inspector.hpp"
 
 namespace {

@@ -13,11 +13,11 @@
 #include <lcm/lcm-cpp.hpp>
 #include <string>
 
-#include "protocol/cli_parse.hpp"
+#include "common/text/cli_parse.hpp"
 #include "protocol/lcm_url.hpp"
-#include "protocol/session/exit_codes.hpp"
+#include "common/run/exit_codes.hpp"
 #include "protocol/session/interrupt.hpp"
-#include "protocol/text.hpp"
+#include "common/text/text.hpp"
 #include "tools/record/recorder.hpp"
 
 namespace {

@@ -14,8 +14,8 @@
 #include <iostream>
 #include <string>
 
-#include "protocol/cli_parse.hpp"
-#include "protocol/text.hpp"
+#include "common/text/cli_parse.hpp"
+#include "common/text/text.hpp"
 #include "tools/replay/replay.hpp"
 
 namespace {

@@ -31,15 +31,15 @@
 #include "cosimlcm/solid_state_t.hpp"
 #include "cosimlcm/stop_t.hpp"
 #include "cosimlcm/welcome_t.hpp"
-#include "fluid/coupled_fluid.hpp"
-#include "fluid/scene_config.hpp"
+#include "fluid/coupled/coupled_fluid.hpp"
+#include "fluid/config/scene_config.hpp"
 #include "protocol/channels.hpp"
 #include "protocol/handshake.hpp"
 #include "protocol/hello_lcm.hpp"
 #include "protocol/session/peer_link.hpp"
-#include "protocol/text.hpp"
-#include "solid/coupled_solid.hpp"
-#include "solid/solid_scene.hpp"
+#include "common/text/text.hpp"
+#include "solid/coupled/coupled_solid.hpp"
+#include "solid/config/solid_scene.hpp"
 
 namespace cosim::replay {
 
@@ -902,7 +902,7 @@ class Replay {
     std::thread server([&] {
       try {
         if (fluid) {
-          // The thread count of the original process (fluid/main.cpp); the ICV is per thread.
+          // The thread count of the original process (fluid/app/main.cpp); the ICV is per thread.
           if (fscene->threads > 0) omp_set_num_threads(fscene->threads);
           fluid::CoupledFluidOptions fo;
           fo.token = sel.token;

@@ -4,7 +4,7 @@
 // `cosim::sdk::run(solid, argc, argv)`; the library runs the whole peer of
 // protocol/README.md: the command line the launcher passes, the scene's units, the handshake,
 // sequence numbers, resends, timeouts, stop_t and the exit codes of section 9. It is the solid
-// server's own session (solid/solid_peer.hpp, protocol/session/), not a second copy.
+// server's own session (solid/coupled/solid_peer.hpp, protocol/session/), not a second copy.
 //
 // Units: lattice units throughout (dx, dt_LB, rho_air dx^3): positions in dx, velocities in
 // c = dx / dt_LB, densities in rho_air, impulses in rho_air dx^3 c (an impulse over one LB

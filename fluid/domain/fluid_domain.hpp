@@ -1,0 +1,139 @@
+// The grid of a run as the run loops see it: one solver in one process, or blocks over MPI
+// ranks (fluid/mpi/distributed_fluid.hpp). The fluid-only loop (fluid/app/main.cpp) and the
+// coupled run (fluid/coupled/fluid_run.hpp, fluid/schemes/) step it, ask the watchdog's
+// question, sample and spread at the markers, keep and restore states, and take the whole
+// grid for the monitor, the snapshots and the checkpoints: the same calls either way; the
+// leading process prints and writes.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <optional>
+#include <span>
+#include <string>
+
+#include "fluid/observables/flow_monitor.hpp"
+#include "fluid/solver/fluid_solver.hpp"
+#include "fluid/ib/immersed_boundary.hpp"
+#include "fluid/config/scene_config.hpp"
+
+namespace cosim::fluid {
+
+/// The populations of a whole grid's store as a checkpoint holds them (19 x stride values,
+/// ghosts included, FluidSolver's layout) in the run's precision: `d` or `s` set.
+struct StoreView {
+  const double* d = nullptr;
+  const float* s = nullptr;
+  std::size_t size = 0;
+};
+
+/// The state of a solver kept apart in its precision (the implicit scheme's committed state
+/// while a step is iterated).
+class KeptState {
+ public:
+  void keep(const FluidSolver& solver) {
+    double_ = solver.precision() == Precision::Double;
+    double_ ? solver.copy_state(d_) : solver.copy_state(s_);
+  }
+  void restore(FluidSolver& solver, std::int64_t step) const {
+    solver.precision() == Precision::Double ? solver.restore_state(d_, step) : solver.restore_state(s_, step);
+  }
+  bool is_double() const { return double_; }
+  const PopulationField& field() const { return d_; }
+  const PopulationFieldSingle& field_single() const { return s_; }
+
+ private:
+  bool double_ = true;
+  PopulationField d_;
+  PopulationFieldSingle s_;
+};
+
+/// The view of a field's whole store.
+template <class T>
+StoreView store_view(const BasicPopulationField<T>& f);
+
+/// Every call is collective (all processes of the run make it, in the same order); the
+/// arguments that matter are the leading process's, and what comes back is there.
+class FluidDomain {
+ public:
+  virtual ~FluidDomain() = default;
+  /// The process that prints and writes the outputs (rank 0; the only one of a serial run).
+  virtual bool leads() const = 0;
+  /// The initial state of the scene (initialize_flow).
+  virtual void initialize(const FluidScene& scene) = 0;
+  /// One LB step of the whole grid.
+  virtual void step() = 0;
+  /// The step in two parts (FluidSolver::begin_step, finish_step): the forces spread
+  /// between them act on this step.
+  virtual void begin_step() = 0;
+  virtual void finish_step() = 0;
+  /// Whether begin_step() may run before the forces of the step are spread (the bulk of a
+  /// coupled step overlapping the solid's compute; fluid/schemes/serial_scheme.cpp) and leave
+  /// the state of the current step whole until finish_step(): Propagation::TwoGrid. The
+  /// in-place propagation needs the forced cells before the bulk and overwrites the state.
+  virtual bool bulk_before_impulses() const = 0;
+  virtual void set_row_schedule(RowSchedule schedule) = 0;
+  /// kernel_state_problem() of the whole grid: the same text on every process.
+  virtual std::string kernel_problem(const HealthLimits& limits) = 0;
+  /// summarize() of the whole grid at the current state, on the leading process (nothing on
+  /// the others).
+  virtual std::optional<FlowSummary> summary() = 0;
+  /// The whole grid at the current state (step count included), on the leading process;
+  /// nullptr on the others: for the snapshots.
+  virtual const FluidSolver* whole() = 0;
+  /// The leading process's `text` on every process (a verdict they all act on).
+  virtual std::string from_leader(const std::string& text) = 0;
+  /// The header line of the decomposition ("" for one process).
+  virtual std::string describe() const { return {}; }
+
+  // ---- the immersed boundary (DESIGN 2.1; Eqs. 17, 21-24) ----
+  /// Eq. 17 at the markers X into `out` (ImmersedBoundary::sample, bit for bit) on the
+  /// leading process. @pre out.size() == X.size() there
+  virtual void sample(std::span<const Vec3> X, std::span<MarkerSample> out) = 0;
+  /// Eqs. 21-24: the impulses J at X added to the forces of the next step (or of the step
+  /// begun). @pre J.size() == X.size()
+  virtual void spread(std::span<const Vec3> X, std::span<const Vec3> J) = 0;
+
+  // ---- states ----
+  /// Keeps the current state apart (KeptState); restore_kept() goes back to it at `step`.
+  virtual void keep_state() = 0;
+  virtual void restore_kept(std::int64_t step) = 0;
+  /// The whole grid's store of the current (or kept) state, on the leading process (an
+  /// empty view on the others): what a checkpoint writes.
+  virtual StoreView whole_store(bool kept) = 0;
+  /// The state at `step` from a checkpoint's store of the whole grid (the leading
+  /// process's `from`; FluidRun's restart). @pre from.size == 19 x the whole layout's stride
+  virtual void load_store(const StoreView& from, std::int64_t step) = 0;
+};
+
+/// The grid in this process: one FluidSolver.
+class SerialDomain final : public FluidDomain {
+ public:
+  explicit SerialDomain(const FluidParams& params) : solver_(params), ib_(solver_) {}
+  bool leads() const override { return true; }
+  void initialize(const FluidScene& scene) override { initialize_flow(solver_, scene); }
+  void step() override { solver_.step(); }
+  void begin_step() override { solver_.begin_step(); }
+  void finish_step() override { solver_.finish_step(); }
+  bool bulk_before_impulses() const override { return solver_.propagation() == Propagation::TwoGrid; }
+  void set_row_schedule(RowSchedule schedule) override { solver_.set_row_schedule(schedule); }
+  std::string kernel_problem(const HealthLimits& limits) override {
+    return kernel_state_problem(solver_, limits);
+  }
+  std::optional<FlowSummary> summary() override { return summarize(solver_); }
+  const FluidSolver* whole() override { return &solver_; }
+  std::string from_leader(const std::string& text) override { return text; }
+  void sample(std::span<const Vec3> X, std::span<MarkerSample> out) override { ib_.sample(solver_, X, out); }
+  void spread(std::span<const Vec3> X, std::span<const Vec3> J) override { ib_.spread(solver_, X, J); }
+  void keep_state() override { kept_.keep(solver_); }
+  void restore_kept(std::int64_t step) override { kept_.restore(solver_, step); }
+  StoreView whole_store(bool kept) override;
+  void load_store(const StoreView& from, std::int64_t step) override;
+
+ private:
+  FluidSolver solver_;
+  ImmersedBoundary ib_;
+  KeptState kept_;
+};
+
+}  // namespace cosim::fluid

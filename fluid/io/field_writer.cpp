@@ -1,0 +1,217 @@
+#include "fluid/io/field_writer.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cstdio>
+#include <fstream>
+#include <iomanip>
+#include <sstream>
+#include <stdexcept>
+#include <system_error>
+#include <utility>
+
+#include "fluid/io/hdf5_handle.hpp"
+#include "fluid/io/hdf5_quiet.hpp"
+#include "common/run/atomic_file.hpp"
+#include "common/run/provenance_h5.hpp"
+
+namespace cosim::fluid {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+template <class T>
+void write_scalar_attribute(hid_t obj, const char* name, hid_t file_type, hid_t mem_type, T value) {
+  const H5Id space(H5Screate(H5S_SCALAR), H5Sclose, "cannot make an HDF5 dataspace");
+  const H5Id attr(H5Acreate2(obj, name, file_type, space.get(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose,
+                  std::string("cannot create the HDF5 attribute ") + name);
+  h5_check(H5Awrite(attr.get(), mem_type, &value), std::string("cannot write the HDF5 attribute ") + name);
+}
+
+/// A float64 dataset [nz][ny][nx] (components == 1) or [nz][ny][nx][components].
+void write_field(hid_t file, const std::string& file_name, const char* name, const GridShape& s,
+                 int components, const double* data, const char* units) {
+  const hsize_t dims[4] = {hsize_t(s.nz), hsize_t(s.ny), hsize_t(s.nx), hsize_t(components)};
+  const int rank = components == 1 ? 3 : 4;
+  const std::string where = file_name + ":/" + name;
+  const H5Id space(H5Screate_simple(rank, dims, nullptr), H5Sclose, "cannot make the dataspace of " + where);
+  const H5Id dset(H5Dcreate2(file, name, H5T_IEEE_F64LE, space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
+                  H5Dclose, "cannot create " + where);
+  h5_check(H5Dwrite(dset.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, data), "cannot write " + where);
+  protocol::put_string_attribute(dset.get(), "units", units);
+}
+
+}  // namespace
+
+FieldWriter::FieldWriter(std::string dir, double dx_um, double dt_us, std::string prefix,
+                         int y_plane)
+    : dir_(std::move(dir)), dx_um_(dx_um), dt_us_(dt_us), prefix_(std::move(prefix)),
+      y_plane_(y_plane) {
+  if (!(dx_um > 0.0) || !(dt_us > 0.0))
+    throw std::invalid_argument("FieldWriter: dx_um and dt_us must be positive (got " + std::to_string(dx_um) +
+                                " and " + std::to_string(dt_us) + ")");
+  std::error_code ec;
+  fs::create_directories(dir_, ec);
+  if (ec || !fs::is_directory(dir_))
+    throw std::runtime_error("cannot create the field output directory " + dir_.string() +
+                             (ec ? ": " + ec.message() : std::string(": a file of that name exists")));
+}
+
+std::string FieldWriter::snapshot_name(std::int64_t step) const {
+  char buf[48];
+  std::snprintf(buf, sizeof buf, "_%06lld.h5", static_cast<long long>(step));
+  return prefix_ + buf;
+}
+
+GridShape FieldWriter::written_shape() const {
+  GridShape s = m_.shape;
+  if (y_plane_ >= 0) s.ny = 1;
+  return s;
+}
+
+bool FieldWriter::adopt(std::int64_t step) {
+  // The shape the file itself holds (its rho [nz][ny][nx]): this writer has written nothing
+  // yet after a restart. A file that does not open or lacks rho is not listed.
+  GridShape shape{};
+  {
+    const H5Quiet quiet;
+    const std::string name = snapshot_path(step).string();
+    if (!std::filesystem::is_regular_file(name)) return false;
+    const hid_t f = H5Fopen(name.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+    if (f < 0) return false;
+    hsize_t dims[3] = {0, 0, 0};
+    bool ok = false;
+    if (H5Lexists(f, "rho", H5P_DEFAULT) > 0) {
+      const hid_t set = H5Dopen2(f, "rho", H5P_DEFAULT);
+      const hid_t space = set >= 0 ? H5Dget_space(set) : -1;
+      ok = space >= 0 && H5Sget_simple_extent_ndims(space) == 3 && H5Sget_simple_extent_dims(space, dims, nullptr) == 3;
+      if (space >= 0) H5Sclose(space);
+      if (set >= 0) H5Dclose(set);
+    }
+    H5Fclose(f);
+    H5Eclear2(H5E_DEFAULT);
+    if (!ok || dims[0] == 0 || dims[1] == 0 || dims[2] == 0) return false;
+    shape.nz = int(dims[0]);
+    shape.ny = int(dims[1]);
+    shape.nx = int(dims[2]);
+  }
+  const auto same = [step](const Snapshot& s) { return s.step == step; };
+  if (std::find_if(snapshots_.begin(), snapshots_.end(), same) == snapshots_.end())
+    snapshots_.push_back({step, shape});
+  return true;
+}
+
+void FieldWriter::write(const FluidSolver& solver) {
+  const std::int64_t step = solver.step_count();
+  solver.macroscopic(m_);
+  vorticity(solver, m_, wx_, wy_, wz_);
+  if (y_plane_ >= m_.shape.ny)
+    throw std::invalid_argument("FieldWriter: plane y = " + std::to_string(y_plane_) +
+                                " outside a grid of ny = " + std::to_string(m_.shape.ny));
+
+  protocol::write_atomically(snapshot_path(step), [&](const fs::path& part) { write_hdf5(part, step); });
+
+  const auto same = [step](const Snapshot& s) { return s.step == step; };
+  const auto it = std::find_if(snapshots_.begin(), snapshots_.end(), same);
+  if (it != snapshots_.end())
+    it->shape = written_shape();
+  else
+    snapshots_.push_back({step, written_shape()});
+  write_xdmf();
+}
+
+void FieldWriter::write_hdf5(const fs::path& file, std::int64_t step) {
+  const H5Quiet quiet;
+  const std::string name = file.string();
+  H5Id f(H5Fcreate(name.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose,
+         "cannot create the HDF5 file " + name);
+  write_scalar_attribute(f.get(), "step", H5T_STD_I64LE, H5T_NATIVE_INT64, std::int64_t(step));
+  write_scalar_attribute(f.get(), "time_us", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, double(step) * dt_us_);
+  write_scalar_attribute(f.get(), "dx_um", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, dx_um_);
+  write_scalar_attribute(f.get(), "dt_us", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, dt_us_);
+
+  if (y_plane_ >= 0) {
+    // Node j sits at (j + 1/2) dx in the sheets' frame (plate at y = 0), like the XDMF geometry.
+    write_scalar_attribute(f.get(), "y_um", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, (y_plane_ + 0.5) * dx_um_);
+    write_scalar_attribute(f.get(), "y_cell", H5T_STD_I64LE, H5T_NATIVE_INT64, std::int64_t(y_plane_));
+    write_scalar_attribute(f.get(), "grid_ny", H5T_STD_I64LE, H5T_NATIVE_INT64, std::int64_t(m_.shape.ny));
+  }
+  const GridShape s = written_shape();
+  // The cells written, in file order (x fastest): all of them, or the plane's.
+  std::vector<std::size_t> cells;
+  cells.reserve(std::size_t(s.nx) * std::size_t(s.ny) * std::size_t(s.nz));
+  for (int z = 0; z < s.nz; ++z)
+    for (int y = 0; y < s.ny; ++y)
+      for (int x = 0; x < s.nx; ++x) cells.push_back(m_.index(x, y_plane_ >= 0 ? y_plane_ : y, z));
+  const std::size_t n = cells.size();
+  std::vector<double> rho(n);
+  for (std::size_t i = 0; i < n; ++i) rho[i] = m_.rho[cells[i]];
+  write_field(f.get(), name, "rho", s, 1, rho.data(), "1 (rho / rho_0)");
+
+  // Vectors interleaved per cell, [nz][ny][nx][3], in physical units.
+  vec_.resize(3 * n);
+  const double u_scale = dx_um_ / dt_us_;  // um/us = m/s
+  for (std::size_t i = 0; i < n; ++i) {
+    vec_[3 * i] = u_scale * m_.ux[cells[i]];
+    vec_[3 * i + 1] = u_scale * m_.uy[cells[i]];
+    vec_[3 * i + 2] = u_scale * m_.uz[cells[i]];
+  }
+  write_field(f.get(), name, "u", s, 3, vec_.data(), "m/s");
+  const double w_scale = 1.0 / dt_us_;  // 1/us
+  for (std::size_t i = 0; i < n; ++i) {
+    vec_[3 * i] = w_scale * wx_[cells[i]];
+    vec_[3 * i + 1] = w_scale * wy_[cells[i]];
+    vec_[3 * i + 2] = w_scale * wz_[cells[i]];
+  }
+  write_field(f.get(), name, "vorticity", s, 3, vec_.data(), "1/us");
+  protocol::stamp_file(f.get());
+  f.close("cannot close the HDF5 file " + name);
+}
+
+void FieldWriter::write_xdmf() const {
+  std::ostringstream x;
+  x << std::setprecision(12);
+  x << "<?xml version=\"1.0\" ?>\n"
+    << "<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n"
+    << "<Xdmf Version=\"3.0\" xmlns:xi=\"http://www.w3.org/2001/XInclude\">\n"
+    << "  <Domain>\n"
+    << "    <Grid Name=\"" << prefix_ << "\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
+  for (const Snapshot& snap : snapshots_) {
+    const GridShape& s = snap.shape;
+    const std::string file = snapshot_name(snap.step);
+    std::ostringstream dims, dims3;
+    dims << s.nz << ' ' << s.ny << ' ' << s.nx;
+    dims3 << dims.str() << " 3";
+    const auto attribute = [&](const char* name, const char* type, const std::string& d) {
+      x << "        <Attribute Name=\"" << name << "\" AttributeType=\"" << type << "\" Center=\"Node\">\n"
+        << "          <DataItem Format=\"HDF\" NumberType=\"Float\" Precision=\"8\" Dimensions=\"" << d
+        << "\">" << file << ":/" << name << "</DataItem>\n"
+        << "        </Attribute>\n";
+    };
+    x << "      <Grid Name=\"step_" << snap.step << "\" GridType=\"Uniform\">\n"
+      << "        <Time Value=\"" << double(snap.step) * dt_us_ << "\"/>\n"
+      << "        <Topology TopologyType=\"3DCoRectMesh\" Dimensions=\"" << dims.str() << "\"/>\n"
+      // ORIGIN_DXDYDZ lists z, y, x (slowest first), like the topology's Dimensions. Node
+      // (i, j, k) sits at (i, j + 1/2, k) dx, the frame of the sheets (sheets.xmf: the plate,
+      // the half-way bounce-back wall at lattice y = -1/2, is y = 0; protocol/README.md
+      // section 4; XdmfGeometryMatchesSheets).
+      << "        <Geometry GeometryType=\"ORIGIN_DXDYDZ\">\n"
+      << "          <DataItem Format=\"XML\" NumberType=\"Float\" Precision=\"8\" Dimensions=\"3\">0 "
+      << ((y_plane_ >= 0 ? y_plane_ : 0) + 0.5) * dx_um_ << " 0</DataItem>\n"
+      << "          <DataItem Format=\"XML\" NumberType=\"Float\" Precision=\"8\" Dimensions=\"3\">" << dx_um_ << ' '
+      << dx_um_ << ' ' << dx_um_ << "</DataItem>\n"
+      << "        </Geometry>\n";
+    attribute("rho", "Scalar", dims.str());
+    attribute("u", "Vector", dims3.str());
+    attribute("vorticity", "Vector", dims3.str());
+    x << "      </Grid>\n";
+  }
+  x << "    </Grid>\n"
+    << "  </Domain>\n"
+    << "</Xdmf>\n";
+
+  protocol::write_text_atomically(xdmf_path(), x.str());
+}
+
+}  // namespace cosim::fluid

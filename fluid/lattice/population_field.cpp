@@ -1,0 +1,31 @@
+#include "fluid/lattice/population_field.hpp"
+
+#include <cstdlib>
+#include <new>
+
+namespace cosim::fluid {
+
+const char* precision_name(Precision p) { return p == Precision::Double ? "double" : "single"; }
+
+template <class T>
+void BasicPopulationField<T>::FreeDeleter::operator()(T* p) const {
+  if (owns) std::free(p);
+}
+
+template <class T>
+BasicPopulationField<T>::BasicPopulationField(const GridLayout& layout) : layout_(layout) {
+  const std::size_t bytes = std::size_t(D3Q19::Q) * layout.stride() * sizeof(T);
+  void* p = std::aligned_alloc(64, bytes);
+  if (p == nullptr) throw std::bad_alloc();
+  data_.reset(static_cast<T*>(p));
+  // First touch in parallel so that pages land near the threads that use them.
+  T* d = data_.get();
+  const std::ptrdiff_t n = std::ptrdiff_t(D3Q19::Q * layout.stride());
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t i = 0; i < n; ++i) d[i] = T(0);
+}
+
+template class BasicPopulationField<double>;
+template class BasicPopulationField<float>;
+
+}  // namespace cosim::fluid

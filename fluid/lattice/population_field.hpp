@@ -1,0 +1,67 @@
+// Aligned structure-of-arrays storage for the 19 populations of one lattice block, in double
+// precision (the default) or single precision (a store of floats, arithmetic in double:
+// FluidParams::precision).
+#pragma once
+
+#include <cstddef>
+#include <memory>
+
+#include "fluid/lattice/d3q19.hpp"
+#include "fluid/lattice/grid_layout.hpp"
+
+namespace cosim::fluid {
+
+/// How the populations are stored. The kernels compute in double either way; Single halves
+/// the memory and the bytes moved per update (304 -> 152) at the cost of rounding every
+/// stored population to float (docs/performance.md, docs/error-vs-runtime.md).
+enum class Precision { Double, Single };
+const char* precision_name(Precision p);
+constexpr std::size_t bytes_per_value(Precision p) {
+  return p == Precision::Double ? sizeof(double) : sizeof(float);
+}
+
+/// The layout of a population array of a grid in a precision (64-byte lines of 8 doubles or
+/// 16 floats).
+inline GridLayout layout_of(const GridShape& shape, Precision p) {
+  return GridLayout(shape, GridLayout::kLineBytes / int(bytes_per_value(p)));
+}
+
+template <class T>
+class BasicPopulationField {
+ public:
+  using value_type = T;
+  BasicPopulationField() = default;
+  explicit BasicPopulationField(const GridLayout& layout);
+  /// The planes z0 .. z0 + nz - 1 of `whole` (with the ghost planes next to them) as a field
+  /// of their own, in place: a view that owns nothing and must not outlive `whole`.
+  static BasicPopulationField planes(BasicPopulationField& whole, int z0, int nz) {
+    BasicPopulationField v;
+    v.layout_ = whole.layout_.planes(nz);
+    v.data_ = std::unique_ptr<T, FreeDeleter>(whole.data_.get() + std::ptrdiff_t(z0) * whole.layout_.plane_stride(),
+                                              FreeDeleter{false});
+    return v;
+  }
+
+  T* q(int q) { return data_.get() + std::size_t(q) * layout_.stride(); }
+  const T* q(int q) const { return data_.get() + std::size_t(q) * layout_.stride(); }
+  T& at(int q, int x, int y, int z) { return this->q(q)[layout_.index(x, y, z)]; }
+  T at(int q, int x, int y, int z) const { return this->q(q)[layout_.index(x, y, z)]; }
+  const GridLayout& layout() const { return layout_; }
+  bool empty() const { return data_ == nullptr; }
+
+ private:
+  struct FreeDeleter {
+    bool owns = true;  ///< false for planes(): a view
+    void operator()(T* p) const;
+  };
+  GridLayout layout_;
+  std::unique_ptr<T, FreeDeleter> data_;
+};
+
+using PopulationField = BasicPopulationField<double>;
+using PopulationFieldSingle = BasicPopulationField<float>;
+
+extern template class BasicPopulationField<double>;
+extern template class BasicPopulationField<float>;
+
+}  // namespace cosim::fluid

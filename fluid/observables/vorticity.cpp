@@ -1,0 +1,65 @@
+#include "fluid/observables/vorticity.hpp"
+
+#include <array>
+#include <cstddef>
+#include <stdexcept>
+
+namespace cosim::fluid {
+
+namespace {
+
+/// d/ds of `u` along one axis of n cells with stride `stride`, at position i of that axis;
+/// `p` points at the cell.
+inline double derivative(const double* p, int i, int n, std::ptrdiff_t stride, bool periodic) {
+  if (n == 1) return 0.0;
+  if (periodic) {
+    const std::ptrdiff_t up = i + 1 < n ? stride : -std::ptrdiff_t(n - 1) * stride;
+    const std::ptrdiff_t down = i > 0 ? -stride : std::ptrdiff_t(n - 1) * stride;
+    return 0.5 * (p[up] - p[down]);
+  }
+  if (i > 0 && i < n - 1) return 0.5 * (p[stride] - p[-stride]);
+  if (n == 2) return i == 0 ? p[stride] - p[0] : p[0] - p[-stride];
+  if (i == 0) return 0.5 * (-3.0 * p[0] + 4.0 * p[stride] - p[2 * stride]);
+  return 0.5 * (3.0 * p[0] - 4.0 * p[-stride] + p[-2 * stride]);
+}
+
+}  // namespace
+
+void vorticity(const FluidSolver& solver, const MacroscopicFields& m, std::vector<double>& wx,
+               std::vector<double>& wy, std::vector<double>& wz) {
+  const GridShape& s = m.shape;
+  const GridShape& ss = solver.shape();
+  if (s.nx != ss.nx || s.ny != ss.ny || s.nz != ss.nz)
+    throw std::invalid_argument("vorticity: the macroscopic fields and the solver differ in shape");
+  const std::size_t n = std::size_t(s.cells());
+  if (m.ux.size() != n || m.uy.size() != n || m.uz.size() != n)
+    throw std::invalid_argument("vorticity: the velocity arrays do not match the grid shape");
+  wx.resize(n);
+  wy.resize(n);
+  wz.resize(n);
+  std::array<bool, 3> periodic{};
+  for (int a = 0; a < 3; ++a)
+    periodic[a] = solver.boundaries().face(2 * a).kind == FaceKind::Periodic;
+  const std::ptrdiff_t sx = 1, sy = s.nx, sz = std::ptrdiff_t(s.nx) * s.ny;
+
+#pragma omp parallel for collapse(2) schedule(static)
+  for (int z = 0; z < s.nz; ++z)
+    for (int y = 0; y < s.ny; ++y)
+      for (int x = 0; x < s.nx; ++x) {
+        const std::size_t i = m.index(x, y, z);
+        const double* ux = m.ux.data() + i;
+        const double* uy = m.uy.data() + i;
+        const double* uz = m.uz.data() + i;
+        const double duz_dy = derivative(uz, y, s.ny, sy, periodic[1]);
+        const double duy_dz = derivative(uy, z, s.nz, sz, periodic[2]);
+        const double dux_dz = derivative(ux, z, s.nz, sz, periodic[2]);
+        const double duz_dx = derivative(uz, x, s.nx, sx, periodic[0]);
+        const double duy_dx = derivative(uy, x, s.nx, sx, periodic[0]);
+        const double dux_dy = derivative(ux, y, s.ny, sy, periodic[1]);
+        wx[i] = duz_dy - duy_dz;
+        wy[i] = dux_dz - duz_dx;
+        wz[i] = duy_dx - dux_dy;
+      }
+}
+
+}  // namespace cosim::fluid

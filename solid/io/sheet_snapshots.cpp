@@ -1,0 +1,208 @@
+#include "solid/io/sheet_snapshots.hpp"
+
+#include <hdf5.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <fstream>
+#include <iomanip>
+#include <sstream>
+#include <stdexcept>
+#include <system_error>
+#include <utility>
+
+#include "common/run/atomic_file.hpp"
+#include "common/hdf5/hdf5_handle.hpp"
+#include "common/hdf5/hdf5_quiet.hpp"
+#include "protocol/units.hpp"
+#include "solid/models/elastic_sheet/elastic_sheet_model.hpp"
+#include "solid/model/sheet_spec.hpp"
+#include "solid/io/solid_h5.hpp"
+
+namespace cosim::solid {
+
+namespace {
+
+namespace fs = std::filesystem;
+using protocol::H5Id;
+using protocol::PhysicalConstants;
+using protocol::UnitConverter;
+
+constexpr double kMicrometre = 1e-6;
+
+constexpr const char* kFrame =
+    "the solid's: x stream-wise, y up from the plate surface y = 0, z span-wise, "
+    "micrometres; the fluid's lattice cell (i, j, k) (fields.xmf) is at (i, j + 1/2, k) dx";
+constexpr const char* kStrainDefinition =
+    "area strain eps_l = (|dA_l| - |dA_l0|) / |dA_l0|, dA_l = t_a x t_b from central "
+    "differences along the width and height (one-sided at edges), 0 for the flat sheet "
+    "(the paper's section 3.2 and Fig. 11)";
+
+void write_int64_attribute(hid_t obj, const char* name, std::int64_t value) {
+  const std::string what = std::string("cannot write the attribute ") + name;
+  const H5Id space(H5Screate(H5S_SCALAR), H5Sclose, what);
+  const H5Id attr(H5Acreate2(obj, name, H5T_STD_I64LE, space.get(), H5P_DEFAULT, H5P_DEFAULT),
+                  H5Aclose, what);
+  protocol::h5_check(H5Awrite(attr.get(), H5T_NATIVE_INT64, &value), what);
+}
+
+}  // namespace
+
+bool sheet_snapshot_due(std::int64_t step, std::int64_t last, std::int64_t every) {
+  return every > 0 && (step % every == 0 || step == last);
+}
+
+SheetSnapshotWriter::SheetSnapshotWriter(fs::path dir, const SolidConfig& config)
+    : dir_(std::move(dir)), config_(config) {
+  if (config_.sheets.empty())
+    throw std::invalid_argument("SheetSnapshotWriter: a configuration without sheets");
+  n_ = total_cgps(config_);
+  reference_bohr_.resize(3, n_);
+  sheet_of_.reserve(static_cast<std::size_t>(n_));
+  for (std::size_t s = 0; s < config_.sheets.size(); ++s) {
+    const SheetSpec& sh = config_.sheets[s];
+    const Eigen::Index first = first_cgp(config_, s);
+    reference_bohr_.middleCols(first, sh.num_cgps()) = flat_sheet_positions(sh);  // checks sh
+    sheet_of_.insert(sheet_of_.end(), static_cast<std::size_t>(sh.num_cgps()),
+                     static_cast<std::int32_t>(s));
+    grid_.push_back(sh.nx_cg);
+    grid_.push_back(sh.ny_cg);
+    for (int j = 0; j + 1 < sh.ny_cg; ++j)
+      for (int i = 0; i + 1 < sh.nx_cg; ++i)
+        for (const Eigen::Index l :
+             {sh.index(i, j), sh.index(i + 1, j), sh.index(i + 1, j + 1), sh.index(i, j + 1)})
+          quads_.push_back(static_cast<std::int64_t>(first + l));
+  }
+  std::error_code ec;
+  fs::create_directories(dir_, ec);
+  if (ec || !fs::is_directory(dir_))
+    throw std::runtime_error("cannot create the output directory " + dir_.string() +
+                             (ec ? ": " + ec.message() : std::string(": a file of that name exists")));
+}
+
+std::string SheetSnapshotWriter::snapshot_name(std::int64_t step) {
+  char buf[48];
+  std::snprintf(buf, sizeof buf, "sheets_%06lld.h5", static_cast<long long>(step));
+  return buf;
+}
+
+bool SheetSnapshotWriter::adopt(std::int64_t step, double time_s) {
+  if (!fs::is_regular_file(snapshot_path(step))) return false;
+  const auto same = [step](const Snapshot& s) { return s.step == step; };
+  if (std::find_if(snapshots_.begin(), snapshots_.end(), same) == snapshots_.end())
+    snapshots_.push_back({step, time_s / kMicrometre});
+  return true;
+}
+
+void SheetSnapshotWriter::write(std::int64_t step, double time_s, const SolidModel& model) {
+  if (model.num_cgps() != n_)
+    throw std::invalid_argument("SheetSnapshotWriter: a model of " +
+                                std::to_string(model.num_cgps()) + " CGPs, the sheets have " +
+                                std::to_string(n_));
+  protocol::write_atomically(snapshot_path(step), [&](const fs::path& part) { write_hdf5(part, step, time_s, model); });
+
+  const double time_us = time_s / kMicrometre;
+  const auto it = std::find_if(snapshots_.begin(), snapshots_.end(),
+                               [step](const Snapshot& s) { return s.step == step; });
+  if (it != snapshots_.end())
+    it->time_us = time_us;
+  else
+    snapshots_.push_back({step, time_us});
+  write_xdmf();
+}
+
+void SheetSnapshotWriter::write_hdf5(const fs::path& file, std::int64_t step, double time_s,
+                                     const SolidModel& model) {
+  const Eigen::Matrix3Xd& x = model.positions();
+  const double um_per_bohr = PhysicalConstants::bohr_m / kMicrometre;
+  // Column-major 3 x n is row-major n x 3.
+  const Eigen::Matrix3Xd position_um = x * um_per_bohr;
+  const Eigen::Matrix3Xd displacement_um = (x - reference_bohr_) * um_per_bohr;
+  const Eigen::Matrix3Xd velocity_m_s = model.velocities() * UnitConverter::velocity_au_m_s();
+  Eigen::VectorXd strain = model.observables().area_strain;
+  if (strain.size() != n_) {  // a model that does not compute it
+    strain.resize(n_);
+    for (std::size_t s = 0; s < config_.sheets.size(); ++s) {
+      const SheetSpec& sh = config_.sheets[s];
+      const Eigen::Index first = first_cgp(config_, s);
+      strain.segment(first, sh.num_cgps()) =
+          area_strain(sh, x.middleCols(first, sh.num_cgps()),
+                      reference_bohr_.middleCols(first, sh.num_cgps()));
+    }
+  }
+
+  const protocol::H5Quiet quiet;
+  const std::string name = file.string();
+  H5Id f(H5Fcreate(name.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose,
+         "cannot create " + name);
+  const hid_t h = f.get();
+  const hsize_t n = static_cast<hsize_t>(n_), q = quads_.size() / 4, ns = grid_.size() / 2;
+  try {
+    write_dataset(h, "position_um", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n, 3}, position_um.data());
+    write_dataset(h, "displacement_um", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n, 3},
+                  displacement_um.data());
+    write_dataset(h, "velocity_m_s", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n, 3},
+                  velocity_m_s.data());
+    write_dataset(h, "area_strain", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n}, strain.data());
+    write_dataset(h, "sheet", H5T_STD_I32LE, H5T_NATIVE_INT32, {n}, sheet_of_.data());
+    write_dataset(h, "quads", H5T_STD_I64LE, H5T_NATIVE_INT64, {q, 4}, quads_.data());
+    write_dataset(h, "sheet_grid", H5T_STD_I32LE, H5T_NATIVE_INT32, {ns, 2}, grid_.data());
+    write_int64_attribute(h, "step", step);
+    write_attribute(h, "time_s", time_s);
+    write_attribute(h, "time_us", time_s / kMicrometre);
+    write_attribute(h, "frame", kFrame);
+    write_attribute(h, "area_strain", kStrainDefinition);
+    protocol::stamp_file(h);
+  } catch (const std::runtime_error& e) {
+    throw std::runtime_error(name + ": " + e.what());
+  }
+  f.close("cannot close " + name);
+}
+
+void SheetSnapshotWriter::write_xdmf() const {
+  const std::size_t n = static_cast<std::size_t>(n_), q = quads_.size() / 4;
+  std::ostringstream x;
+  x << std::setprecision(12);
+  x << "<?xml version=\"1.0\" ?>\n"
+    << "<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n"
+    << "<Xdmf Version=\"3.0\" xmlns:xi=\"http://www.w3.org/2001/XInclude\">\n"
+    << "  <Domain>\n"
+    << "    <Grid Name=\"sheets\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
+  for (const Snapshot& snap : snapshots_) {
+    const std::string file = snapshot_name(snap.step);
+    const auto item = [&](const char* dataset, const char* type, int precision,
+                          const std::string& dims) {
+      x << "          <DataItem Format=\"HDF\" NumberType=\"" << type << "\" Precision=\""
+        << precision << "\" Dimensions=\"" << dims << "\">" << file << ":/" << dataset
+        << "</DataItem>\n";
+    };
+    const auto attribute = [&](const char* name, const char* kind, const char* type,
+                               int precision, const std::string& dims) {
+      x << "        <Attribute Name=\"" << name << "\" AttributeType=\"" << kind
+        << "\" Center=\"Node\">\n";
+      item(name, type, precision, dims);
+      x << "        </Attribute>\n";
+    };
+    const std::string n1 = std::to_string(n), n3 = n1 + " 3";
+    x << "      <Grid Name=\"step_" << snap.step << "\" GridType=\"Uniform\">\n"
+      << "        <Time Value=\"" << snap.time_us << "\"/>\n"
+      << "        <Topology TopologyType=\"Quadrilateral\" NumberOfElements=\"" << q << "\">\n";
+    item("quads", "Int", 8, std::to_string(q) + " 4");
+    x << "        </Topology>\n"
+      << "        <Geometry GeometryType=\"XYZ\">\n";
+    item("position_um", "Float", 8, n3);
+    x << "        </Geometry>\n";
+    attribute("area_strain", "Scalar", "Float", 8, n1);
+    attribute("displacement_um", "Vector", "Float", 8, n3);
+    attribute("velocity_m_s", "Vector", "Float", 8, n3);
+    attribute("sheet", "Scalar", "Int", 4, n1);
+    x << "      </Grid>\n";
+  }
+  x << "    </Grid>\n"
+    << "  </Domain>\n"
+    << "</Xdmf>\n";
+
+  protocol::write_text_atomically(xdmf_path(), x.str());
+}
+
+}  // namespace cosim::solid

@@ -1,0 +1,287 @@
+#include "solid/models/elastic_sheet/elastic_sheet_model.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <numbers>
+#include <stdexcept>
+#include <string>
+
+#include <Eigen/Dense>
+
+#include "protocol/units.hpp"
+#include "solid/rcgp/rcgp_cache.hpp"
+#include "solid/model/velocity_verlet.hpp"
+
+namespace cosim::solid {
+
+namespace {
+
+using protocol::PhysicalConstants;
+
+/// How many vacuum eigenfrequencies the model reports.
+constexpr std::size_t kReportedModes = 6;
+/// Neighbour-list skin of the contact, as a fraction of its cut-off.
+constexpr double kContactSkin = 0.3;
+
+[[noreturn]] void fail(int line, const std::string& what) {
+  throw std::invalid_argument(std::string(__FILE__) + ":" + std::to_string(line) + ": " + what);
+}
+
+double hartree_J() {
+  const double v = PhysicalConstants::bohr_m / PhysicalConstants::time_au_s;
+  return PhysicalConstants::electron_mass_kg * v * v;
+}
+
+/// Natural angular frequencies (rad / t_AU, ascending) of one clamped sheet: the
+/// generalized problem K v = omega^2 M v on the free DOFs, lumped M.
+Eigen::VectorXd sheet_omegas(const SheetBlock& s, const SheetSpec& spec) {
+  const Eigen::MatrixXd k = Eigen::MatrixXd(s.stiffness);
+  std::vector<Eigen::Index> free;
+  for (Eigen::Index l = 0; l < s.count; ++l)
+    if (!spec.is_clamped(l))
+      for (int c = 0; c < 3; ++c) free.push_back(3 * l + c);
+  const auto n = static_cast<Eigen::Index>(free.size());
+  Eigen::MatrixXd a(n, n);
+  for (Eigen::Index p = 0; p < n; ++p)
+    for (Eigen::Index q = 0; q < n; ++q)
+      a(p, q) = k(free[static_cast<std::size_t>(p)], free[static_cast<std::size_t>(q)]) /
+                spec.cgp_mass_me;
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(a, Eigen::EigenvaluesOnly);
+  return es.eigenvalues().cwiseMax(0.0).cwiseSqrt();
+}
+
+
+}  // namespace
+
+ElasticSheetModel::ElasticSheetModel(const SolidConfig& config, SheetKinematics kinematics)
+    : config_(config), kinematics_(kinematics) {
+  if (config_.sheets.empty())
+    fail(__LINE__, "the " + std::string(name()) + " model needs at least one sheet; the scene "
+                   "names none");
+  for (const SheetSpec& s : config_.sheets) check_sheet_spec(s);
+  if (config_.rcgp.stages == 0)  // stage count from Lambda = dx_CG / dx_MD
+    config_.rcgp.stages = rcgp_stages_for_spacing(config_.sheets.front().width_spacing_bohr *
+                                                  PhysicalConstants::bohr_m);
+  rcgp_ = load_or_build_rcgp(config_.rcgp, ForceConstantModel{}, &rcgp_source_);
+  plate_ = plate_constants_au(rcgp_.final_stage().constants, config_.rcgp.bending_poisson);
+
+  const Eigen::Index n = total_cgps(config_);
+  x_.resize(3, n);
+  mass_.resize(n);
+  inv_mass_.resize(n);
+  std::vector<int> sheet_of;
+  for (std::size_t s = 0; s < config_.sheets.size(); ++s) {
+    const SheetSpec& spec = config_.sheets[s];
+    SheetBlock b;
+    b.first = first_cgp(config_, s);
+    b.count = spec.num_cgps();
+    b.axes = sheet_axes(spec);
+    b.reference_bohr = flat_sheet_positions(spec);
+    b.terms = sheet_stiffness_terms(spec, plate_);
+    b.stiffness = assemble_stiffness(b.terms, b.count);
+    x_.middleCols(b.first, b.count) = b.reference_bohr;
+    for (Eigen::Index l = 0; l < b.count; ++l) {
+      mass_[b.first + l] = spec.cgp_mass_me;
+      inv_mass_[b.first + l] = spec.is_clamped(l) ? 0.0 : 1.0 / spec.cgp_mass_me;
+      sheet_of.push_back(static_cast<int>(s));
+    }
+    sheets_.push_back(std::move(b));
+  }
+  if (kinematics_ == SheetKinematics::Linear)
+    force_ = std::make_unique<LinearSheetForce>(sheets_);
+  else
+    force_ = std::make_unique<CorotationalSheetForce>(sheets_);
+
+  if (config_.sheets.size() >= 2) {  // contact only where there is something to touch
+    double sigma = config_.contact.cutoff_bohr;
+    if (sigma == 0.0) {
+      sigma = config_.sheets.front().width_spacing_bohr;
+      for (const SheetSpec& s : config_.sheets)
+        sigma = std::min({sigma, s.width_spacing_bohr, s.height_spacing_bohr});
+    }
+    const double eps = config_.contact.epsilon_eV / PhysicalConstants::hartree_eV;
+    contact_.emplace(sheet_of, eps, sigma, kContactSkin * sigma);
+  }
+
+  // Vacuum eigenfrequencies and the stable step 2 / omega_max (velocity Verlet).
+  std::vector<double> omegas;
+  double omega_max = 0.0;
+  for (std::size_t s = 0; s < sheets_.size(); ++s) {
+    const Eigen::VectorXd w = sheet_omegas(sheets_[s], config_.sheets[s]);
+    omega_max = std::max(omega_max, w.maxCoeff());
+    for (Eigen::Index k = 0; k < w.size(); ++k) omegas.push_back(w[k]);
+  }
+  std::sort(omegas.begin(), omegas.end());
+  for (std::size_t k = 0; k < std::min(kReportedModes, omegas.size()); ++k)
+    frequencies_hz_.push_back(omegas[k] / (2.0 * std::numbers::pi * PhysicalConstants::time_au_s));
+  stable_dt_ = omega_max > 0.0 ? 2.0 / omega_max : std::numeric_limits<double>::infinity();
+
+  // g in atomic units (bohr / t_AU^2).
+  gravity_au_ = config_.body.gravity_m_s2 * (PhysicalConstants::time_au_s * PhysicalConstants::time_au_s /
+                                             PhysicalConstants::bohr_m);
+  v_ = Eigen::Matrix3Xd::Zero(3, n);
+  f_ext_ = Eigen::Matrix3Xd::Zero(3, n);
+  f_int_.resize(3, n);
+  potential_energy_ = internal_forces(x_, f_int_);
+}
+
+ElasticSheetModel::~ElasticSheetModel() = default;
+
+std::string_view ElasticSheetModel::name() const {
+  return kinematics_ == SheetKinematics::Linear ? kRcgpName : kCorotationalName;
+}
+
+double ElasticSheetModel::add_body_forces(const Eigen::Matrix3Xd& x, Eigen::Matrix3Xd& f) const {
+  if (gravity_au_.isZero(0.0)) return 0.0;
+  double e = 0.0;
+  for (const SheetBlock& b : sheets_)
+    for (Eigen::Index l = 0; l < b.count; ++l) {
+      const Eigen::Index k = b.first + l;
+      f.col(k) += mass_[k] * gravity_au_;
+      e -= mass_[k] * gravity_au_.dot(x.col(k) - b.reference_bohr.col(l));
+    }
+  return e;
+}
+
+double ElasticSheetModel::internal_forces(const Eigen::Matrix3Xd& x, Eigen::Matrix3Xd& f) {
+  double e = force_->evaluate(x, f);
+  if (contact_) e += contact_->add_forces(x, f);
+  return e + add_body_forces(x, f);
+}
+
+double ElasticSheetModel::potential_energy(const Eigen::Matrix3Xd& x) {
+  Eigen::Matrix3Xd f(3, x.cols());
+  double e = force_->evaluate(x, f);
+  if (contact_) e += contact_->energy(x);
+  return e + add_body_forces(x, f);
+}
+
+void ElasticSheetModel::substep(double dt, const Eigen::Matrix3Xd& external_forces) {
+  if (!(dt > 0.0) || !std::isfinite(dt))
+    fail(__LINE__, "a substep needs a positive, finite dt; got " + std::to_string(dt));
+  if (external_forces.cols() != num_cgps())
+    fail(__LINE__, "external forces for " + std::to_string(external_forces.cols()) +
+                       " CGPs handed to a model of " + std::to_string(num_cgps()) + " CGPs");
+  f_ext_ = external_forces;
+  velocity_verlet_substep(x_, v_, inv_mass_, f_int_, f_ext_, dt,
+                          [this](const Eigen::Matrix3Xd& x, Eigen::Matrix3Xd& f) {
+                            potential_energy_ = internal_forces(x, f);
+                          });
+}
+
+SolidObservables ElasticSheetModel::observables() const {
+  SolidObservables o;
+  o.area_strain.resize(num_cgps());
+  for (std::size_t s = 0; s < sheets_.size(); ++s) {
+    const SheetBlock& b = sheets_[s];
+    const SheetSpec& spec = config_.sheets[s];
+    const Eigen::Index marked = b.first + spec.marked_cgp();
+    o.marked_displacement_bohr.push_back(x_.col(marked) - b.reference_bohr.col(spec.marked_cgp()));
+    o.total_external_force_au.push_back(f_ext_.middleCols(b.first, b.count).rowwise().sum());
+    o.area_strain.segment(b.first, b.count) =
+        area_strain(spec, x_.middleCols(b.first, b.count), b.reference_bohr);
+  }
+  o.kinetic_energy_au = 0.5 * (v_.colwise().squaredNorm().transpose().cwiseProduct(mass_)).sum();
+  o.elastic_energy_au = potential_energy_;
+  return o;
+}
+
+std::string ElasticSheetModel::startup_report() const {
+  const RcgpStage& fin = rcgp_.final_stage();
+  const SheetConstants& c = fin.constants;
+  const double ev = PhysicalConstants::hartree_eV / hartree_J();  // eV per J
+  const SheetSpec& s0 = config_.sheets.front();
+  const bool paper = config_.rcgp.flexural_scaling == FlexuralScaling::Paper;
+  std::string r;
+  char buf[512];
+  std::snprintf(buf, sizeof buf, "solid model: %s (%s), %zu sheet(s), %ld CGPs%s\n",
+                std::string(name()).c_str(),
+                kinematics_ == SheetKinematics::Linear ? "linear" : "corotational, large deflection",
+                sheets_.size(), static_cast<long>(num_cgps()),
+                contact_ ? ", LJ contact between sheets" : "");
+  r += buf;
+  std::snprintf(buf, sizeof buf,
+                "RCGP: %zu stages, Lambda = %.0f, CG lattice %.4f x %.4f um, %.4g atoms per CGP; "
+                "%s\n",
+                rcgp_.stages.size(), rcgp_.coarse_graining_ratio(), fin.kernel.ax_m * 1e6,
+                fin.kernel.ay_m * 1e6, fin.atoms_per_cgp, rcgp_source_.c_str());
+  r += buf;
+  std::snprintf(buf, sizeof buf,
+                "sheet CGP spacing %.4f x %.4f um = %.4f x %.4f of the RCGP lattice's; CGP mass "
+                "%.4g kg (%.4g of the construction's)\n",
+                s0.width_spacing_bohr * PhysicalConstants::bohr_m * 1e6,
+                s0.height_spacing_bohr * PhysicalConstants::bohr_m * 1e6,
+                s0.width_spacing_bohr * PhysicalConstants::bohr_m / fin.kernel.ax_m,
+                s0.height_spacing_bohr * PhysicalConstants::bohr_m / fin.kernel.ay_m,
+                s0.cgp_mass_me * PhysicalConstants::electron_mass_kg,
+                s0.cgp_mass_me * PhysicalConstants::electron_mass_kg / fin.lumped_mass_kg);
+  r += buf;
+  std::snprintf(buf, sizeof buf,
+                "in-plane: C11 %.1f, C22 %.1f, C12 %.1f, C66 %.1f N/m, E_2D %.1f N/m\n",
+                c.c11_N_m, c.c22_N_m, c.c12_N_m, c.c66_N_m, c.youngs_x_N_m());
+  r += buf;
+  std::snprintf(buf, sizeof buf,
+                "effective bending rigidity: D = %.4g J = %.4g eV (flexural_scaling \"%s\"; "
+                "graphene's kappa %.3f eV)\n",
+                c.d11_J, c.d11_J * ev, paper ? "paper" : "physical", rcgp_.atomistic_kappa_J * ev);
+  r += buf;
+  r += "eigenfrequencies in vacuum:";
+  for (std::size_t k = 0; k < std::min<std::size_t>(3, frequencies_hz_.size()); ++k) {
+    std::snprintf(buf, sizeof buf, " %.5g Hz%s", frequencies_hz_[k], k < 2 ? "," : "");
+    r += buf;
+  }
+  std::snprintf(buf, sizeof buf, "\nstable dt_CG (2 / omega_max, velocity Verlet): %.5g s\n",
+                stable_dt_ * PhysicalConstants::time_au_s);
+  r += buf;
+  if (!config_.body.gravity_m_s2.isZero(0.0)) {
+    const Eigen::Vector3d& g = config_.body.gravity_m_s2;
+    std::snprintf(buf, sizeof buf, "body force: gravity [%.5g, %.5g, %.5g] m/s^2 on every CGP (m g)\n", g[0], g[1],
+                  g[2]);
+    r += buf;
+  }
+  bool pinned = false;
+  for (const SheetSpec& s : config_.sheets) pinned = pinned || s.pinned;
+  if (pinned) r += "leading edge: pinned (held, free to rotate: no bending moment across the held row)\n";
+  return r;
+}
+
+SolidState ElasticSheetModel::state() const { return {std::string(name()), x_, v_, f_ext_}; }
+
+void ElasticSheetModel::restore(const SolidState& state) {
+  if (state.model != name())
+    fail(__LINE__, "cannot restore the " + std::string(name()) +
+                       " model from a checkpoint of model \"" + state.model + "\"");
+  if (state.positions_bohr.cols() != num_cgps() || state.velocities_au.cols() != num_cgps() ||
+      state.external_forces_au.cols() != num_cgps())
+    fail(__LINE__, "the checkpoint holds " + std::to_string(state.positions_bohr.cols()) +
+                       " CGPs; this scene's sheets have " + std::to_string(num_cgps()));
+  if (!state.positions_bohr.allFinite() || !state.velocities_au.allFinite() ||
+      !state.external_forces_au.allFinite())
+    fail(__LINE__, "the checkpoint holds a non-finite position, velocity or force");
+  x_ = state.positions_bohr;
+  v_ = state.velocities_au;
+  f_ext_ = state.external_forces_au;
+  potential_energy_ = internal_forces(x_, f_int_);
+}
+
+Eigen::VectorXd area_strain(const SheetSpec& spec, const Eigen::Matrix3Xd& x,
+                            const Eigen::Matrix3Xd& reference) {
+  Eigen::VectorXd eps(spec.num_cgps());
+  const auto area = [&](const Eigen::Matrix3Xd& p, int i, int j) {
+    const int i0 = std::max(i - 1, 0), i1 = std::min(i + 1, spec.nx_cg - 1);
+    const int j0 = std::max(j - 1, 0), j1 = std::min(j + 1, spec.ny_cg - 1);
+    const Eigen::Vector3d ta = (p.col(spec.index(i1, j)) - p.col(spec.index(i0, j))) / (i1 - i0);
+    const Eigen::Vector3d tb = (p.col(spec.index(i, j1)) - p.col(spec.index(i, j0))) / (j1 - j0);
+    return ta.cross(tb).norm();
+  };
+  for (int j = 0; j < spec.ny_cg; ++j)
+    for (int i = 0; i < spec.nx_cg; ++i) {
+      const double a0 = area(reference, i, j);
+      eps[spec.index(i, j)] = (area(x, i, j) - a0) / a0;
+    }
+  return eps;
+}
+
+}  // namespace cosim::solid
