@@ -213,8 +213,10 @@ void print_header(const SolidScene& s, const SolidModel& model) {
   }
   std::printf("  run      %s; %lld substeps = %.5g us; record every %lld; output %s%s\n",
               s.mode == SolidRunMode::Free
-                  ? ("free vibration from a tip displacement of " +
-                     fmt("%.4g", um_from_bohr(s.tip_displacement_bohr)) + " um")
+                  ? (s.tip_displacement_bohr == 0.0
+                         ? std::string("released flat and at rest under gravity")
+                         : "free vibration from a tip displacement of " +
+                               fmt("%.4g", um_from_bohr(s.tip_displacement_bohr)) + " um")
                         .c_str()
                   : ("static load " + fmt("%.4g", s.pressure_Pa) +
                      " Pa by dynamic relaxation, damping ratio " + fmt("%.3g", s.damping_ratio))
@@ -343,7 +345,7 @@ int run(const SolidScene& s, SolidModel& model, bool quiet) {
   const std::vector<double> f = model.vacuum_eigenfrequencies_hz();
   const bool dynamic = !f.empty();
 
-  if (s.mode == SolidRunMode::Free) {
+  if (s.mode == SolidRunMode::Free && s.tip_displacement_bohr != 0.0) {
     if (dynamic)
       apply_initial_deflection(s.config, s.tip_displacement_bohr, model);
     else
