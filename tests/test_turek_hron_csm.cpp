@@ -21,14 +21,59 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
+#include <memory>
+#include <numbers>
 #include <vector>
 
+#include "solid/sheet_material.hpp"
 #include "support/turek_hron_bar.hpp"
 
 namespace {
 
 using namespace cosim::test::turek_hron;
+
+// The mapping (solid/sheet_material.hpp): the plane-strain bar's constants with no Poisson
+// coupling, the sheet along +x at y = 0.2 m from the root x = 0.25 m, spanning z, normal +y,
+// rho h per unit area; and its first bending mode in vacuum against the Euler-Bernoulli
+// cantilever of length L = (17 + 1/2) h with that D and rho h, (1.8751^2 / (2 pi L^2))
+// sqrt(D / (rho h)) = 1.0767 Hz.
+TEST(TurekHronBar, BarIsAPlaneStrainSheetAlongTheStream) {
+  const SolidScene scene = bar_scene("turek_hron_csm1", kRows);
+  ASSERT_TRUE(scene.config.material.has_value());
+  const cosim::solid::SheetMaterial& m = *scene.config.material;
+  const cosim::solid::SheetConstants c = cosim::solid::plane_strain_sheet_constants(m);
+  const double e_prime = 1.4e6 / (1.0 - 0.4 * 0.4), h = 0.02;
+  EXPECT_NEAR(c.c22_N_m, e_prime * h, 1e-9 * e_prime * h);
+  EXPECT_NEAR(c.d22_J, e_prime * h * h * h / 12.0, 1e-12);
+  EXPECT_EQ(c.c12_N_m, 0.0);
+  const cosim::solid::SheetSpec& spec = scene.config.sheets.front();
+  EXPECT_NEAR((cosim::solid::sheet_normal(spec) - Eigen::Vector3d::UnitY()).norm(), 0.0, 1e-15);
+  EXPECT_NEAR((cosim::solid::sheet_height_direction(spec) - Eigen::Vector3d::UnitX()).norm(), 0.0, 1e-15);
+  EXPECT_NEAR((cosim::solid::sheet_width_direction(spec) - Eigen::Vector3d::UnitZ()).norm(), 0.0, 1e-15);
+  const Eigen::Matrix3Xd x = cosim::solid::flat_sheet_positions(spec) * PhysicalConstants::bohr_m;
+  for (int j = 0; j < spec.ny_cg; ++j)
+    for (int i = 0; i < spec.nx_cg; ++i) {
+      const Eigen::Vector3d p = x.col(spec.index(i, j));
+      EXPECT_NEAR(p.x(), 0.25 + 0.02 * j, 1e-12);
+      EXPECT_NEAR(p.y(), 0.2, 1e-12);
+      EXPECT_NEAR(p.z(), 0.02 * (i - 0.5), 1e-12);
+    }
+  // A at (0.6, 0.2) on the flat sheet.
+  const Eigen::Vector3d a = cosim::solid::free_edge_midpoint(spec, x);
+  EXPECT_NEAR((a - Eigen::Vector3d(0.6, 0.2, 0.0)).norm(), 0.0, 1e-12);
+  EXPECT_NEAR(spec.cgp_mass_me * PhysicalConstants::electron_mass_kg, 1000.0 * h * 0.02 * 0.02, 1e-15);
+  const std::unique_ptr<SolidModel> model = cosim::solid::make_solid_model(scene.model, scene.config);
+  const double beam_hz = std::pow(1.8751040687, 2) / (2.0 * std::numbers::pi * kBarLength_m * kBarLength_m) *
+                         std::sqrt(c.d22_J / (m.density_kg_m3 * h));
+  double closest = 0.0;
+  for (const double f : model->vacuum_eigenfrequencies_hz())
+    if (std::abs(f - beam_hz) < std::abs(closest - beam_hz)) closest = f;
+  std::printf("first bending mode in vacuum %.5g Hz, Euler-Bernoulli %.5g Hz (%+.3f %%)\n", closest, beam_hz,
+              100.0 * (closest / beam_hz - 1.0));
+  EXPECT_NEAR(closest / beam_hz, 1.0, 0.002);
+}
 
 TEST(TurekHronBar, TurekHronCsm1MatchesReference) {
   const Eigen::Vector3d u = static_tip("turek_hron_csm1", kRows);
