@@ -106,6 +106,22 @@ const std::vector<BadCase>& bad_cases() {
         "corotational)"}},
       {"leading_edge_unknown.toml",
        {":6: sheet[0].leading_edge = \"hinged\": must be one of \"clamped\", \"pinned\""}},
+      // [material] (solid/models/elastic_sheet/sheet_material.hpp), [[sheet]] incline_deg and a free run without a
+      // perturbation (allowed only under gravity).
+      {"material_missing_thickness.toml",
+       {":5: material.thickness_m: missing; the sheet's thickness h, metres",
+        "[material] needs youngs_modulus_Pa, poisson_ratio, density_kg_m3 and thickness_m"}},
+      {"material_poisson_half.toml", {":7: material.poisson_ratio = 0.5: must be in [0, 0.5)"}},
+      {"material_youngs_negative.toml", {":6: material.youngs_modulus_Pa = -1400000: must be > 0"}},
+      {"material_with_atoms.toml",
+       {":13: sheet[0].atoms_per_cgp = 2e+06: not used with [material]: a CGP's mass is density_kg_m3 x "
+        "thickness_m x its cell"}},
+      {"material_with_rcgp_key.toml",
+       {":4: solid.flexural_scaling = \"physical\": not used with [material]"}},
+      {"incline_not_number.toml", {":6: sheet[0].incline_deg = \"flat\": must be a number, not a string"}},
+      {"free_without_perturbation.toml",
+       {"[perturbation]: missing; run.mode = \"free\" needs [perturbation] with tip_displacement_um (or [solid] "
+        "gravity_m_s2"}},
       {"syntax_error.toml", {"syntax_error.toml:6:11: TOML syntax error"}},
       // Coupled scenes (with [coupling]): the keys both servers read.
       {"coupling_ttl_missing.toml",
@@ -152,7 +168,7 @@ const std::vector<BadCase>& bad_cases() {
         "coupling.scheme = \"implicit\""}},
       {"coupling_grid_dx_zero.toml", {":4: grid.dx_um = 0: must be > 0"}},
       {"coupling_unknown_section.toml",
-       {":2: [fluids]: unknown section; allowed: [scene], [solid], [contact], [[sheet]], "
+       {":2: [fluids]: unknown section; allowed: [scene], [solid], [contact], [material], [[sheet]], "
         "[perturbation], [output], [grid], [coupling], [watchdog], [reaction]; the fluid's [fluid],",
         "did you mean \"fluid\""}},
       {"coupling_output_unknown_key.toml",

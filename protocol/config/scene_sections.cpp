@@ -31,6 +31,7 @@ const std::vector<SectionOwner>& scene_sections() {
       {"solid", Solid},
       {"sheet", Solid, true},
       {"contact", Solid},
+      {"material", Solid},
       {"perturbation", Solid},
       {"load", Solid},
       // protocol/config/reaction_section.cpp (the law of solid/coupling/reaction_law.hpp).

@@ -19,6 +19,7 @@
 #include "common/text/text.hpp"
 #include "protocol/units.hpp"
 #include "solid/models/elastic_sheet/elastic_sheet_model.hpp"
+#include "solid/models/elastic_sheet/elastic_sheet_options.hpp"
 #include "solid/model/model_registry.hpp"
 #include "solid/model/sheet_spec.hpp"
 
@@ -61,9 +62,10 @@ std::vector<SectionSchema> schema() {
       {"scene"},
       {"solid", {"model"}},
       {"contact"},
+      {"material"},
       {"sheet",
-       {"nx_cg", "ny_cg", "spacing_um", "base_um", "theta_deg", "clamped_rows", "leading_edge",
-        "atoms_per_cgp"},
+       {"nx_cg", "ny_cg", "spacing_um", "base_um", "theta_deg", "incline_deg", "clamped_rows",
+        "leading_edge", "atoms_per_cgp"},
        true},
       {"run", {"mode", "substeps", "dt_s", "record_every"}, false, Use::Standalone},
       {"perturbation", {"tip_displacement_um"}},
@@ -128,6 +130,11 @@ void load_solid(const SceneReader& r, SolidScene& s) {
     for (const ModelOptions* o : m.options)
       if (std::find(groups.begin(), groups.end(), o) == groups.end()) groups.push_back(o);
   for (const ModelOptions* o : groups) o->read(r.section(o->section), s.config);
+  if (s.config.material)  // the sheets' constants come from [material], not from graphene
+    for (const std::string_view k : rcgp_option_keys())
+      if (sec.has(k))
+        sec.bad(k, "not used with [material] (the sheets' constants come from the material, not from the RCGP "
+                   "construction of graphene); remove one of them");
 
   const auto used = entry(s.model)->options;
   for (const ModelOptions* o : groups) {
@@ -200,6 +207,7 @@ void load_sheets(const SceneReader& r, SolidScene& s) {
         spec.base_bohr[c] = v * kMicrometre / PhysicalConstants::bohr_m;
       }
     if (const auto v = sec.number("theta_deg")) spec.theta_deg = *v;
+    if (const auto v = sec.number("incline_deg")) spec.incline_deg = *v;
     if (const auto v = sec.integer("clamped_rows")) {
       if (*v < 1 || *v >= spec.ny_cg)
         sec.bad("clamped_rows", "must be an integer from 1 to ny_cg - 1 = " +
@@ -208,12 +216,18 @@ void load_sheets(const SceneReader& r, SolidScene& s) {
       spec.clamped_rows = int(*v);
     }
     if (const auto v = sec.choice("leading_edge", {"clamped", "pinned"})) spec.pinned = *v == 1;
+    if (s.config.material && sec.has("atoms_per_cgp"))
+      sec.bad("atoms_per_cgp", "not used with [material]: a CGP's mass is density_kg_m3 x thickness_m x its cell "
+                               "(spacing_um); remove one of them");
     if (const auto v = sec.positive("atoms_per_cgp", "carbon atoms lumped into one CGP")) {
       if (*v > SolidSceneLimits::atoms_per_cgp_max)
         sec.bad("atoms_per_cgp", "must be a number of carbon atoms lumped into one CGP from above 0 to 1e15");
       spec.cgp_mass_me =
           *v * PhysicalConstants::carbon_mass_kg / PhysicalConstants::electron_mass_kg;
     }
+    if (s.config.material)  // rho h per unit area, a full cell per CGP
+      spec.cgp_mass_me = s.config.material->mass_per_area_kg_m2() * spec.cell_area_bohr2() * PhysicalConstants::bohr_m *
+                         PhysicalConstants::bohr_m / PhysicalConstants::electron_mass_kg;
     check_sheet_memory(sec, s.model, spec);
     try {
       check_sheet_spec(spec);  // what the models check; the rules above should cover it
@@ -281,9 +295,11 @@ void load_mode_sections(const SceneReader& r, SolidScene& s) {
     pert.fail("[perturbation]: given, but run.mode = \"static\"; a perturbation belongs "
               "to run.mode = \"free\" (remove the section or change the mode)");
   if (free) {
+    // Under gravity the sheet may start flat and at rest (released: Turek & Hron's CSM3).
+    if (!pert.present() && !s.config.body.gravity_m_s2.isZero(0.0)) return;
     if (!pert.present())
       r.fail(0, "[perturbation]: missing; run.mode = \"free\" needs [perturbation] with "
-                "tip_displacement_um");
+                "tip_displacement_um (or [solid] gravity_m_s2, to release the flat sheet under gravity)");
     s.tip_displacement_bohr = read_tip_displacement(pert);
   } else {
     if (!load.present())

@@ -68,8 +68,9 @@ struct SolidScene {
   bool dt_is_default = true;
   std::int64_t record_every = 100;
 
-  /// [perturbation] (mode Free; optional in a coupled scene, 0 without it): normal
-  /// displacement of the top row at step 0, bohr (solid/coupled/initial_deflection.hpp).
+  /// [perturbation] (mode Free; optional in a coupled scene, and in mode Free under [solid]
+  /// gravity_m_s2: 0 without it, the flat sheet released at rest): normal displacement of
+  /// the top row at step 0, bohr (solid/coupled/initial_deflection.hpp).
   double tip_displacement_bohr = 0.0;
   /// [load] (mode Static): uniform normal pressure (Pa) and the damping ratio zeta of the
   /// dynamic relaxation (damping force -2 zeta omega_1 m v).

@@ -24,7 +24,8 @@ std::unique_ptr<SolidModel> make_corotational(const SolidConfig& config) {
   return std::make_unique<ElasticSheetModel>(config, SheetKinematics::Corotational);
 }
 
-constexpr std::array kElasticSheetOptions{&kRcgpOptions, &kContactOptions, &kBodyForceOptions};
+constexpr std::array kElasticSheetOptions{&kRcgpOptions, &kContactOptions, &kBodyForceOptions,
+                                          &kMaterialOptions};
 
 // The registry: add a model here, and only here (name, factory, the options it reads).
 constexpr std::array kSolidModels{

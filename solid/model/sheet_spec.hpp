@@ -16,10 +16,15 @@ inline constexpr double kPaperAtomsPerCgp = 2.0e6;
 ///
 /// CGP (i, j), i = 0..nx_cg-1 across the width and j = 0..ny_cg-1 up the height, has index
 /// l = j nx_cg + i: row j = 0 stands on the plate, row ny_cg-1 is the free top edge.
-/// The sheet's height runs along +y. Its width direction is e_w = R_y(theta) e_x =
-/// (cos theta, 0, -sin theta) and its normal n = R_y(theta) e_z = (sin theta, 0, cos theta):
-/// theta = 0 lays the sheet parallel to the flow (normal span-wise), theta = 90 deg makes it
-/// face the flow (normal along x).
+/// Upright (incline_deg = 0, the paper's sheets) the sheet's height runs along +y, its width
+/// direction is e_w = R_y(theta) e_x = (cos theta, 0, -sin theta) and its normal
+/// n = R_y(theta) e_z = (sin theta, 0, cos theta): theta = 0 lays the sheet parallel to the
+/// flow (normal span-wise), theta = 90 deg makes it face the flow (normal along x).
+/// incline_deg = psi then tilts the whole sheet about the z axis, its height towards +x:
+/// every axis is R_z(-psi) of the upright one, the height e_h = (sin psi, cos psi, 0).
+/// psi = 90 deg, theta = -90 deg lays it flat along the stream, a bar pointing downstream
+/// (height +x, width +z span-wise, normal +y): the bar of Turek & Hron's benchmark
+/// (docs/validation.md, "Turek & Hron's bar").
 struct SheetSpec {
   int nx_cg = 5;   ///< CGPs across the width
   int ny_cg = 40;  ///< CGPs up the height
@@ -32,6 +37,7 @@ struct SheetSpec {
   /// Middle of the bottom row (on the plate), bohr.
   Eigen::Vector3d base_bohr = Eigen::Vector3d::Zero();
   double theta_deg = 90.0;  ///< angle of attack, a rotation about the y axis
+  double incline_deg = 0.0;  ///< then a tilt about -z, the height from +y towards +x
   int clamped_rows = 1;     ///< bottom rows j < clamped_rows are held to the plate
   /// [[sheet]] leading_edge = "pinned": the last held row is a hinge, its position held and
   /// the sheet free to rotate about it (no bending moment across it: w_bb = 0 there, a
@@ -57,13 +63,23 @@ struct SheetSpec {
 /// 0 <= clamped_rows < ny_cg.
 void check_sheet_spec(const SheetSpec& spec);
 
-/// Unit width direction e_w and normal n of the sheet (see SheetSpec).
+/// Unit width direction e_w, height direction e_h and normal n of the sheet (see SheetSpec).
 Eigen::Vector3d sheet_width_direction(const SheetSpec& spec);
+Eigen::Vector3d sheet_height_direction(const SheetSpec& spec);
 Eigen::Vector3d sheet_normal(const SheetSpec& spec);
 
 /// CGP positions of the flat, undeformed sheet, one column per CGP in index order, bohr:
-///   X_ij = base + (i - (nx_cg - 1) / 2) h_w e_w + j h_h e_y.
+///   X_ij = base + (i - (nx_cg - 1) / 2) h_w e_w + j h_h e_h.
 /// Checks the spec first.
 Eigen::Matrix3Xd flat_sheet_positions(const SheetSpec& spec);
+
+/// The midpoint of the sheet's free (top) edge at positions x (3 x num_cgps(), this sheet's
+/// CGPs in index order, any unit): each CGP carries a full cell, so the free edge lies half
+/// a spacing beyond the top row (docs/solid.md), and its midpoint is extrapolated from the
+/// middles (means over i) of the two top rows r_N, r_(N-1):
+///   x_A = r_N + (r_N - r_(N-1)) / 2,
+/// second order in the spacing for a smooth deflection (a rotated straight end exactly).
+/// Turek & Hron's point A (docs/validation.md, "Turek & Hron's bar").
+Eigen::Vector3d free_edge_midpoint(const SheetSpec& spec, const Eigen::Matrix3Xd& x);
 
 }  // namespace cosim::solid

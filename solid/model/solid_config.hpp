@@ -4,11 +4,13 @@
 #pragma once
 
 #include <cstddef>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <Eigen/Core>
 
+#include "solid/models/elastic_sheet/sheet_material.hpp"
 #include "solid/model/sheet_spec.hpp"
 
 namespace cosim::solid {
@@ -70,6 +72,10 @@ struct SolidConfig {
   RcgpOptions rcgp;
   ContactOptions contact;
   BodyForceOptions body;
+  /// [material]: the sheets are of this continuum material (solid/models/elastic_sheet/sheet_material.hpp), the
+  /// plane-strain bar's constants instead of the RCGP construction's, and each CGP's mass
+  /// rho h times its cell; unset: graphene (rcgp).
+  std::optional<SheetMaterial> material;
 };
 
 /// Total number of CGPs of all sheets.

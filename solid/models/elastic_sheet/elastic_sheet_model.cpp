@@ -61,11 +61,18 @@ ElasticSheetModel::ElasticSheetModel(const SolidConfig& config, SheetKinematics 
     fail(__LINE__, "the " + std::string(name()) + " model needs at least one sheet; the scene "
                    "names none");
   for (const SheetSpec& s : config_.sheets) check_sheet_spec(s);
-  if (config_.rcgp.stages == 0)  // stage count from Lambda = dx_CG / dx_MD
-    config_.rcgp.stages = rcgp_stages_for_spacing(config_.sheets.front().width_spacing_bohr *
-                                                  PhysicalConstants::bohr_m);
-  rcgp_ = load_or_build_rcgp(config_.rcgp, ForceConstantModel{}, &rcgp_source_);
-  plate_ = plate_constants_au(rcgp_.final_stage().constants, config_.rcgp.bending_poisson);
+  if (config_.material) {
+    // A continuum sheet: the plane-strain bar's constants (sheet_material.hpp), no graphene.
+    material_constants_ = plane_strain_sheet_constants(*config_.material);
+    plate_ = plate_constants_au(material_constants_, 0.0);
+    rcgp_source_ = "not used ([material])";
+  } else {
+    if (config_.rcgp.stages == 0)  // stage count from Lambda = dx_CG / dx_MD
+      config_.rcgp.stages = rcgp_stages_for_spacing(config_.sheets.front().width_spacing_bohr *
+                                                    PhysicalConstants::bohr_m);
+    rcgp_ = load_or_build_rcgp(config_.rcgp, ForceConstantModel{}, &rcgp_source_);
+    plate_ = plate_constants_au(rcgp_.final_stage().constants, config_.rcgp.bending_poisson);
+  }
 
   const Eigen::Index n = total_cgps(config_);
   x_.resize(3, n);
@@ -189,11 +196,7 @@ SolidObservables ElasticSheetModel::observables() const {
 }
 
 std::string ElasticSheetModel::startup_report() const {
-  const RcgpStage& fin = rcgp_.final_stage();
-  const SheetConstants& c = fin.constants;
-  const double ev = PhysicalConstants::hartree_eV / hartree_J();  // eV per J
   const SheetSpec& s0 = config_.sheets.front();
-  const bool paper = config_.rcgp.flexural_scaling == FlexuralScaling::Paper;
   std::string r;
   char buf[512];
   std::snprintf(buf, sizeof buf, "solid model: %s (%s), %zu sheet(s), %ld CGPs%s\n",
@@ -202,6 +205,52 @@ std::string ElasticSheetModel::startup_report() const {
                 sheets_.size(), static_cast<long>(num_cgps()),
                 contact_ ? ", LJ contact between sheets" : "");
   r += buf;
+  if (config_.material) {
+    const SheetMaterial& m = *config_.material;
+    const SheetConstants& c = material_constants_;
+    std::snprintf(buf, sizeof buf,
+                  "material: E %.6g Pa, nu %.4g, rho %.6g kg/m^3, thickness %.6g m: a plane-strain bar "
+                  "(docs/validation.md, \"Turek & Hron's bar\")\n"
+                  "plate: stretching E h / (1 - nu^2) = %.6g N/m, bending D = E h^3 / (12 (1 - nu^2)) = %.6g J "
+                  "per width, rho h = %.6g kg/m^2, no Poisson coupling (C12 = D12 = 0)\n",
+                  m.youngs_modulus_Pa, m.poisson_ratio, m.density_kg_m3, m.thickness_m, c.c22_N_m, c.d22_J,
+                  m.mass_per_area_kg_m2());
+    r += buf;
+    std::snprintf(buf, sizeof buf, "sheet CGP spacing %.6g x %.6g m; CGP mass %.6g kg\n",
+                  s0.width_spacing_bohr * PhysicalConstants::bohr_m, s0.height_spacing_bohr * PhysicalConstants::bohr_m,
+                  s0.cgp_mass_me * PhysicalConstants::electron_mass_kg);
+    r += buf;
+  } else {
+    r += rcgp_report();
+  }
+  r += "eigenfrequencies in vacuum:";
+  for (std::size_t k = 0; k < std::min<std::size_t>(3, frequencies_hz_.size()); ++k) {
+    std::snprintf(buf, sizeof buf, " %.5g Hz%s", frequencies_hz_[k], k < 2 ? "," : "");
+    r += buf;
+  }
+  std::snprintf(buf, sizeof buf, "\nstable dt_CG (2 / omega_max, velocity Verlet): %.5g s\n",
+                stable_dt_ * PhysicalConstants::time_au_s);
+  r += buf;
+  if (!config_.body.gravity_m_s2.isZero(0.0)) {
+    const Eigen::Vector3d& g = config_.body.gravity_m_s2;
+    std::snprintf(buf, sizeof buf, "body force: gravity [%.5g, %.5g, %.5g] m/s^2 on every CGP (m g)\n", g[0], g[1],
+                  g[2]);
+    r += buf;
+  }
+  bool pinned = false;
+  for (const SheetSpec& s : config_.sheets) pinned = pinned || s.pinned;
+  if (pinned) r += "leading edge: pinned (held, free to rotate: no bending moment across the held row)\n";
+  return r;
+}
+
+std::string ElasticSheetModel::rcgp_report() const {
+  const RcgpStage& fin = rcgp_.final_stage();
+  const SheetConstants& c = fin.constants;
+  const double ev = PhysicalConstants::hartree_eV / hartree_J();  // eV per J
+  const SheetSpec& s0 = config_.sheets.front();
+  const bool paper = config_.rcgp.flexural_scaling == FlexuralScaling::Paper;
+  std::string r;
+  char buf[512];
   std::snprintf(buf, sizeof buf,
                 "RCGP: %zu stages, Lambda = %.0f, CG lattice %.4f x %.4f um, %.4g atoms per CGP; "
                 "%s\n",
@@ -227,23 +276,6 @@ std::string ElasticSheetModel::startup_report() const {
                 "graphene's kappa %.3f eV)\n",
                 c.d11_J, c.d11_J * ev, paper ? "paper" : "physical", rcgp_.atomistic_kappa_J * ev);
   r += buf;
-  r += "eigenfrequencies in vacuum:";
-  for (std::size_t k = 0; k < std::min<std::size_t>(3, frequencies_hz_.size()); ++k) {
-    std::snprintf(buf, sizeof buf, " %.5g Hz%s", frequencies_hz_[k], k < 2 ? "," : "");
-    r += buf;
-  }
-  std::snprintf(buf, sizeof buf, "\nstable dt_CG (2 / omega_max, velocity Verlet): %.5g s\n",
-                stable_dt_ * PhysicalConstants::time_au_s);
-  r += buf;
-  if (!config_.body.gravity_m_s2.isZero(0.0)) {
-    const Eigen::Vector3d& g = config_.body.gravity_m_s2;
-    std::snprintf(buf, sizeof buf, "body force: gravity [%.5g, %.5g, %.5g] m/s^2 on every CGP (m g)\n", g[0], g[1],
-                  g[2]);
-    r += buf;
-  }
-  bool pinned = false;
-  for (const SheetSpec& s : config_.sheets) pinned = pinned || s.pinned;
-  if (pinned) r += "leading edge: pinned (held, free to rotate: no bending moment across the held row)\n";
   return r;
 }
 

@@ -59,6 +59,7 @@ class ElasticSheetModel final : public SolidModel {
   /// (reaction) forces too.
   double internal_forces(const Eigen::Matrix3Xd& x, Eigen::Matrix3Xd& f);
   double potential_energy(const Eigen::Matrix3Xd& x);
+  /// The RCGP construction; empty (no stages) for a sheet of [material].
   const RcgpConstruction& construction() const { return rcgp_; }
   const PlateConstantsAu& plate_constants() const { return plate_; }
   const std::vector<SheetBlock>& sheets() const { return sheets_; }
@@ -72,7 +73,10 @@ class ElasticSheetModel final : public SolidModel {
   SheetKinematics kinematics_;
   RcgpConstruction rcgp_;
   std::string rcgp_source_;
+  SheetConstants material_constants_;  ///< of config_.material, when set
   PlateConstantsAu plate_;
+  /// The RCGP lines of startup_report().
+  std::string rcgp_report() const;
   std::vector<SheetBlock> sheets_;
   std::unique_ptr<SheetForce> force_;
   std::optional<LjContact> contact_;

@@ -18,4 +18,12 @@ extern const ModelOptions kContactOptions;
 /// [solid] gravity_m_s2 -> SolidConfig::body.
 extern const ModelOptions kBodyForceOptions;
 
+/// [material] youngs_modulus_Pa, poisson_ratio, density_kg_m3, thickness_m ->
+/// SolidConfig::material (all four, or no section).
+extern const ModelOptions kMaterialOptions;
+
+/// The [solid] keys of kRcgpOptions (the RCGP construction's), which a scene with
+/// [material] has no use for.
+std::span<const std::string_view> rcgp_option_keys();
+
 }  // namespace cosim::solid

@@ -190,7 +190,7 @@ Eigen::SparseMatrix<double> assemble_stiffness(const std::vector<StiffnessTerm>&
 Eigen::Matrix3d sheet_axes(const SheetSpec& spec) {
   Eigen::Matrix3d q;
   q.col(0) = sheet_width_direction(spec);
-  q.col(1) = Eigen::Vector3d::UnitY();
+  q.col(1) = sheet_height_direction(spec);
   q.col(2) = sheet_normal(spec);
   return q;
 }

@@ -64,7 +64,7 @@ Eigen::SparseMatrix<double> assemble_stiffness(const std::vector<StiffnessTerm>&
                                                Eigen::Index num_cgps);
 
 /// Rotation from the sheet's local axes (a, b, n) to the scene's (x, y, z): columns e_w,
-/// e_y, n.
+/// e_h, n.
 Eigen::Matrix3d sheet_axes(const SheetSpec& spec);
 
 }  // namespace cosim::solid
