@@ -1,5 +1,5 @@
 // cosim-conformance: the conformance kit for a solid from outside (tools/conformance/README.md).
-// A mock fluid on the session layer drives the candidate solid process through three sessions
+// A mock fluid on the session layer drives the candidate solid process through five sessions
 // and reports each check as PASS or FAIL with a one-line reason naming the fault.
 //
 //   cosim-conformance --solid-cmd CMD [SCENE] [--work DIR] [--trace FILE] [--golden FILE]
@@ -19,6 +19,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -66,8 +67,9 @@ std::string default_scene() {
 
 int main_impl(int argc, char** argv) {
   CLI::App app{"The conformance kit: drives a solid process through the protocol with a mock fluid and reports "
-               "each check (handshake, substeps, spin-up impulse, impulse vs motion, resends, duplicates, stops, "
-               "timeouts, bit-identical runs, energy in still fluid) as PASS or FAIL with a one-line reason.\n"
+               "each check (handshake, lattice units, substeps, spin-up impulse, impulse vs motion, response to the "
+               "fluid, resends, duplicates, stops, timeouts, bit-identical runs, energy in still fluid, a long "
+               "session, a restart) as PASS or FAIL with a one-line reason.\n"
                "Exit status: 0 every check passes, 1 a check fails, 2 bad command line or scene.",
                "cosim-conformance"};
   std::string command, scene_path = default_scene(), work, trace_out, golden;
@@ -124,6 +126,9 @@ int main_impl(int argc, char** argv) {
   const std::vector<double> areas = solid::marker_areas_lb(scene.config.sheets, units);
   ctx.area_lb = Eigen::Map<const Eigen::VectorXd>(areas.data(), Eigen::Index(areas.size()));
   ctx.peer_timeout_s = scene.coupling->peer_timeout_s;
+  ctx.position_lb = solid::marker_positions_lb(scene.config.sheets, units);
+  ctx.dx_m = units.dx_m();
+  ctx.law = scene.reaction_law;
 
   std::cout << "cosim-conformance: solid '" << command << "' on " << cand.scene_path << " (A_T = " << ctx.time_ratio
             << ", peer_timeout_s = " << protocol::fmt("%g", ctx.peer_timeout_s) << "); logs in " << work << "\n"
@@ -131,7 +136,18 @@ int main_impl(int argc, char** argv) {
   const conformance::Trace main = conformance::run_session(cand, conformance::main_plan());
   const conformance::Trace repeat = conformance::run_session(cand, conformance::repeat_plan());
   const conformance::Trace still = conformance::run_session(cand, conformance::still_plan());
-  std::vector<conformance::Verdict> verdicts = conformance::all_checks(main, repeat, still, ctx);
+  const conformance::Trace long_run = conformance::run_session(cand, conformance::long_plan());
+  // The checkpoint the solid kept when session 'repeat' stopped with an error, if any.
+  std::string checkpoint;
+  std::error_code ec;
+  for (const fs::directory_entry& e : fs::directory_iterator(fs::path(work) / "repeat" / "checkpoints", ec))
+    if (e.path().filename().string().rfind("solid_", 0) == 0 && e.path().extension() == ".h5" &&
+        e.path().string() > checkpoint)
+      checkpoint = e.path().string();
+  std::optional<conformance::Trace> restart;
+  if (!checkpoint.empty()) restart = conformance::run_session(cand, conformance::restart_plan(checkpoint));
+  std::vector<conformance::Verdict> verdicts = conformance::all_checks(
+      main, repeat, still, long_run, restart ? &*restart : nullptr, checkpoint, ctx);
   if (!trace_out.empty()) conformance::write_golden_trace(trace_out, main);
   if (!golden.empty()) verdicts.push_back(conformance::check_golden_trace(golden, main, tolerance));
 

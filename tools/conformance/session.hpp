@@ -44,6 +44,12 @@ struct Plan {
   std::function<Eigen::Matrix3Xd(std::int64_t step, Eigen::Index n)> flow;
   std::int64_t duplicate_at = -1;  ///< fluid_state_t of this step sent twice
   std::int64_t resend_at = -1;     ///< resend_t for solid_state_t of this step, after the next one
+  /// A restart (protocol/README.md section 10): the solid started with `--restart
+  /// restart_file`, which holds its state after step `restart_at`; the session then awaits
+  /// that step's solid_state_t again (no step 0) and goes on from fluid_state_t(restart_at + 1),
+  /// the fluid's seqs continuing as in a run that sent every step once.
+  std::int64_t restart_at = -1;
+  std::string restart_file;
 };
 
 struct Trace {
