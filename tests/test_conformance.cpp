@@ -72,7 +72,7 @@ TEST(Conformance, ConformanceKitCatchesBrokenSolids) {
       {"nan", "FAIL  finite values", "= nan: a NaN"},
   };
   for (const auto& c : cases) {
-    const auto r = kit(std::string(BROKEN_SOLID_EXE) + " --fault " + c.fault, kScene, dir / c.fault);
+    const auto r = kit(std::string(BROKEN_SOLID_EXE) + " --fault " + c.fault, kScene, dir / c.fault, " --sessions main");
     EXPECT_EQ(r.status, 1) << c.fault << ":\n" << r.out << r.err;
     const std::size_t at = r.out.find(c.check);
     ASSERT_NE(at, std::string::npos) << c.fault << ":\n" << r.out;
@@ -93,12 +93,12 @@ std::string planted(const std::string& solid, const std::string& fault) {
          (kSource / "tests" / "conformance" / "broken_python_solid.py").string() + " --fault " + fault;
 }
 
-/// The kit fails `solid --fault fault`, and the line of `check` says FAIL with `words`; the
-/// kit's output.
-std::string expect_caught(const std::string& solid, const std::string& fault, const std::string& check,
-                          const std::string& words, const fs::path& dir) {
+/// The kit (the sessions named) fails `solid --fault fault`, and the line of `check` says
+/// FAIL with `words`; the kit's output.
+std::string expect_caught(const std::string& solid, const std::string& fault, const std::string& sessions,
+                          const std::string& check, const std::string& words, const fs::path& dir) {
   const std::string where = solid + " --fault " + fault;
-  const auto r = kit(planted(solid, fault), kScene, dir);
+  const auto r = kit(planted(solid, fault), kScene, dir, " --sessions " + sessions);
   EXPECT_EQ(r.status, 1) << where << ":\n" << r.out << r.err;
   const std::size_t at = r.out.find("FAIL  " + check);
   EXPECT_NE(at, std::string::npos) << where << ": no FAIL of '" << check << "':\n" << r.out;
@@ -122,7 +122,7 @@ TEST(Conformance, ConformanceKitCatchesScaleAndLagErrors) {
   };
   for (const char* solid : {"raw", "c++", "python"})
     for (const auto& c : cases)
-      expect_caught(solid, c.fault, "impulse vs motion", c.words, dir / (std::string(solid) + "_" + c.fault));
+      expect_caught(solid, c.fault, "main", "impulse vs motion", c.words, dir / (std::string(solid) + "_" + c.fault));
 }
 
 TEST(Conformance, ConformanceKitCatchesInconsistentMotion) {
@@ -138,7 +138,8 @@ TEST(Conformance, ConformanceKitCatchesInconsistentMotion) {
       {"reaction-sign", "response to the fluid", "the reaction on the solid has the wrong sign"},
   };
   for (const char* solid : {"c++", "python"})
-    for (const auto& c : cases) expect_caught(solid, c.fault, c.check, c.words, dir / (std::string(solid) + "_" + c.fault));
+    for (const auto& c : cases)
+      expect_caught(solid, c.fault, "main,long", c.check, c.words, dir / (std::string(solid) + "_" + c.fault));
 }
 
 TEST(Conformance, ConformanceKitChecksLongRunsAndRestarts) {
@@ -146,13 +147,13 @@ TEST(Conformance, ConformanceKitChecksLongRunsAndRestarts) {
   fs::remove_all(dir);
   // A defect from step 50 on: the short sessions see nothing, the long one names the step.
   for (const char* solid : {"raw", "c++"}) {
-    const std::string out = expect_caught(solid, "double --from 50", "long session", "solid_state_t(50), session 'long'",
-                                          dir / (std::string(solid) + "_from50"));
+    const std::string out = expect_caught(solid, "double --from 50", "main,long", "long session",
+                                          "solid_state_t(50), session 'long'", dir / (std::string(solid) + "_from50"));
     EXPECT_NE(out.find("PASS  impulse vs motion"), std::string::npos) << solid << ":\n" << out;
   }
   // A restore() that restores nothing: the continuation after the restart differs.
   for (const char* solid : {"c++", "python"})
-    expect_caught(solid, "restore-nothing", "restart", "restore() must bring back the whole state",
+    expect_caught(solid, "restore-nothing", "main,repeat,restart", "restart", "restore() must bring back the whole state",
                   dir / (std::string(solid) + "_restore"));
 }
 

@@ -90,6 +90,20 @@ TEST(ConformanceChecks, FaultsAreNamed) {
   EXPECT_NE(dup.reason.find("was stepped again"), std::string::npos) << dup.reason;
 }
 
+TEST(ConformanceChecks, PositionsInMicrometresAreNamed) {
+  Context c = context();
+  c.dx_m = 0.2561e-6;
+  c.position_lb.resize(3, kMarkers);
+  for (int l = 0; l < kMarkers; ++l) c.position_lb.col(l) = Eigen::Vector3d(10.0, double(l), 5.0);
+  Trace t = held_plate(1.0);
+  EXPECT_TRUE(check_lattice_units(t, c).pass) << check_lattice_units(t, c).reason;
+  for (std::vector<double>& x : t.states[0].position_lb)
+    for (double& v : x) v *= 0.2561;
+  const Verdict um = check_lattice_units(t, c);
+  EXPECT_FALSE(um.pass);
+  EXPECT_NE(um.reason.find("the positions are in um, not in lattice units"), std::string::npos) << um.reason;
+}
+
 TEST(ConformanceChecks, ScaleAndLagAreNamedAtRestingMarkers) {
   // Markers at rest: the law is exact, so the bound is round-off.
   const Verdict twice = check_impulse_motion(held_plate(2.0), context());

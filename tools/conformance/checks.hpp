@@ -69,8 +69,18 @@ Verdict check_timeout(const Trace& still, const Context& c);
 Verdict check_bit_identical(const Trace& main, const Trace& repeat);
 Verdict check_still_energy(const Trace& still, const Context& c);
 
-/// Every check in order (restart null: no checkpoint, `checkpoint` empty).
-std::vector<Verdict> all_checks(const Trace& main, const Trace& repeat, const Trace& still, const Trace& long_run,
-                                const Trace* restart, const std::string& checkpoint, const Context& c);
+/// The traces of the sessions that ran (null: not run; `main` always runs).
+struct Sessions {
+  const Trace* main = nullptr;
+  const Trace* repeat = nullptr;
+  const Trace* still = nullptr;
+  const Trace* long_run = nullptr;
+  bool restart_asked = false;     ///< the restart session was asked for (with repeat)
+  const Trace* restart = nullptr;  ///< null: the solid kept no checkpoint (`checkpoint` empty)
+  std::string checkpoint;
+};
+
+/// Every check whose sessions ran, in order.
+std::vector<Verdict> all_checks(const Sessions& s, const Context& c);
 
 }  // namespace cosim::conformance
