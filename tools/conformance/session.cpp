@@ -26,9 +26,13 @@ double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::
 }  // namespace
 
 const cosimlcm::solid_state_t* Trace::state(std::int64_t step) const {
-  for (const cosimlcm::solid_state_t& m : states)
-    if (m.step == step) return &m;
-  return nullptr;
+  if (indexed_ != states.size()) {
+    first_.clear();
+    for (std::size_t k = 0; k < states.size(); ++k) first_.emplace(states[k].step, k);  // keeps the first
+    indexed_ = states.size();
+  }
+  const auto it = first_.find(step);
+  return it == first_.end() ? nullptr : &states[it->second];
 }
 
 Trace run_session(const Candidate& c, const Plan& plan) {

@@ -7,6 +7,7 @@
 #include <functional>
 #include <optional>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include <Eigen/Core>
@@ -69,6 +70,11 @@ struct Trace {
 
   /// The first copy of solid_state_t(step), or null.
   const cosimlcm::solid_state_t* state(std::int64_t step) const;
+
+ private:
+  /// step -> index of its first copy in `states`, built again when `states` grows.
+  mutable std::unordered_map<std::int64_t, std::size_t> first_;
+  mutable std::size_t indexed_ = 0;
 };
 
 /// Runs the plan against a fresh process of the candidate. Never throws for the candidate's
