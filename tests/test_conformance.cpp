@@ -43,7 +43,7 @@ TEST(Conformance, ConformanceKitPassesEveryModel) {
     const fs::path golden = kSource / "tests" / "conformance" / "golden" / (model + ".csv");
     const auto r = kit(SOLID_EXE, scene, dir / model, " --golden " + quoted(golden.string()));
     EXPECT_EQ(r.status, 0) << model << ":\n" << r.out << r.err;
-    EXPECT_NE(r.out.find("14 of 14 checks pass"), std::string::npos) << model << ":\n" << r.out;
+    EXPECT_NE(r.out.find("18 of 18 checks pass"), std::string::npos) << model << ":\n" << r.out;
   }
   const std::string python = "env PYTHONPATH=" + (fs::path(COSIM_BINARY_DIR) / "sdk" / "python").string() +
                              " /usr/bin/python3 " + (kSource / "examples" / "python_sheet" / "spring_sheet.py").string();
@@ -52,7 +52,7 @@ TEST(Conformance, ConformanceKitPassesEveryModel) {
                                   {"python_sheet", python}}) {
     const auto r = kit(cmd, kScene, dir / name);
     EXPECT_EQ(r.status, 0) << name << ":\n" << r.out << r.err;
-    EXPECT_NE(r.out.find("13 of 13 checks pass"), std::string::npos) << name << ":\n" << r.out;
+    EXPECT_NE(r.out.find("17 of 17 checks pass"), std::string::npos) << name << ":\n" << r.out;
   }
 }
 
@@ -72,7 +72,7 @@ TEST(Conformance, ConformanceKitCatchesBrokenSolids) {
       {"nan", "FAIL  finite values", "= nan: a NaN"},
   };
   for (const auto& c : cases) {
-    const auto r = kit(std::string(BROKEN_SOLID_EXE) + " --fault " + c.fault, kScene, dir / c.fault);
+    const auto r = kit(std::string(BROKEN_SOLID_EXE) + " --fault " + c.fault, kScene, dir / c.fault, " --sessions main");
     EXPECT_EQ(r.status, 1) << c.fault << ":\n" << r.out << r.err;
     const std::size_t at = r.out.find(c.check);
     ASSERT_NE(at, std::string::npos) << c.fault << ":\n" << r.out;
@@ -82,6 +82,79 @@ TEST(Conformance, ConformanceKitCatchesBrokenSolids) {
   // The same solid without a fault passes: the failures are the faults', not the plate's.
   const auto r = kit(std::string(BROKEN_SOLID_EXE) + " --fault none", kScene, dir / "none");
   EXPECT_EQ(r.status, 0) << r.out << r.err;
+}
+
+// The planted defects of tests/conformance/: the raw-protocol plate (broken_solid.cpp), the
+// library's C++ sheet (broken_sdk_solid.cpp) and its Python sheet (broken_python_solid.py).
+std::string planted(const std::string& solid, const std::string& fault) {
+  if (solid == "raw") return std::string(BROKEN_SOLID_EXE) + " --fault " + fault;
+  if (solid == "c++") return std::string(BROKEN_SDK_SOLID_EXE) + " --fault " + fault;
+  return "env PYTHONPATH=" + (fs::path(COSIM_BINARY_DIR) / "sdk" / "python").string() + " /usr/bin/python3 " +
+         (kSource / "tests" / "conformance" / "broken_python_solid.py").string() + " --fault " + fault;
+}
+
+/// The kit (the sessions named) fails `solid --fault fault`, and the line of `check` says
+/// FAIL with `words`; the kit's output.
+std::string expect_caught(const std::string& solid, const std::string& fault, const std::string& sessions,
+                          const std::string& check, const std::string& words, const fs::path& dir) {
+  const std::string where = solid + " --fault " + fault;
+  const auto r = kit(planted(solid, fault), kScene, dir, " --sessions " + sessions);
+  EXPECT_EQ(r.status, 1) << where << ":\n" << r.out << r.err;
+  const std::size_t at = r.out.find("FAIL  " + check);
+  EXPECT_NE(at, std::string::npos) << where << ": no FAIL of '" << check << "':\n" << r.out;
+  if (at == std::string::npos) return r.out;
+  const std::string line = r.out.substr(at, r.out.find('\n', at) - at);
+  EXPECT_NE(line.find(words), std::string::npos) << where << ": " << line;
+  return r.out;
+}
+
+TEST(Conformance, ConformanceKitCatchesScaleAndLagErrors) {
+  const fs::path dir = fs::path(::testing::TempDir()) / "cosim_conformance_scale";
+  fs::remove_all(dir);
+  const struct {
+    const char* fault;
+    const char* words;
+  } cases[] = {
+      {"double", "J_l is twice the expected impulse"},
+      {"half", "J_l is half the expected impulse"},
+      {"over-time-ratio", "divided by A_T once too often"},
+      {"late", "the impulse is sent one exchange late"},
+  };
+  for (const char* solid : {"raw", "c++", "python"})
+    for (const auto& c : cases)
+      expect_caught(solid, c.fault, "main", "impulse vs motion", c.words, dir / (std::string(solid) + "_" + c.fault));
+}
+
+TEST(Conformance, ConformanceKitCatchesInconsistentMotion) {
+  const fs::path dir = fs::path(::testing::TempDir()) / "cosim_conformance_motion";
+  fs::remove_all(dir);
+  const struct {
+    const char* fault;
+    const char* check;
+    const char* words;
+  } cases[] = {
+      {"frozen", "impulse vs motion", "the positions are frozen while the impulse follows a motion"},
+      {"end-of-step", "impulse vs motion", "the position at the interval's end"},
+      {"reaction-sign", "response to the fluid", "the reaction on the solid has the wrong sign"},
+  };
+  for (const char* solid : {"c++", "python"})
+    for (const auto& c : cases)
+      expect_caught(solid, c.fault, "main,long", c.check, c.words, dir / (std::string(solid) + "_" + c.fault));
+}
+
+TEST(Conformance, ConformanceKitChecksLongRunsAndRestarts) {
+  const fs::path dir = fs::path(::testing::TempDir()) / "cosim_conformance_long";
+  fs::remove_all(dir);
+  // A defect from step 50 on: the short sessions see nothing, the long one names the step.
+  for (const char* solid : {"raw", "c++"}) {
+    const std::string out = expect_caught(solid, "double --from 50", "main,long", "long session",
+                                          "solid_state_t(50), session 'long'", dir / (std::string(solid) + "_from50"));
+    EXPECT_NE(out.find("PASS  impulse vs motion"), std::string::npos) << solid << ":\n" << out;
+  }
+  // A restore() that restores nothing: the continuation after the restart differs.
+  for (const char* solid : {"c++", "python"})
+    expect_caught(solid, "restore-nothing", "main,repeat,restart", "restart", "restore() must bring back the whole state",
+                  dir / (std::string(solid) + "_restore"));
 }
 
 }  // namespace

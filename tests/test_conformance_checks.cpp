@@ -90,4 +90,33 @@ TEST(ConformanceChecks, FaultsAreNamed) {
   EXPECT_NE(dup.reason.find("was stepped again"), std::string::npos) << dup.reason;
 }
 
+TEST(ConformanceChecks, PositionsInMicrometresAreNamed) {
+  Context c = context();
+  c.dx_m = 0.2561e-6;
+  c.position_lb.resize(3, kMarkers);
+  for (int l = 0; l < kMarkers; ++l) c.position_lb.col(l) = Eigen::Vector3d(10.0, double(l), 5.0);
+  Trace t = held_plate(1.0);
+  EXPECT_TRUE(check_lattice_units(t, c).pass) << check_lattice_units(t, c).reason;
+  for (std::vector<double>& x : t.states[0].position_lb)
+    for (double& v : x) v *= 0.2561;
+  const Verdict um = check_lattice_units(t, c);
+  EXPECT_FALSE(um.pass);
+  EXPECT_NE(um.reason.find("the positions are in um, not in lattice units"), std::string::npos) << um.reason;
+}
+
+TEST(ConformanceChecks, ScaleAndLagAreNamedAtRestingMarkers) {
+  // Markers at rest: the law is exact, so the bound is round-off.
+  const Verdict twice = check_impulse_motion(held_plate(2.0), context());
+  EXPECT_FALSE(twice.pass);
+  EXPECT_NE(twice.reason.find("J_l is twice the expected impulse"), std::string::npos) << twice.reason;
+  const Verdict almost = check_impulse_motion(held_plate(1.0 + 1e-6), context());
+  EXPECT_FALSE(almost.pass) << almost.reason;
+  Trace late = held_plate(1.0);
+  for (std::size_t k = late.states.size() - 1; k >= 2; --k) late.states[k].impulse_lb = late.states[k - 1].impulse_lb;
+  const Verdict lag = check_impulse_motion(late, context());
+  EXPECT_FALSE(lag.pass);
+  EXPECT_NE(lag.reason.find("solid_state_t(6)"), std::string::npos) << lag.reason;
+  EXPECT_NE(lag.reason.find("one exchange late"), std::string::npos) << lag.reason;
+}
+
 }  // namespace

@@ -1,19 +1,25 @@
 // A deliberately broken solid for ConformanceKitCatchesBrokenSolids: a held plate of the
 // scene's markers written on the raw protocol (plain LCM and the generated types, no session
-// layer: misbehaving on purpose is its job), with one fault chosen by --fault:
-//   none         correct (J = -2 rho u dA, the markers held)
-//   sign         J = +2 rho u dA
-//   no-average   J summed over the A_T substeps, not averaged (A_T times too large)
-//   no-resend    resend_t is never answered
-//   substeps     A_T - 1 substeps per free LB step
-//   nan          a NaN impulse at the first free step
-//   broken-solid SCENE --fault F [--output DIR] [--channel-prefix P] [--quiet]
+// layer: misbehaving on purpose is its job), with one fault chosen by --fault, from LB step
+// --from on (default 1):
+//   none             correct (J = -2 rho u dA, the markers held)
+//   sign             J = +2 rho u dA
+//   no-average       J summed over the A_T substeps, not averaged (A_T times too large)
+//   double           J = 2 x (-2 rho u dA)
+//   half             J = 1/2 x (-2 rho u dA)
+//   over-time-ratio  J divided by A_T once more
+//   late             J of the previous fluid_state_t (one exchange late; the first its own)
+//   no-resend        resend_t is never answered
+//   substeps         A_T - 1 substeps per free LB step
+//   nan              a NaN impulse at the first free step
+//   broken-solid SCENE --fault F [--from STEP] [--output DIR] [--channel-prefix P] [--quiet]
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <deque>
 #include <functional>
+#include <optional>
 #include <limits>
 #include <string>
 #include <thread>
@@ -37,9 +43,11 @@ using Clock = std::chrono::steady_clock;
 
 int main(int argc, char** argv) {
   std::string scene_path, fault = "none", prefix;
+  std::int64_t from = 1;
   for (int k = 1; k < argc; ++k) {
     const std::string a = argv[k];
     if (a == "--fault" && k + 1 < argc) fault = argv[++k];
+    else if (a == "--from" && k + 1 < argc) from = std::atoll(argv[++k]);
     else if (a == "--channel-prefix" && k + 1 < argc) prefix = argv[++k];
     else if (a == "--output" && k + 1 < argc) ++k;
     else if (a == "--quiet") continue;
@@ -65,13 +73,16 @@ int main(int argc, char** argv) {
   int stop_code = 0;
   std::int64_t rigid = 0, last = -1, seq = 0, substeps_total = 0;
   std::deque<cosimlcm::solid_state_t> kept;
+  std::optional<cosimlcm::fluid_state_t> previous;  // the fault "late" answers this one
   Clock::time_point heard = Clock::now();
   const auto publish = [&](cosimlcm::solid_state_t m) {
     bus.publish(ch.solid_state, &m);
     kept.push_back(std::move(m));
     if (kept.size() > 2) kept.pop_front();
   };
-  const auto state = [&](std::int64_t step, const cosimlcm::fluid_state_t* f) {
+  const auto state = [&](std::int64_t step, const cosimlcm::fluid_state_t* sample) {
+    const bool on = step >= from;
+    const cosimlcm::fluid_state_t* f = sample != nullptr && on && fault == "late" && previous ? &*previous : sample;
     cosimlcm::solid_state_t m{};
     m.token = token;
     m.seq = seq++;
@@ -88,10 +99,14 @@ int main(int argc, char** argv) {
         m.position_lb[l][c] = x0(Eigen::Index(c), Eigen::Index(l));
         if (f == nullptr) continue;
         double j = -2.0 * f->rho_lb[l] * area[l] * f->velocity_lb[l][c];  // U_B = 0: the plate is held
-        if (fault == "sign") j = -j;
-        if (fault == "no-average") j *= a_t;
+        if (on && fault == "sign") j = -j;
+        if (on && fault == "no-average") j *= a_t;
+        if (on && fault == "double") j *= 2.0;
+        if (on && fault == "half") j *= 0.5;
+        if (on && fault == "over-time-ratio") j /= a_t;
         m.impulse_lb[l][c] = j;
       }
+    if (sample != nullptr) previous = *sample;
     if (fault == "nan" && free_step && step == rigid) m.impulse_lb[0][0] = std::nan("");
     publish(std::move(m));
   };

@@ -1,9 +1,9 @@
 // cosim-conformance: the conformance kit for a solid from outside (tools/conformance/README.md).
-// A mock fluid on the session layer drives the candidate solid process through three sessions
+// A mock fluid on the session layer drives the candidate solid process through five sessions
 // and reports each check as PASS or FAIL with a one-line reason naming the fault.
 //
 //   cosim-conformance --solid-cmd CMD [SCENE] [--work DIR] [--trace FILE] [--golden FILE]
-//                     [--tolerance T]
+//                     [--tolerance T] [--sessions main,repeat,still,long,restart]
 //
 // CMD is started as the launcher starts a solid: CMD SCENE --output DIR --channel-prefix P
 // --quiet, the token in COSIM_RUN_TOKEN. SCENE defaults to scenes/conformance.toml (short
@@ -19,6 +19,8 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <optional>
+#include <set>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -66,8 +68,9 @@ std::string default_scene() {
 
 int main_impl(int argc, char** argv) {
   CLI::App app{"The conformance kit: drives a solid process through the protocol with a mock fluid and reports "
-               "each check (handshake, substeps, spin-up impulse, impulse vs motion, resends, duplicates, stops, "
-               "timeouts, bit-identical runs, energy in still fluid) as PASS or FAIL with a one-line reason.\n"
+               "each check (handshake, lattice units, substeps, spin-up impulse, impulse vs motion, response to the "
+               "fluid, resends, duplicates, stops, timeouts, bit-identical runs, energy in still fluid, a long "
+               "session, a restart) as PASS or FAIL with a one-line reason.\n"
                "Exit status: 0 every check passes, 1 a check fails, 2 bad command line or scene.",
                "cosim-conformance"};
   std::string command, scene_path = default_scene(), work, trace_out, golden;
@@ -78,10 +81,21 @@ int main_impl(int argc, char** argv) {
   app.add_option("--work", work, "folder of the sessions' logs (default: a new folder under $TMPDIR)");
   app.add_option("--trace", trace_out, "write the main session's solid_state_t as a golden trace (CSV)");
   app.add_option("--golden", golden, "compare the main session with this golden trace");
+  std::vector<std::string> session_list{"main", "repeat", "still", "long", "restart"};
+  app.add_option("--sessions", session_list,
+                 "the sessions to run, comma-separated (default all: main,repeat,still,long,restart; main always "
+                 "runs, restart needs repeat); the checks of the others are left out")
+      ->delimiter(',')
+      ->check(CLI::IsMember({"main", "repeat", "still", "long", "restart"}));
   app.add_option("--tolerance", tolerance, "golden trace tolerance (default 1e-9; tools/conformance/README.md)")
       ->check(CLI::PositiveNumber);
   if (const auto code = protocol::parse_command_line(app, argc, argv, "cosim-conformance")) return *code;
 
+  const std::set<std::string> sessions(session_list.begin(), session_list.end());
+  if (sessions.count("restart") && !sessions.count("repeat")) {
+    std::cerr << "cosim-conformance: --sessions: 'restart' needs 'repeat' (its checkpoint); allowed: add repeat\n";
+    return protocol::exit_code::bad_input;
+  }
   solid::SolidScene scene;
   try {
     scene = solid::load_solid_scene(scene_path);
@@ -124,14 +138,36 @@ int main_impl(int argc, char** argv) {
   const std::vector<double> areas = solid::marker_areas_lb(scene.config.sheets, units);
   ctx.area_lb = Eigen::Map<const Eigen::VectorXd>(areas.data(), Eigen::Index(areas.size()));
   ctx.peer_timeout_s = scene.coupling->peer_timeout_s;
+  ctx.position_lb = solid::marker_positions_lb(scene.config.sheets, units);
+  ctx.dx_m = units.dx_m();
+  ctx.law = scene.reaction_law;
 
   std::cout << "cosim-conformance: solid '" << command << "' on " << cand.scene_path << " (A_T = " << ctx.time_ratio
             << ", peer_timeout_s = " << protocol::fmt("%g", ctx.peer_timeout_s) << "); logs in " << work << "\n"
             << std::flush;
+  const auto asked = [&](const std::string& name) { return sessions.count(name) > 0; };
   const conformance::Trace main = conformance::run_session(cand, conformance::main_plan());
-  const conformance::Trace repeat = conformance::run_session(cand, conformance::repeat_plan());
-  const conformance::Trace still = conformance::run_session(cand, conformance::still_plan());
-  std::vector<conformance::Verdict> verdicts = conformance::all_checks(main, repeat, still, ctx);
+  std::optional<conformance::Trace> repeat, still, long_run, restart;
+  if (asked("repeat")) repeat = conformance::run_session(cand, conformance::repeat_plan());
+  if (asked("still")) still = conformance::run_session(cand, conformance::still_plan());
+  if (asked("long")) long_run = conformance::run_session(cand, conformance::long_plan());
+  conformance::Sessions traces;
+  traces.main = &main;
+  traces.repeat = repeat ? &*repeat : nullptr;
+  traces.still = still ? &*still : nullptr;
+  traces.long_run = long_run ? &*long_run : nullptr;
+  traces.restart_asked = asked("restart");
+  if (traces.restart_asked) {
+    // The checkpoint the solid kept when session 'repeat' stopped with an error, if any.
+    std::error_code ec;
+    for (const fs::directory_entry& e : fs::directory_iterator(fs::path(work) / "repeat" / "checkpoints", ec))
+      if (e.path().filename().string().rfind("solid_", 0) == 0 && e.path().extension() == ".h5" &&
+          e.path().string() > traces.checkpoint)
+        traces.checkpoint = e.path().string();
+    if (!traces.checkpoint.empty()) restart = conformance::run_session(cand, conformance::restart_plan(traces.checkpoint));
+    traces.restart = restart ? &*restart : nullptr;
+  }
+  std::vector<conformance::Verdict> verdicts = conformance::all_checks(traces, ctx);
   if (!trace_out.empty()) conformance::write_golden_trace(trace_out, main);
   if (!golden.empty()) verdicts.push_back(conformance::check_golden_trace(golden, main, tolerance));
 

@@ -40,6 +40,8 @@ class MockFluid {
   void welcome(const cosimlcm::welcome_t& w);
   /// fluid_state_t(step) with rho_l and u_l (3 x N) at the markers, the next seq.
   void send(std::int64_t step, const Eigen::VectorXd& rho, const Eigen::Matrix3Xd& u);
+  /// The next fluid_state_t gets seq `seq` (a restart continues the run's seqs).
+  void resume_seq(std::int64_t seq) { outbox_.set_seq(seq); }
   /// The last fluid_state_t again, unchanged (its seq too): a duplicate.
   void send_again();
   /// resend_t("solid_state", step): the solid must publish its kept copy again, unchanged.

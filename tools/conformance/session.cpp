@@ -26,9 +26,13 @@ double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::
 }  // namespace
 
 const cosimlcm::solid_state_t* Trace::state(std::int64_t step) const {
-  for (const cosimlcm::solid_state_t& m : states)
-    if (m.step == step) return &m;
-  return nullptr;
+  if (indexed_ != states.size()) {
+    first_.clear();
+    for (std::size_t k = 0; k < states.size(); ++k) first_.emplace(states[k].step, k);  // keeps the first
+    indexed_ = states.size();
+  }
+  const auto it = first_.find(step);
+  return it == first_.end() ? nullptr : &states[it->second];
 }
 
 Trace run_session(const Candidate& c, const Plan& plan) {
@@ -44,8 +48,9 @@ Trace run_session(const Candidate& c, const Plan& plan) {
   std::ostringstream link_log;
   MockFluid fluid(token, prefix, c.lcm_url, link_log);
   if (const auto e = fluid.open()) throw std::runtime_error(e->reason);
+  const bool restart = plan.restart_at >= 0;
   ChildProcess solid(c.command + " " + c.scene_path + " --output " + dir.string() + " --channel-prefix " + prefix +
-                         " --quiet",
+                         " --quiet" + (restart ? " --restart " + plan.restart_file : std::string()),
                      {{"COSIM_RUN_TOKEN", token}}, t.log_path);
   const auto running = [&] { return !solid.poll().has_value(); };
   const auto finish = [&](const std::string& problem) {
@@ -92,10 +97,14 @@ Trace run_session(const Candidate& c, const Plan& plan) {
     return fluid.pump_until([&] { return fluid.first_state(step) != nullptr || !running(); }, ms(c.answer_wait_s)) &&
            fluid.first_state(step) != nullptr;
   };
-  if (!answered(0))
-    return finish(running() ? "no solid_state_t(0) within " + protocol::fmt("%g", c.answer_wait_s) + " s"
-                            : gone("solid_state_t(0)"));
-  for (std::int64_t step = 1; step <= plan.last_step; ++step) {
+  // Step 0, or after a restart the checkpoint's step published again (section 10).
+  const std::int64_t first = restart ? plan.restart_at : 0;
+  if (!answered(first))
+    return finish(running() ? "no solid_state_t(" + std::to_string(first) + ") within " +
+                                  protocol::fmt("%g", c.answer_wait_s) + " s"
+                            : gone("solid_state_t(" + std::to_string(first) + ")"));
+  fluid.resume_seq(first);  // fluid_state_t(k) has seq k - 1, as in a run that sent each step once
+  for (std::int64_t step = first + 1; step <= plan.last_step; ++step) {
     fluid.send(step, Eigen::VectorXd::Ones(n), plan.flow(step, n));
     if (step == plan.duplicate_at) fluid.send_again();
     if (!answered(step))

@@ -7,6 +7,7 @@
 #include <functional>
 #include <optional>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include <Eigen/Core>
@@ -44,6 +45,12 @@ struct Plan {
   std::function<Eigen::Matrix3Xd(std::int64_t step, Eigen::Index n)> flow;
   std::int64_t duplicate_at = -1;  ///< fluid_state_t of this step sent twice
   std::int64_t resend_at = -1;     ///< resend_t for solid_state_t of this step, after the next one
+  /// A restart (protocol/README.md section 10): the solid started with `--restart
+  /// restart_file`, which holds its state after step `restart_at`; the session then awaits
+  /// that step's solid_state_t again (no step 0) and goes on from fluid_state_t(restart_at + 1),
+  /// the fluid's seqs continuing as in a run that sent every step once.
+  std::int64_t restart_at = -1;
+  std::string restart_file;
 };
 
 struct Trace {
@@ -63,6 +70,11 @@ struct Trace {
 
   /// The first copy of solid_state_t(step), or null.
   const cosimlcm::solid_state_t* state(std::int64_t step) const;
+
+ private:
+  /// step -> index of its first copy in `states`, built again when `states` grows.
+  mutable std::unordered_map<std::int64_t, std::size_t> first_;
+  mutable std::size_t indexed_ = 0;
 };
 
 /// Runs the plan against a fresh process of the candidate. Never throws for the candidate's

@@ -1,0 +1,71 @@
+#!/usr/bin/python3
+"""A deliberately broken solid in Python on the solid library for the conformance kit's tests
+(tests/test_conformance.cpp): the sheet of examples/python_sheet/spring_sheet.py with one
+planted defect chosen by --fault, from LB step --from on (default: every step); the faults
+are those of broken_sdk_solid.cpp (none, double, half, over-time-ratio, late, frozen,
+end-of-step, reaction-sign, restore-nothing).
+
+    broken_python_solid.py SCENE --fault F [--from STEP] [the library's command line]
+"""
+import os
+import sys
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "examples", "python_sheet"))
+import spring_sheet  # noqa: E402  (the example; it imports cosim)
+import cosim  # noqa: E402
+
+
+def take(option, default):
+    """The value of `option VALUE` in sys.argv, removed from it (the library refuses options it was not asked for)."""
+    if option in sys.argv:
+        k = sys.argv.index(option)
+        value = sys.argv[k + 1]
+        del sys.argv[k:k + 2]
+        return value
+    return default
+
+
+FAULT = take("--fault", "none")
+FROM = int(take("--from", "0"))
+
+
+class BrokenSheet(spring_sheet.SpringSheet):
+    def model(self):
+        return "broken-python-" + FAULT
+
+    def start(self, scene):
+        x, area = super().start(scene)
+        self.start_x = x.copy()
+        self.previous = None
+        return x, area
+
+    def step(self, step, rho, u):
+        on = step >= FROM
+        if on and FAULT == "reaction-sign":   # the marker receives +g dA; J is negated back to g dA
+            mean, impulse = super().step(step, -rho, u)
+            impulse = -impulse
+        else:
+            mean, impulse = super().step(step, rho, u)
+        computed = impulse.copy()
+        if on and FAULT == "double":
+            impulse = 2.0 * impulse
+        if on and FAULT == "half":
+            impulse = 0.5 * impulse
+        if on and FAULT == "over-time-ratio":
+            impulse = impulse / self.time_ratio
+        if on and FAULT == "late" and self.previous is not None:
+            impulse = self.previous
+        if on and FAULT == "frozen":
+            mean = self.start_x.copy()
+        if on and FAULT == "end-of-step":
+            mean = self.x.copy()
+        self.previous = computed
+        return mean, impulse
+
+    def restore(self, state):
+        if FAULT != "restore-nothing":
+            super().restore(state)
+
+
+if __name__ == "__main__":
+    sys.exit(cosim.run(BrokenSheet()))
