@@ -52,7 +52,18 @@ CASES = {  # name: (mass factor, nu, time after release in us)
     "lownu": (1.0, NU_LOW, 0.8),
     "heavy": (100.0, NU_PAPER, 2.4),
 }
-BOXES = {"small": (12.3, 12.3, 10.2), "large": (20.5, 15.4, 15.4)}  # x (normal), y (height), z (span), um
+# x (normal to the sheet), air above the tip (y), z (span), um: the box's height is the
+# sheet's height plus that margin (12.3 and 15.4 um for the paper's 8.8 um sheet).
+BOXES = {"small": (12.3, 3.5, 10.2), "large": (20.5, 6.6, 15.4),
+         "x2": (41.0, 13.2, 30.8), "x3": (61.5, 19.8, 46.2)}
+# Aspect ratios L/b (the sheet's free length over its width) of the same sheet: rows of CGPs
+# and RCGP stages. "paper" flexural scaling multiplies the bending rigidity D by lambda^2 = 4
+# per stage while the in-plane constants and the mass per area stay, so a sheet L/L0 times
+# longer with (L/L0)^4 times the D keeps f_vac, and with it Sader's Re and T0: only L/b moves.
+# (rows, stages, A_T factor): the stiffer bending of the longer sheets shortens the model's
+# stable step (L/b 30: 1.2e-12 s against dt_CG 3.0e-12 s at A_T 150), hence 4 A_T there
+# (dt_CG at 0.62 of it, as at L/b 15).
+ASPECTS = {"7": (40, 9, 1), "15": (80, 11, 1), "30": (160, 13, 4)}
 TIP_UM = 0.02
 
 
@@ -61,11 +72,14 @@ def tau_for(nu, dx_m):
     return 0.5 + 3.0 * nu * dt / (dx_m * dx_m)
 
 
-def scene_text(name, case, dx_um, box, law="momentum_exchange", out_dir=None, t_end_us=None, refine=1):
+def scene_text(name, case, dx_um, box, law="momentum_exchange", out_dir=None, t_end_us=None, refine=1,
+               aspect="7", floor="wall"):
     mass, nu, t_us = CASES[case]
     t_us = t_end_us or t_us
     dx = dx_um * 1e-6
-    n = [max(8, int(round(L / dx_um))) for L in BOXES[box]]
+    rows, stages, a_t_factor = ASPECTS[aspect]
+    bx, top, bz = BOXES[box]
+    n = [max(8, int(round(L / dx_um))) for L in (bx, rows * 0.22 + top, bz)]
     tau = tau_for(nu, dx)
     dt_lb = dx / (math.sqrt(3) * sader.SOUND_SPEED)
     steps = int(math.ceil(t_us * 1e-6 / dt_lb))
@@ -74,7 +88,7 @@ def scene_text(name, case, dx_um, box, law="momentum_exchange", out_dir=None, t_
     a_t = int(round(150 * dx_um / 0.2561 / math.sqrt(mass)))
     # K times finer CGPs, K^2 times lighter: the highest (in-plane) frequency grows about K-fold
     # (solid --check at K = 2, dx 0.128 um: dt_CG 0.32 of the stable step).
-    a_t *= refine
+    a_t *= refine * a_t_factor
     law_line = "" if law == "momentum_exchange" else f'\n[reaction]\nlaw = "{law}"\n'
     return f'''# Free decay in still air (launch/free_decay_study.py, issue 16); generated, do not edit.
 [scene]
@@ -93,7 +107,7 @@ tau = {tau:.6f}
 [boundaries]
 x_min = "periodic"
 x_max = "periodic"
-y_min = "wall"
+y_min = "{floor}"
 y_max = "free_slip"
 z_min = "periodic"
 z_max = "periodic"
@@ -114,11 +128,11 @@ rigid_steps = 0
 [solid]
 model = "rcgp"
 flexural_scaling = "paper"
-stages = 9
+stages = {stages}
 
 [[sheet]]
 nx_cg = {5 * refine}
-ny_cg = {40 * refine}
+ny_cg = {rows * refine}
 spacing_um = [{0.24 / refine:g}, {0.22 / refine:g}]
 atoms_per_cgp = {2e6 * mass / refine ** 2:g}
 base_um = [{n[0] * dx_um / 2:.4f}, 0.0, {n[2] * dx_um / 2:.4f}]
@@ -156,6 +170,12 @@ def main():
     ap.add_argument("--resolutions", default="0.5122,0.2561")
     ap.add_argument("--boxes", default="small,large")
     ap.add_argument("--law", default="momentum_exchange")
+    ap.add_argument("--aspects", default="7",
+                    help="L/b of the sheet, of " + ", ".join(ASPECTS) + " (the same width, mass per "
+                         "area and f_vac; longer sheets, stiffer in bending)")
+    ap.add_argument("--floor", default="wall", choices=["wall", "free_slip"],
+                    help="the face the sheet stands on: the no-slip plate of the paper, or a free-slip "
+                         "plane (a mirror: no wall under the sheet's root)")
     ap.add_argument("--scene-only", action="store_true")
     ap.add_argument("--table-only", action="store_true")
     ap.add_argument("--sheet-refine", type=int, default=1,
@@ -168,6 +188,12 @@ def main():
     a = ap.parse_args()
     if not 1 <= a.sheet_refine <= 4:
         ap.error(f"--sheet-refine {a.sheet_refine}: allowed 1 to 4")
+    for aspect in a.aspects.split(","):
+        if aspect not in ASPECTS:
+            ap.error(f"--aspects {aspect}: allowed " + ", ".join(ASPECTS))
+    for box in a.boxes.split(","):
+        if box not in BOXES:
+            ap.error(f"--boxes {box}: allowed " + ", ".join(BOXES))
     tolerances = {}
     for item in filter(None, a.tolerance.split(",")):
         k, _, v = item.partition("=")
@@ -176,41 +202,45 @@ def main():
                      "undershoot, freq, zeta")
         tolerances[k] = float(v)
     rows, curves, run_failures = [], [], 0
-    for case in a.cases.split(","):
-        for dx in [float(v) for v in a.resolutions.split(",")]:
-            for box in a.boxes.split(","):
-                name = f"free_decay_{case}_dx{str(dx).replace('.', 'p')}_{box}" + (
-                    "" if a.law == "momentum_exchange" else "_" + a.law) + (
-                    "" if a.sheet_refine == 1 else f"_sheet{5 * a.sheet_refine}x{40 * a.sheet_refine}")
-                d = os.path.abspath(os.path.join(a.out, name))
-                os.makedirs(d, exist_ok=True)
-                scene = os.path.join(d, "scene.toml")
-                if not (a.table_only and os.path.exists(scene)):  # else: the scene the run was made with
-                    with open(scene, "w") as f:
-                        f.write(scene_text(name, case, dx, box, a.law, os.path.join(d, "run"), a.t_end_us,
-                                           a.sheet_refine))
-                if a.scene_only:
-                    print(scene)
-                    continue
-                if a.table_only:
-                    if not os.path.exists(os.path.join(d, "run", "solid.h5")):
-                        print(f"free_decay_study: {name}: not run yet (no {d}/run/solid.h5); left out")
-                        continue
-                else:
-                    rc = run_case(scene, os.path.join(d, "run"))
-                    if rc != 0:
-                        print(f"free_decay_study: {name}: run-coupled exit {rc} (see {d}/run/)", file=sys.stderr)
-                        run_failures += 1
-                        continue
-                t, x = read_run(os.path.join(d, "run"))
-                beam = sader.scene_beam(scene)
-                tr = np.linspace(0.0, t[-1], 600)
-                xr = beam.free_decay(tr)
-                m, r = sader.decay_measures(t, x), sader.decay_measures(tr, xr)
-                rows.append((case, dx, box if a.sheet_refine == 1 else
-                             f"{box}, {5 * a.sheet_refine} x {40 * a.sheet_refine} CGPs", m, r, beam))
-                curves.append((name, t, x, tr, xr))
-                print(f"{name}: sim {m}; sader {r}", flush=True)
+    for case, dx, box, aspect in [(c, float(d), b, s) for c in a.cases.split(",")
+                                  for d in a.resolutions.split(",") for b in a.boxes.split(",")
+                                  for s in a.aspects.split(",")]:
+        rows_cg = ASPECTS[aspect][0]
+        name = f"free_decay_{case}_dx{str(dx).replace('.', 'p')}_{box}" + (
+            "" if a.law == "momentum_exchange" else "_" + a.law) + (
+            "" if a.sheet_refine == 1 else f"_sheet{5 * a.sheet_refine}x{rows_cg * a.sheet_refine}") + (
+            "" if aspect == "7" else f"_aspect{aspect}") + ("" if a.floor == "wall" else "_freeslip")
+        d = os.path.abspath(os.path.join(a.out, name))
+        os.makedirs(d, exist_ok=True)
+        scene = os.path.join(d, "scene.toml")
+        if not (a.table_only and os.path.exists(scene)):  # else: the scene the run was made with
+            with open(scene, "w") as f:
+                f.write(scene_text(name, case, dx, box, a.law, os.path.join(d, "run"), a.t_end_us,
+                                   a.sheet_refine, aspect, a.floor))
+        if a.scene_only:
+            print(scene)
+            continue
+        if a.table_only:
+            if not os.path.exists(os.path.join(d, "run", "solid.h5")):
+                print(f"free_decay_study: {name}: not run yet (no {d}/run/solid.h5); left out")
+                continue
+        else:
+            rc = run_case(scene, os.path.join(d, "run"))
+            if rc != 0:
+                print(f"free_decay_study: {name}: run-coupled exit {rc} (see {d}/run/)", file=sys.stderr)
+                run_failures += 1
+                continue
+        t, x = read_run(os.path.join(d, "run"))
+        beam = sader.scene_beam(scene)
+        tr = np.linspace(0.0, t[-1], 600)
+        xr = beam.free_decay(tr)
+        m, r = sader.decay_measures(t, x), sader.decay_measures(tr, xr)
+        where = box if a.sheet_refine == 1 else f"{box}, {5 * a.sheet_refine} x {rows_cg * a.sheet_refine} CGPs"
+        where += ("" if aspect == "7" else f", L/b {beam.length / beam.b:.1f}") + (
+            "" if a.floor == "wall" else ", free-slip floor")
+        rows.append((case, dx, where, m, r, beam))
+        curves.append((name, t, x, tr, xr))
+        print(f"{name}: sim {m}; sader {r}", flush=True)
     if a.scene_only or not rows:
         return 1 if run_failures else 0
     write_table(a.out, rows, a.law)

@@ -88,6 +88,7 @@ class ElasticSheetModel final : public SolidModel {
   double add_body_forces(const Eigen::Matrix3Xd& x, Eigen::Matrix3Xd& f) const;
   double stable_dt_ = 0.0;
   std::vector<double> frequencies_hz_;
+  double flexural_hz_ = 0.0;  ///< the first flexural (out-of-plane) mode of sheet 0, Hz
 };
 
 /// Area strain eps_l = (|dA_l| - |dA_l0|) / |dA_l0| per CGP (the paper's section 3.2),
