@@ -26,6 +26,7 @@
 #include <filesystem>
 #include <memory>
 #include <optional>
+#include <vector>
 #include <string>
 
 #include <cstdlib>
@@ -35,6 +36,8 @@
 #include "fluid/coupled/coupled_fluid.hpp"
 #include "fluid/domain/decomposition.hpp"
 #include "fluid/io/field_writer.hpp"
+#include "fluid/io/held_body_log.hpp"
+#include "fluid/ib/held_body.hpp"
 #include "fluid/observables/flow_monitor.hpp"
 #include "fluid/domain/fluid_domain.hpp"
 #include "fluid/solver/fluid_solver.hpp"
@@ -79,6 +82,7 @@ std::string describe_face(const FluidScene& s, int f) {
   std::string out = std::string(face_name(f)) + " " + kind_name(spec.kind);
   if (spec.kind == FaceKind::Inlet) {
     out += " (u = " + fmt("%.4g", spec.inlet_speed);
+    if (spec.profile == InletProfile::Parabolic) out += " peak, parabolic";
     if (spec.profile == InletProfile::Blasius)
       out += ", Blasius layer " + fmt("%.3g", spec.boundary_layer * s.dx_um) + " um = " +
              fmt("%.3g", spec.boundary_layer) + " cells";
@@ -140,6 +144,15 @@ void print_header(const FluidScene& s, const protocol::UnitConverter& units) {
   }
   std::printf("; output %s; %d OpenMP threads\n", s.output_dir.c_str(), omp_get_max_threads());
   for (const std::string& c : s.unit_conversions) std::printf("  physical %s\n", c.c_str());
+  if (s.inlet_ramp_steps > 0.0)
+    std::printf("  inlet    ramped by (1 - cos(pi t / T)) / 2 over T = %.6g steps\n", s.inlet_ramp_steps);
+  if (s.held_body) {
+    const HeldBodyShape& b = s.held_body->shape;
+    std::printf("  body     held at rest: cylinder at (%.4g, %.4g) cells, radius %.4g", b.x_c, b.y_c, b.radius);
+    if (b.bar_thickness > 0.0) std::printf(", bar to x = %.4g, thickness %.4g", b.bar_tip_x, b.bar_thickness);
+    std::printf(" cells; markers retracted %.3g, %d forcing passes per step; held_body.csv every %lld steps\n",
+                b.retraction, b.iterations, static_cast<long long>(s.held_body->record_every));
+  }
   std::fflush(stdout);
 }
 
@@ -172,9 +185,7 @@ class Progress {
 /// The run loop of a fluid-only scene over `domain` (one process, or blocks over MPI ranks:
 /// every rank runs this loop; the leading one prints and writes).
 int run(const FluidScene& s, bool quiet, FluidDomain& domain) {
-  protocol::UnitInputs in;
-  in.dx_m = s.dx_um * 1e-6;
-  const protocol::UnitConverter units(in);
+  const protocol::UnitConverter units(unit_inputs(s));
   const double dt_us = units.dt_lb_s() * 1e6;
   const bool leads = domain.leads();
   if (s.threads > 0) omp_set_num_threads(s.threads);
@@ -185,6 +196,14 @@ int run(const FluidScene& s, bool quiet, FluidDomain& domain) {
   }
 
   domain.initialize(s);
+  // The inlet's start-up ramp (inlet.ramp_us) and the held body ([held_body]).
+  const auto ramp = [&](std::int64_t step) {
+    if (s.inlet_ramp_steps > 0.0 && double(step) <= s.inlet_ramp_steps + 1.0)
+      domain.set_inlet_scale(inlet_ramp(double(step), s.inlet_ramp_steps));
+  };
+  ramp(0);
+  std::optional<HeldBody> body;
+  if (s.held_body) body.emplace(s.held_body->shape, ImmersedBoundary(s.params));
 
   const HealthLimits limits{s.mach_limit, 0.0, s.watchdog.rho_min, s.watchdog.rho_max};
   Progress progress(!quiet && leads, s.steps, dt_us, s.params.shape.cells());
@@ -214,6 +233,7 @@ int run(const FluidScene& s, bool quiet, FluidDomain& domain) {
   const double mass0 = first->mass;
 
   std::optional<MonitorLog> log;
+  std::optional<HeldBodyLog> body_log;
   std::optional<Snapshots> snapshots;
   if (leads) {
     std::filesystem::create_directories(s.output_dir);
@@ -221,6 +241,9 @@ int run(const FluidScene& s, bool quiet, FluidDomain& domain) {
     log.emplace((std::filesystem::path(s.output_dir) / "monitor.h5").string(), dt_us);
     snapshots.emplace(s, dt_us);
     log->append(*first);
+    if (body)
+      body_log.emplace((std::filesystem::path(s.output_dir) / "held_body.csv").string(), units.dt_lb_s(),
+                       units.force_lb_N() / units.dx_m() / double(s.params.shape.nz));
     std::printf("%s\n", format_summary(*first, dt_us, mass0).c_str());
     std::fflush(stdout);
   }
@@ -232,7 +255,13 @@ int run(const FluidScene& s, bool quiet, FluidDomain& domain) {
   if (Snapshots::due(s, 0, false)) write_snapshots(false);
 
   for (std::int64_t step = 1; step <= s.steps; ++step) {
+    if (body) {
+      body->hold(domain);  // the impulses that hold the markers at rest during this step
+      if (leads) body_log->add(body->force());
+    }
     domain.step();
+    ramp(step);
+    if (body && leads && (step % s.held_body->record_every == 0 || step == s.steps)) body_log->record(step);
     // The watchdog's cadence: the state the step read (step - 1), from the kernel's extrema.
     if ((step - 1) % s.watchdog.health_every == 0)
       if (const std::string problem = domain.kernel_problem(limits); !problem.empty()) {
@@ -406,10 +435,8 @@ int main_impl(int argc, char** argv) {
     return exit_code::bad_input;
   }
   if (check) {
-    protocol::UnitInputs in;
-    in.dx_m = scene.dx_um * 1e-6;
     if (scene.threads > 0) omp_set_num_threads(scene.threads);
-    print_header(scene, protocol::UnitConverter(in));
+    print_header(scene, protocol::UnitConverter(unit_inputs(scene)));
     return exit_code::ok;
   }
   if (scene.coupling) {
@@ -424,10 +451,8 @@ int main_impl(int argc, char** argv) {
         return exit_code::bad_input;
       }
     }
-    protocol::UnitInputs in;
-    in.dx_m = scene.dx_um * 1e-6;
     if (scene.threads > 0) omp_set_num_threads(scene.threads);
-    print_header(scene, protocol::UnitConverter(in));
+    print_header(scene, protocol::UnitConverter(unit_inputs(scene)));
     CoupledFluidOptions co;
     co.token = token;
     co.channel_prefix = channel_prefix;

@@ -1,6 +1,8 @@
 #include "fluid/boundary/boundary.hpp"
 
 #include <algorithm>
+#include <cmath>
+#include <numbers>
 #include <stdexcept>
 #include <string>
 
@@ -26,11 +28,22 @@ const char* kind_name(FaceKind k) {
 }
 
 double inlet_profile(const FaceSpec& face, double y) {
+  if (face.profile == InletProfile::Parabolic) {
+    if (face.channel_height <= 0.0) return face.inlet_speed;
+    const double s = (y + 0.5) / face.channel_height;
+    return s <= 0.0 || s >= 1.0 ? 0.0 : 4.0 * face.inlet_speed * s * (1.0 - s);
+  }
   if (face.profile == InletProfile::Uniform || face.boundary_layer <= 0.0) return face.inlet_speed;
   const double e = (y + 0.5) / face.boundary_layer;
   if (e <= 0.0) return 0.0;
   if (e >= 1.0) return face.inlet_speed;
   return face.inlet_speed * (2.0 * e - 2.0 * e * e * e + e * e * e * e);
+}
+
+double inlet_ramp(double t, double T) {
+  if (!(T > 0.0) || t >= T) return 1.0;
+  if (t <= 0.0) return 0.0;
+  return 0.5 * (1.0 - std::cos(std::numbers::pi * t / T));
 }
 
 std::string BoundaryConditions::check(const std::array<FaceSpec, kFaces>& faces,
@@ -48,6 +61,9 @@ std::string BoundaryConditions::check(const std::array<FaceSpec, kFaces>& faces,
     if (s.kind == FaceKind::Inlet && s.profile == InletProfile::Blasius && face_axis(f) == 1)
       return std::string("a Blasius inlet on ") + face_name(f) +
              " is not possible: the profile is measured from the y_min plate";
+    if (s.kind == FaceKind::Inlet && s.profile == InletProfile::Parabolic && face_axis(f) != 0)
+      return std::string("a parabolic inlet on ") + face_name(f) +
+             " is not possible: the profile spans y between the y faces, so the inlet must be an x face";
     if (s.kind == FaceKind::Wall && s.wall_velocity[face_axis(f)] != 0.0)
       return std::string("the wall velocity on ") + face_name(f) + " must be tangential";
   }
@@ -127,10 +143,10 @@ void fill_outflow(const PopulationSlots<T>& f, const GridLayout& layout, int fac
 }
 
 /// The inlet ghost of population q at height y: the equilibrium (Eq. 11) at inlet_density
-/// and the inlet velocity (inward along `axis`).
-double inlet_ghost(const FaceSpec& spec, int axis, int inward, int q, int y) {
+/// and the inlet velocity (inward along `axis`) times `scale` (the start-up ramp).
+double inlet_ghost(const FaceSpec& spec, int axis, int inward, int q, int y, double scale) {
   double vel[3] = {0.0, 0.0, 0.0};
-  vel[axis] = inward * inlet_profile(spec, y);
+  vel[axis] = inward * scale * inlet_profile(spec, y);
   return equilibrium(q, spec.inlet_density, vel[0], vel[1], vel[2]);
 }
 
@@ -165,16 +181,29 @@ BoundaryConditions::BoundaryConditions(const GridLayout& layout,
   // a reflecting or an inlet fill, and fills_copy() skips it).
   for (int f = 0; f < kFaces; ++f)
     if (halo[f]) faces_[f] = FaceSpec{};
-  // The x inlets' ghosts by height, for the in-place kernel (in_place_x_faces).
+  fill_inlet_x_table();
+}
+
+void BoundaryConditions::fill_inlet_x_table() {
+  // The x inlets' ghosts by height, for the in-place kernel (in_place_x_faces). The vectors
+  // keep their storage when filled again (set_inlet_scale): InPlaceXFaces points into them.
   for (const int face : {XMin, XMax}) {
     if (faces_[face].kind != FaceKind::Inlet) continue;
     const int inward = face_side(face) == 0 ? 1 : -1;
     std::vector<double>& t = inlet_x_ghosts_[face_side(face)];
-    t.assign(std::size_t(layout.ny()) * D3Q19::Q, 0.0);
-    for (int y = 0; y < layout.ny(); ++y)
+    t.resize(std::size_t(layout_.ny()) * D3Q19::Q);
+    std::fill(t.begin(), t.end(), 0.0);
+    for (int y = 0; y < layout_.ny(); ++y)
       for (int q = 0; q < D3Q19::Q; ++q)
-        if (D3Q19::cx[q] == inward) t[std::size_t(y) * D3Q19::Q + q] = inlet_ghost(faces_[face], 0, inward, q, y);
+        if (D3Q19::cx[q] == inward)
+          t[std::size_t(y) * D3Q19::Q + q] = inlet_ghost(faces_[face], 0, inward, q, y, inlet_scale_);
   }
+}
+
+void BoundaryConditions::set_inlet_scale(double s) {
+  if (!std::isfinite(s)) throw std::invalid_argument("BoundaryConditions::set_inlet_scale: not a finite number");
+  inlet_scale_ = s;
+  fill_inlet_x_table();
 }
 
 bool BoundaryConditions::has_halo() const {
@@ -421,7 +450,7 @@ void BoundaryConditions::fill_copy_face(const PopulationSlots<T>& f, int face) c
         const std::ptrdiff_t len = hi - lo + 1;
         T* const fq = f.q(qs[i]) + layout_.index(lo, y, z);
         if (spec.kind == FaceKind::Inlet)
-          std::fill_n(fq, len, static_cast<T>(inlet_ghost(spec, axis, inward, qs[i], y)));
+          std::fill_n(fq, len, static_cast<T>(inlet_ghost(spec, axis, inward, qs[i], y, inlet_scale_)));
         else  // Periodic: source and ghost rows are n[axis] cells apart, never overlapping
           std::copy_n(fq + src_off, len, fq);
       }

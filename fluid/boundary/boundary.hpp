@@ -15,7 +15,7 @@
 namespace cosim::fluid {
 
 enum class FaceKind { Periodic, Wall, FreeSlip, Inlet, Outflow };
-enum class InletProfile { Uniform, Blasius };
+enum class InletProfile { Uniform, Blasius, Parabolic };
 
 /// Faces in the order x_min, x_max, y_min, y_max, z_min, z_max.
 enum Face : int { XMin = 0, XMax, YMin, YMax, ZMin, ZMax };
@@ -32,10 +32,13 @@ struct FaceSpec {
   /// Wall: velocity of the wall (tangential; Ladd's moving-wall bounce-back, Eq. 14).
   std::array<double, 3> wall_velocity{0.0, 0.0, 0.0};
   /// Inlet: speed into the domain, profile, and for Blasius the layer thickness delta in
-  /// cells, measured from the y_min plate (the half-way wall at y = -1/2).
+  /// cells, measured from the y_min plate (the half-way wall at y = -1/2). Parabolic: the
+  /// channel's Poiseuille profile between walls at y = -1/2 and ny - 1/2, inlet_speed its
+  /// peak (the mean is 2/3 of it); `channel_height` = ny (cells).
   double inlet_speed = 0.0;
   InletProfile profile = InletProfile::Uniform;
   double boundary_layer = 0.0;
+  double channel_height = 0.0;
   double inlet_density = 1.0;
   /// Outflow: reference density (pressure p = rho c_s^2) held at the outflow face.
   double outflow_density = 1.0;
@@ -44,7 +47,13 @@ struct FaceSpec {
 /// Inlet speed at height y (cells, cell centres at integer y) for a Blasius-type profile:
 /// zero at the plate, uniform above delta. Pohlhausen's quartic approximation of the
 /// Blasius layer, U (2 e - 2 e^3 + e^4) with e = (y + 1/2) / delta, smooth (C^2 at e = 1).
+/// Parabolic: U 4 s (1 - s) with s = (y + 1/2) / channel_height, zero on both half-way walls
+/// (Turek and Hron's inlet, u(0, y) = 1.5 U_mean y (H - y) / (H / 2)^2, with U = 1.5 U_mean).
 double inlet_profile(const FaceSpec& face, double y);
+
+/// Turek and Hron's start-up of the inlet: (1 - cos(pi t / T)) / 2 for t < T, else 1 (T the
+/// ramp time; T <= 0: 1 at once).
+double inlet_ramp(double t, double T);
 
 /// The outflow ghost of one boundary cell b by non-equilibrium extrapolation at a reference
 /// density (Guo, Zheng and Shi 2002): from the 19 post-collision populations f*(b), whose
@@ -197,6 +206,13 @@ class BoundaryConditions {
   template <class T>
   void fill_outflow_ghost(BasicPopulationField<T>& f, int x, int y, int z) const;
 
+  /// Scales every inlet's velocity by `s` (the start-up ramp, inlet_ramp) from the next ghost
+  /// fill on: the fills and the in-place kernel's x-inlet table use inlet_profile x s. The
+  /// two-grid step's inlet ghosts are static (fill_static_ghosts): the solver fills them
+  /// again (FluidSolver::set_inlet_scale).
+  void set_inlet_scale(double s);
+  double inlet_scale() const { return inlet_scale_; }
+
   const FaceSpec& face(int f) const { return faces_[f]; }
   /// Whether this face's fill reads all 19 populations of the cells it reads (an outflow's
   /// extrapolation, a halo exchange), not only those that cross the face.
@@ -232,6 +248,8 @@ class BoundaryConditions {
   std::array<FaceSpec, kFaces> faces_{};
   std::array<bool, kFaces> halo_{};
   std::vector<double> inlet_x_ghosts_[2];  ///< x_min, x_max inlets: ny x 19 (in_place_x_faces)
+  double inlet_scale_ = 1.0;               ///< set_inlet_scale
+  void fill_inlet_x_table();
 };
 
 }  // namespace cosim::fluid

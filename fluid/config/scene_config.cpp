@@ -62,8 +62,11 @@ const std::vector<SectionSchema>& schema() {
   static const std::vector<SectionSchema> s = {
       {"scene"},
       {"grid"},
-      {"fluid", {"tau", "reynolds", "reference_length_um"}},
-      {"inlet", {"u_max", "u_max_m_s", "profile", "boundary_layer_um", "density"}},
+      {"fluid", {"tau", "reynolds", "reference_length_um", "viscosity_m2_s", "density_kg_m3", "sound_speed_m_s"}},
+      {"inlet", {"u_max", "u_max_m_s", "profile", "boundary_layer_um", "density", "ramp_us"}},
+      {"held_body",
+       {"center_um", "radius_um", "bar_tip_x_um", "bar_thickness_um", "retraction", "spacing", "iterations",
+        "record_every"}},
       {"boundaries", {"x_min", "x_max", "y_min", "y_max", "z_min", "z_max"}},
       {"wall_velocity", {"x_min", "x_max", "y_min", "y_max", "z_min", "z_max"}},
       {"body_force", {"x", "y", "z"}},
@@ -106,7 +109,9 @@ void load_grid(const SceneReader& r, FluidScene& s) {
   for (int a = 0; a < 3; ++a) {
     const auto n = grid.integer(keys[a]);
     if (!n) grid.missing(keys[a], range);
-    if (*n < SceneLimits::grid_min || *n > SceneLimits::grid_max)
+    // nz below 8: a span-periodic slab (checked against the z faces in load_boundaries).
+    const bool thin_span = a == 2 && *n >= 1 && *n < SceneLimits::grid_min;
+    if (!thin_span && (*n < SceneLimits::grid_min || *n > SceneLimits::grid_max))
       grid.bad(keys[a], "must be " + range +
                             (*n < SceneLimits::grid_min ? " (below 8 the boundary layers of "
                                                           "opposite faces overlap)"
@@ -139,10 +144,30 @@ void check_memory(const SceneReader& r, const FluidScene& s) {
 }
 
 /// The scene's lattice units (dx from [grid], dt = dx / c): for the keys given in physical units.
-protocol::UnitConverter lattice_units(const FluidScene& s) {
-  protocol::UnitInputs in;
-  in.dx_m = s.dx_um * 1e-6;
-  return protocol::UnitConverter(in);
+protocol::UnitConverter lattice_units(const FluidScene& s) { return protocol::UnitConverter(unit_inputs(s)); }
+
+/// [fluid] density_kg_m3 and sound_speed_m_s (FluidMedium): both or neither; before [run]
+/// and [inlet], whose physical keys convert with them.
+void load_medium(const SceneReader& r, FluidScene& s) {
+  const Table fl = r.section("fluid");
+  const bool rho = fl.has("density_kg_m3"), cs = fl.has("sound_speed_m_s");
+  if (!rho && !cs) return;
+  if (rho != cs)
+    fl.bad(rho ? "density_kg_m3" : "sound_speed_m_s",
+           "needs fluid." + std::string(rho ? "sound_speed_m_s" : "density_kg_m3") +
+               " too: a medium other than the paper's air gives its density and the lattice's sound speed");
+  if (r.coupled())
+    fl.bad("density_kg_m3",
+           "is for a fluid-only scene: a coupled run's units are the paper's air (Table 1) on both sides; match "
+           "another fluid by similarity (Re, density and stiffness ratios) instead");
+  FluidMedium m;
+  m.density_kg_m3 = *fl.positive("density_kg_m3", "the fluid's density, kg/m^3");
+  m.sound_speed_m_s = *fl.positive("sound_speed_m_s", "the lattice's sound speed c_s, m/s: dt = dx / (sqrt(3) c_s)");
+  s.medium = m;
+  const protocol::UnitConverter u = lattice_units(s);
+  s.unit_conversions.push_back("fluid.sound_speed_m_s = " + protocol::fmt("%.6g", m.sound_speed_m_s) +
+                               " m/s -> dt = dx / (sqrt(3) c_s) = " + protocol::fmt("%.6g", u.dt_lb_s()) +
+                               " s; fluid.density_kg_m3 = " + protocol::fmt("%.6g", m.density_kg_m3));
 }
 
 void load_run(const SceneReader& r, FluidScene& s) {
@@ -219,6 +244,12 @@ void load_boundaries(const SceneReader& r, FluidScene& s) {
     if (!k) b.missing(face_name(f), std::string("all six faces are required, each one of ") + kKindList);
     s.params.faces[f].kind = kind_of[*k];
   }
+  if (s.params.shape.nz < SceneLimits::grid_min &&
+      (s.params.faces[ZMin].kind != FaceKind::Periodic || s.params.faces[ZMax].kind != FaceKind::Periodic))
+    r.fail(r.section("grid").line_of("nz"),
+           "grid.nz = " + std::to_string(s.params.shape.nz) +
+               ": below 8 cells only between periodic z faces (a span-periodic slab: no boundary layers to "
+               "overlap); boundaries.z_min = \"" + kind_name(s.params.faces[ZMin].kind) + "\"");
   for (int a = 0; a < 3; ++a) {
     const FaceSpec& lo = s.params.faces[2 * a];
     const FaceSpec& hi = s.params.faces[2 * a + 1];
@@ -283,8 +314,21 @@ void load_inlet(const SceneReader& r, FluidScene& s) {
     if (mach(*u) > s.mach_limit) in.bad("u_max", mach_text(*u, s.mach_limit));
   }
 
-  const auto profile = in.choice("profile", {"uniform", "blasius"});
+  const auto profile = in.choice("profile", {"uniform", "blasius", "parabolic"});
   const bool blasius = profile && *profile == 1;
+  const bool parabolic = profile && *profile == 2;
+  if (parabolic) {
+    for (int f = XMin; f <= XMax; ++f)
+      if (s.params.faces[f].kind != FaceKind::Inlet && s.params.faces[f].kind != FaceKind::Outflow)
+        in.bad("profile", std::string("\"parabolic\" spans the channel between the y walls from an x face; boundaries.") +
+                              face_name(f) + " is \"" + kind_name(s.params.faces[f].kind) +
+                              "\" (allowed on x: \"inlet\", \"outflow\")");
+    for (int f = YMin; f <= YMax; ++f)
+      if (s.params.faces[f].kind != FaceKind::Wall)
+        in.bad("profile", std::string("\"parabolic\" needs walls on y_min and y_max (the profile vanishes on both); "
+                                      "boundaries.") +
+                              face_name(f) + " is \"" + kind_name(s.params.faces[f].kind) + "\"");
+  }
   double layer_cells = 0.0;
   if (blasius) {
     if (s.params.faces[YMin].kind != FaceKind::Wall)
@@ -312,11 +356,22 @@ void load_inlet(const SceneReader& r, FluidScene& s) {
     if (!(*rho > 0.0)) in.bad("density", "must be > 0 (lattice units, rho_0 = 1)");
     density = *rho;
   }
+  if (in.has("ramp_us")) {  // Turek and Hron's start-up, (1 - cos(pi t / T)) / 2 for t < T
+    if (r.coupled())
+      in.bad("ramp_us", "is for a fluid-only scene (the coupled run's inlet is steady from its first step)");
+    const double us = *in.number("ramp_us");
+    if (!(us >= 0.0)) in.bad("ramp_us", "must be >= 0 (the inlet's start-up time in microseconds; 0: none)");
+    const double dt_us = lattice_units(s).dt_lb_s() * 1e6;
+    s.inlet_ramp_steps = us / dt_us;
+    s.unit_conversions.push_back("inlet.ramp_us = " + protocol::fmt("%.6g", us) + " us -> " +
+                                 protocol::fmt("%.6g", s.inlet_ramp_steps) + " LB steps");
+  }
   for (FaceSpec& f : s.params.faces) {
     if (f.kind != FaceKind::Inlet) continue;
     f.inlet_speed = *u;
-    f.profile = blasius ? InletProfile::Blasius : InletProfile::Uniform;
+    f.profile = blasius ? InletProfile::Blasius : parabolic ? InletProfile::Parabolic : InletProfile::Uniform;
     f.boundary_layer = layer_cells;
+    f.channel_height = parabolic ? double(s.params.shape.ny) : 0.0;
     f.inlet_density = density;
   }
 }
@@ -343,49 +398,123 @@ void load_fluid(const SceneReader& r, FluidScene& s) {
       fl.bad("reference_length_um", "must be in [1e-9, 1e6] micrometres");
     s.reference_length_um = *length;
   }
-  const std::string tau_range =
-      "must be in (0.5, 2]: at or below 1/2 BGK is unstable (nu = (tau - 1/2)/3 <= 0), above 2 "
-      "the bounce-back wall slip and the Knudsen number spoil the Navier-Stokes limit";
-  if (tau && re)
-    r.fail(fl.line_of("reynolds"), "fluid.tau = " + fl.show("tau") + ", fluid.reynolds = " +
-                                       fl.show("reynolds") +
-                                       ": give exactly one of the two (reynolds derives tau "
-                                       "from nu = U L / Re)");
-  if (!tau && !re)
-    fl.missing("tau", "give tau (> 0.5), or reynolds with reference_length_um (tau from nu = U L / Re)");
-  if (tau) {
-    if (!(*tau > SceneLimits::tau_min))
-      fl.bad("tau", "must be > 0.5 (BGK is unstable at or below 1/2: nu = (tau - 1/2)/3 <= 0)");
-    if (*tau > SceneLimits::tau_max) fl.bad("tau", tau_range);
-    s.params.tau = *tau;
-  } else {
-    if (!(*re > 0.0)) fl.bad("reynolds", "must be > 0");
-    if (!length)
-      fl.bad("reynolds",
-             "needs fluid.reference_length_um, the length L of Re = U L / nu (micrometres)");
-    if (!(speed > 0.0))
-      fl.bad("reynolds",
-             "needs a reference speed U: an inlet with u_max > 0 or a moving wall; give tau "
-             "instead");
-    const double length_cells = *length / s.dx_um;
-    const double nu = speed * length_cells / *re;
-    const double derived = 0.5 + 3.0 * nu;  // Eq. 13
-    if (!(derived > SceneLimits::tau_min))
-      fl.bad("reynolds",
-             "gives tau = " + format_double(derived) + " (nu = U L / Re = " + format_double(nu) +
-                 " in lattice units): BGK is unstable at or below 1/2; lower Re, or use a finer "
-                 "grid or a longer reference length");
-    if (derived > SceneLimits::tau_max)
-      fl.bad("reynolds",
-             "gives tau = " + format_fixed(derived, 4) + " (nu = U L / Re = " +
-                 format_fixed(nu, 4) + " in lattice units), above the limit 2 (bounce-back slip, "
-                 "Knudsen number); raise Re or U, or use a coarser grid");
+  if (fl.has("viscosity_m2_s")) {  // the physical kinematic viscosity: tau from nu dt / dx^2 (Eq. 13)
+    if (tau || re) fl.bad("viscosity_m2_s", "give one of fluid.tau, fluid.reynolds and fluid.viscosity_m2_s");
+    const double nu = *fl.positive("viscosity_m2_s", "the kinematic viscosity, m^2/s");
+    const protocol::UnitConverter units = lattice_units(s);
+    const double nu_lb = nu * units.dt_lb_s() / (units.dx_m() * units.dx_m());
+    const double derived = 0.5 + 3.0 * nu_lb;  // Eq. 13
+    if (!(derived > SceneLimits::tau_min) || derived > SceneLimits::tau_max)
+      fl.bad("viscosity_m2_s", "gives tau = " + format_double(derived) + " (nu dt / dx^2 = " + format_double(nu_lb) +
+                                   "); tau must be in (0.5, 2]: change grid.dx_um or fluid.sound_speed_m_s");
     s.params.tau = derived;
+    s.unit_conversions.push_back("fluid.viscosity_m2_s = " + protocol::fmt("%.6g", nu) + " m^2/s -> tau = " +
+                                 protocol::fmt("%.6g", derived) + " (nu dt / dx^2 = " + protocol::fmt("%.6g", nu_lb) +
+                                 ")");
+  } else {
+    const std::string tau_range =
+        "must be in (0.5, 2]: at or below 1/2 BGK is unstable (nu = (tau - 1/2)/3 <= 0), above 2 "
+        "the bounce-back wall slip and the Knudsen number spoil the Navier-Stokes limit";
+    if (tau && re)
+      r.fail(fl.line_of("reynolds"), "fluid.tau = " + fl.show("tau") + ", fluid.reynolds = " +
+                                         fl.show("reynolds") +
+                                         ": give exactly one of the two (reynolds derives tau "
+                                         "from nu = U L / Re)");
+    if (!tau && !re)
+      fl.missing("tau", "give tau (> 0.5), or reynolds with reference_length_um (tau from nu = U L / Re)");
+    if (tau) {
+      if (!(*tau > SceneLimits::tau_min))
+        fl.bad("tau", "must be > 0.5 (BGK is unstable at or below 1/2: nu = (tau - 1/2)/3 <= 0)");
+      if (*tau > SceneLimits::tau_max) fl.bad("tau", tau_range);
+      s.params.tau = *tau;
+    } else {
+      if (!(*re > 0.0)) fl.bad("reynolds", "must be > 0");
+      if (!length)
+        fl.bad("reynolds",
+               "needs fluid.reference_length_um, the length L of Re = U L / nu (micrometres)");
+      if (!(speed > 0.0))
+        fl.bad("reynolds",
+               "needs a reference speed U: an inlet with u_max > 0 or a moving wall; give tau "
+               "instead");
+      const double length_cells = *length / s.dx_um;
+      const double nu = speed * length_cells / *re;
+      const double derived = 0.5 + 3.0 * nu;  // Eq. 13
+      if (!(derived > SceneLimits::tau_min))
+        fl.bad("reynolds",
+               "gives tau = " + format_double(derived) + " (nu = U L / Re = " + format_double(nu) +
+                   " in lattice units): BGK is unstable at or below 1/2; lower Re, or use a finer "
+                   "grid or a longer reference length");
+      if (derived > SceneLimits::tau_max)
+        fl.bad("reynolds",
+               "gives tau = " + format_fixed(derived, 4) + " (nu = U L / Re = " +
+                   format_fixed(nu, 4) + " in lattice units), above the limit 2 (bounce-back slip, "
+                   "Knudsen number); raise Re or U, or use a coarser grid");
+      s.params.tau = derived;
+    }
   }
   if (length && speed > 0.0) {
     const double nu = (s.params.tau - 0.5) / 3.0;
     s.reynolds = speed * (s.reference_length_um / s.dx_um) / nu;
   }
+}
+
+/// [held_body]: the body in micrometres from the domain's corner (the inlet plane x = 0 and
+/// the y_min wall y = 0 are the half-way planes of the lattice, so the cell centre i lies at
+/// (i + 1/2) dx), converted to cells.
+void load_held_body(const SceneReader& r, FluidScene& s) {
+  const Table h = r.section("held_body");
+  if (!h.present()) return;
+  if (r.coupled())
+    h.fail("[held_body]: is for a fluid-only scene (a coupled run's bodies are the solid's sheets)");
+  if (s.params.faces[ZMin].kind != FaceKind::Periodic)
+    h.fail("[held_body]: needs boundaries.z_min and z_max = \"periodic\": the body spans the periodic z axis");
+  const double dx = s.dx_um;
+  const auto to_cells = [&](double um) { return um / dx - 0.5; };
+  HeldBodySettings b;
+  const auto c = h.numbers("center_um", 2, 2, "must be [x, y], the cylinder's axis in micrometres");
+  if (!c) h.missing("center_um", "the cylinder's axis [x, y] in micrometres");
+  const double Lx = s.params.shape.nx * dx, Ly = s.params.shape.ny * dx;
+  if (!((*c)[0] > 0.0 && (*c)[0] < Lx && (*c)[1] > 0.0 && (*c)[1] < Ly))
+    h.bad("center_um", "must lie inside the domain, (0, " + format_double(Lx) + ") x (0, " + format_double(Ly) + ") um");
+  b.shape.x_c = to_cells((*c)[0]);
+  b.shape.y_c = to_cells((*c)[1]);
+  const auto radius = h.length_um("radius_um", "the cylinder's radius");
+  if (!radius) h.missing("radius_um", "the cylinder's radius in micrometres");
+  b.shape.radius = *radius / dx;
+  if (b.shape.radius < 2.0)
+    h.bad("radius_um", "is " + format_double(b.shape.radius) + " cells; at least 2 (the kernel of Eq. 23 is 4 cells wide)");
+  if (h.has("bar_tip_x_um") != h.has("bar_thickness_um"))
+    h.bad(h.has("bar_tip_x_um") ? "bar_tip_x_um" : "bar_thickness_um",
+          "needs held_body." + std::string(h.has("bar_tip_x_um") ? "bar_thickness_um" : "bar_tip_x_um") +
+              " too (the bar: from the cylinder's axis to x = bar_tip_x_um, centred on its y)");
+  if (h.has("bar_tip_x_um")) {
+    const double tip = *h.number("bar_tip_x_um");
+    if (!(tip > (*c)[0] + *radius && tip < Lx))
+      h.bad("bar_tip_x_um", "must lie beyond the cylinder and inside the domain, (" + format_double((*c)[0] + *radius) +
+                                ", " + format_double(Lx) + ") um");
+    const double t = *h.length_um("bar_thickness_um", "the bar's thickness");
+    if (!(t < 2.0 * *radius)) h.bad("bar_thickness_um", "must be below the cylinder's diameter");
+    b.shape.bar_tip_x = to_cells(tip);
+    b.shape.bar_thickness = t / dx;
+  }
+  if (const auto v = h.number("retraction")) {
+    if (!(*v >= 0.0 && *v <= 1.0))
+      h.bad("retraction", "must be in [0, 1] cells (the markers sit that far inside the surface; Breugem 2012: 0.3)");
+    b.shape.retraction = *v;
+  }
+  if (b.shape.bar_thickness > 0.0 && b.shape.bar_thickness <= 2.0 * b.shape.retraction)
+    h.bad("bar_thickness_um", "is " + format_double(b.shape.bar_thickness) +
+                                  " cells, not more than twice held_body.retraction: no bar would be left");
+  if (const auto v = h.number("spacing")) {
+    if (!(*v >= 0.25 && *v <= 2.0)) h.bad("spacing", "must be in [0.25, 2] cells (the markers' spacing)");
+    b.shape.spacing = *v;
+  }
+  if (const auto v = h.integer_in("iterations", 1, 50, " (multi-direct forcing passes per step)")) b.shape.iterations = *v;
+  if (const auto v = h.integer("record_every")) {
+    if (*v < 1) h.bad("record_every", "must be an integer >= 1 (steps per row of held_body.csv)");
+    b.record_every = *v;
+  }
+  s.held_body = b;
 }
 
 void load_output_and_initial(const SceneReader& r, FluidScene& s) {
@@ -428,6 +557,7 @@ FluidScene read_scene(const std::string& path) {
   protocol::config::read_scene_header(r, s.name, s.description);
 
   load_grid(r, s);
+  load_medium(r, s);
   load_run(r, s);
   check_memory(r, s);
   load_boundaries(r, s);
@@ -435,6 +565,7 @@ FluidScene read_scene(const std::string& path) {
   load_inlet(r, s);
   load_body_force(r, s);
   load_fluid(r, s);
+  load_held_body(r, s);
   load_output_and_initial(r, s);
   if (r.coupled()) s.coupling = protocol::config::read_coupling(r);
   s.watchdog = protocol::config::read_watchdog(r);
@@ -446,6 +577,17 @@ FluidScene read_scene(const std::string& path) {
 }
 
 }  // namespace
+
+protocol::UnitInputs unit_inputs(const FluidScene& s) {
+  protocol::UnitInputs in;
+  in.dx_m = s.dx_um * 1e-6;
+  if (s.medium) {
+    in.sound_speed_m_s = s.medium->sound_speed_m_s;
+    // rho = n m (UnitConverter::air_density_kg_m3): the number density that gives it.
+    in.number_density_per_m3 = s.medium->density_kg_m3 / in.molecule_mass_kg;
+  }
+  return in;
+}
 
 std::size_t population_bytes(const GridShape& shape, Precision precision, Propagation propagation) {
   const std::size_t grids = propagation == Propagation::InPlace ? 1 : 2;

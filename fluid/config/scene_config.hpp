@@ -10,7 +10,9 @@
 #include <string>
 #include <vector>
 
+#include "fluid/ib/held_body.hpp"
 #include "fluid/solver/fluid_solver.hpp"
+#include "protocol/units.hpp"
 #include "protocol/config/coupling_settings.hpp"
 #include "common/watchdog/watchdog.hpp"
 
@@ -49,6 +51,21 @@ struct SceneLimits {
 /// (protocol/config/coupling_settings.hpp).
 using CouplingSettings = protocol::config::CouplingSettings;
 
+/// [fluid] density_kg_m3 and sound_speed_m_s: the medium of a scene in another fluid than
+/// the paper's air (Table 1), e.g. Turek and Hron's benchmark (1000 kg/m^3). The sound speed
+/// is the lattice's (c_s = c / sqrt(3), dt = dx / c): the weakly compressible model's
+/// artificial one, which sets the Mach number of the flow, not the liquid's.
+struct FluidMedium {
+  double density_kg_m3 = 0.0;
+  double sound_speed_m_s = 0.0;
+};
+
+/// [held_body] (fluid/ib/held_body.hpp): a rigid body the fluid holds at rest itself.
+struct HeldBodySettings {
+  HeldBodyShape shape;               ///< lattice units
+  std::int64_t record_every = 10;    ///< a row of held_body.csv every N steps (the mean force over them)
+};
+
 /// A validated fluid-only scene: the solver's parameters plus what the run needs.
 struct FluidScene {
   std::string path;         ///< the file it came from
@@ -63,6 +80,13 @@ struct FluidScene {
   std::optional<double> reynolds;
   double reference_length_um = 0.0;  ///< 0 if not given
   double reference_speed = 0.0;      ///< lattice units (U / c); 0 if the flow has none
+
+  /// The medium when not the paper's air (unit_inputs).
+  std::optional<FluidMedium> medium;
+  /// inlet.ramp_us in LB steps: the inlet's velocity times inlet_ramp(step, T) (Turek and
+  /// Hron's start-up); 0: none.
+  double inlet_ramp_steps = 0.0;
+  std::optional<HeldBodySettings> held_body;
 
   InitialFlow initial = InitialFlow::Rest;
   std::int64_t steps = 0;
@@ -106,6 +130,10 @@ struct SceneOverrides {
   std::optional<int> threads;
 };
 void apply_overrides(FluidScene& scene, const SceneOverrides& overrides);
+
+/// The scene's lattice units: dx from [grid], the medium's density and sound speed (the
+/// paper's air unless [fluid] gives them).
+protocol::UnitInputs unit_inputs(const FluidScene& scene);
 
 /// Initial state of a scene's run: rho = 1 with u = 0 (run.initial = "rest"), or the inlet
 /// profile of the first inlet face extended through the domain ("inlet").

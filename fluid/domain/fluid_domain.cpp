@@ -22,6 +22,10 @@ StoreView store_view(const BasicPopulationField<T>& f) {
 template StoreView store_view(const PopulationField&);
 template StoreView store_view(const PopulationFieldSingle&);
 
+void FluidDomain::set_inlet_scale(double) {
+  throw std::logic_error("FluidDomain::set_inlet_scale: this domain cannot ramp its inlet (a coupled run over MPI ranks)");
+}
+
 StoreView SerialDomain::whole_store(bool kept) {
   if (solver_.precision() == Precision::Double) return store_view(kept ? kept_.field() : solver_.state());
   return store_view(kept ? kept_.field_single() : solver_.state_single());

@@ -73,6 +73,10 @@ class FluidDomain {
   /// in-place propagation needs the forced cells before the bulk and overwrites the state.
   virtual bool bulk_before_impulses() const = 0;
   virtual void set_row_schedule(RowSchedule schedule) = 0;
+  /// FluidSolver::set_inlet_scale of the whole grid (the inlet's start-up ramp), the same
+  /// `s` on every process. A domain that cannot throws std::logic_error (the scene reader
+  /// keeps such runs from asking).
+  virtual void set_inlet_scale(double s);
   /// kernel_state_problem() of the whole grid: the same text on every process.
   virtual std::string kernel_problem(const HealthLimits& limits) = 0;
   /// summarize() of the whole grid at the current state, on the leading process (nothing on
@@ -117,6 +121,7 @@ class SerialDomain final : public FluidDomain {
   void finish_step() override { solver_.finish_step(); }
   bool bulk_before_impulses() const override { return solver_.propagation() == Propagation::TwoGrid; }
   void set_row_schedule(RowSchedule schedule) override { solver_.set_row_schedule(schedule); }
+  void set_inlet_scale(double s) override { solver_.set_inlet_scale(s); }
   std::string kernel_problem(const HealthLimits& limits) override {
     return kernel_state_problem(solver_, limits);
   }

@@ -46,6 +46,7 @@ class DistributedFluid final : public FluidDomain {
   void finish_step() override { block_->finish_step(); }
   bool bulk_before_impulses() const override { return block_->propagation() == Propagation::TwoGrid; }
   void set_row_schedule(RowSchedule schedule) override { block_->set_row_schedule(schedule); }
+  void set_inlet_scale(double s) override { block_->set_inlet_scale(s); }
   std::string kernel_problem(const HealthLimits& limits) override;
   std::optional<FlowSummary> summary() override { return summary_of(false); }
   const FluidSolver* whole() override;

@@ -219,6 +219,30 @@ void FluidSolver::initialize_uniform(double rho, const std::array<double, 3>& u)
   initialize([&](int, int, int) { return CellState{rho, u[0], u[1], u[2]}; });
 }
 
+void FluidSolver::set_inlet_scale(double s) {
+  if (mid_step_) throw std::logic_error("FluidSolver::set_inlet_scale(): between begin_step() and finish_step()");
+  if (s == bc_.inlet_scale()) return;
+  bc_.set_inlet_scale(s);
+  if (params_.propagation == Propagation::InPlace) {
+    // The kernel writes the x faces' ghosts from the table; otherwise every fill is a whole
+    // one (Fill::All) and reads the scale itself. A Canonical state's pulled ghosts now.
+    if (arrangement_ == PopulationLayout::Canonical) {
+      if (params_.precision == Precision::Double)
+        bc_.fill_static_ghosts(f_);
+      else
+        bc_.fill_static_ghosts(fs_);
+    }
+    return;
+  }
+  if (params_.precision == Precision::Double) {
+    bc_.fill_static_ghosts(f_);
+    bc_.fill_static_ghosts(g_);
+  } else {
+    bc_.fill_static_ghosts(fs_);
+    bc_.fill_static_ghosts(gs_);
+  }
+}
+
 void FluidSolver::add_force(int x, int y, int z, double fx, double fy, double fz) {
   if (fx_.empty()) {
     fx_.assign(layout_.stride(), 0.0);

@@ -107,6 +107,12 @@ class FluidSolver {
   /// Between begin_step() and finish_step().
   bool mid_step() const { return mid_step_; }
 
+  /// Scales the inlets' velocity by `s` (Turek and Hron's start-up ramp, inlet_ramp): the
+  /// inlet ghosts are written again with it, the two-grid step's static ones at once (both
+  /// grids), the in-place kernel's x inlets from its next step on (the ghosts a step pulls
+  /// were written by the step before: one step late). @pre not mid_step()
+  void set_inlet_scale(double s);
+
   /// Pre-collision populations of the current time at an interior cell.
   void populations_at(int x, int y, int z, double* f) const;
   CellState cell(int x, int y, int z) const;

@@ -11,6 +11,7 @@ const std::vector<SectionOwner>& scene_sections() {
       {"boundaries", Fluid},
       {"wall_velocity", Fluid},
       {"body_force", Fluid},
+      {"held_body", Fluid},
       // The fluid's in a coupled scene (the length of the run); a standalone solid scene has
       // a [run] of its own (solid/config/solid_scene.cpp).
       {"run", Fluid},
