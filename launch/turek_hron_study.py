@@ -156,7 +156,9 @@ def table(out, cases, resolutions):
                         cells.append("no shedding")
                     else:
                         cells.append(f"{v:.4g} ({100 * (v / ref - 1):+.2f} %)")
-                p = order(vals) if len(resolutions) == 3 else None
+                # An order only over runs of one regime: none where a resolution did not shed.
+                steady_mix = any(r is not None and r.get("no_shedding") for r in results)
+                p = order(vals) if len(resolutions) == 3 and not steady_mix else None
                 unit = "" if part == 2 else " (N/m)"
                 lines.append(f"| {case.upper()} | {qname} {label}{unit} | " + " | ".join(cells) +
                              f" | {ref:.5g} | {'-' if p is None else f'{p:.2f}'} |")
