@@ -106,6 +106,12 @@ const std::vector<BadCase> kBadCases = {
       "did you mean \"max_cgp_speed\""}},
     {"precision_unknown.toml",
      {":30: run.precision = \"half\": must be one of \"double\", \"single\""}},
+    {"thin_span_not_periodic.toml",
+     {"grid.nz = 2: below 8 cells only between periodic z faces", "boundaries.z_min = \"wall\""}},
+    {"parabolic_without_walls.toml",
+     {"inlet.profile = \"parabolic\": \"parabolic\" needs walls on y_min and y_max", "y_max is \"free_slip\""}},
+    {"held_body_outside.toml", {"held_body.center_um = [100, 1]: must lie inside the domain"}},
+    {"medium_half.toml", {"fluid.density_kg_m3 = 1000: needs fluid.sound_speed_m_s too"}},
     {"propagation_unknown.toml",
      {":30: run.propagation = \"pull\": must be one of \"two-grid\", \"in-place\""}},
 };
