@@ -27,6 +27,12 @@ class SolidSceneError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// The shape of a held deflection ([perturbation] shape; solid/coupled/initial_deflection.hpp).
+enum class DeflectionShape {
+  Cantilever,   ///< a uniformly loaded cantilever's, tip_displacement_um at the top row
+  Translation,  ///< every CGP moved by tip_displacement_um (a plate on a spring)
+};
+
 /// What a standalone run does.
 enum class SolidRunMode {
   /// Free vibration in vacuum from the initial perturbation ([perturbation]).
@@ -72,6 +78,8 @@ struct SolidScene {
   /// gravity_m_s2: 0 without it, the flat sheet released at rest): normal displacement of
   /// the top row at step 0, bohr (solid/coupled/initial_deflection.hpp).
   double tip_displacement_bohr = 0.0;
+  /// [perturbation] shape: how the rows below the top one are displaced.
+  DeflectionShape deflection_shape = DeflectionShape::Cantilever;
   /// [load] (mode Static): uniform normal pressure (Pa) and the damping ratio zeta of the
   /// dynamic relaxation (damping force -2 zeta omega_1 m v).
   double pressure_Pa = 0.0;
