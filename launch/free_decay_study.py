@@ -80,7 +80,7 @@ def tau_for(nu, dx_m):
 
 
 def scene_text(name, case, dx_um, box, law="momentum_exchange", out_dir=None, t_end_us=None, refine=1,
-               aspect="7", floor="wall"):
+               aspect="7", floor="wall", sides="periodic"):
     mass, nu, t_us = CASES[case]
     t_us = t_end_us or t_us
     dx = dx_um * 1e-6
@@ -128,8 +128,8 @@ dx_um = {dx_um}
 tau = {tau:.6f}
 
 [boundaries]
-x_min = "periodic"
-x_max = "periodic"
+x_min = "{sides}"
+x_max = "{sides}"
 y_min = "{floors[0]}"
 y_max = "{floors[1]}"
 z_min = "periodic"
@@ -194,6 +194,10 @@ def main():
     ap.add_argument("--floor", default="wall", choices=["wall", "free_slip"],
                     help="the face the sheet stands on: the no-slip plate of the paper, or a free-slip "
                          "plane (a mirror: no wall under the sheet's root)")
+    ap.add_argument("--sides", default="periodic", choices=["periodic", "free_slip", "wall"],
+                    help="the two faces normal to the sheet's normal (x): periodic (images of the sheet "
+                         "along x; in a box periodic everywhere, the strip's, the fluid as a whole can "
+                         "move along x), or free-slip or no-slip walls")
     ap.add_argument("--scene-only", action="store_true")
     ap.add_argument("--table-only", action="store_true")
     ap.add_argument("--sheet-refine", type=int, default=1,
@@ -223,18 +227,19 @@ def main():
     for case, dx, box, aspect in [(c, float(d), b, s) for c in a.cases.split(",")
                                   for d in a.resolutions.split(",") for b in a.boxes.split(",")
                                   for s in a.aspects.split(",")]:
-        rows_cg = STRIP_CELLS if aspect == "strip" else ASPECTS[aspect][0]
+        rows_cg = STRIP_CELLS // a.sheet_refine if aspect == "strip" else ASPECTS[aspect][0]
         name = f"free_decay_{case}_dx{str(dx).replace('.', 'p')}_{box}" + (
             "" if a.law == "momentum_exchange" else "_" + a.law) + (
             "" if a.sheet_refine == 1 else f"_sheet{5 * a.sheet_refine}x{rows_cg * a.sheet_refine}") + (
-            "" if aspect == "7" else f"_aspect{aspect}") + ("" if a.floor == "wall" else "_freeslip")
+            "" if aspect == "7" else f"_aspect{aspect}") + ("" if a.floor == "wall" else "_freeslip") + (
+            "" if a.sides == "periodic" else "_sides" + a.sides.replace("_", ""))
         d = os.path.abspath(os.path.join(a.out, name))
         os.makedirs(d, exist_ok=True)
         scene = os.path.join(d, "scene.toml")
         if not (a.table_only and os.path.exists(scene)):  # else: the scene the run was made with
             with open(scene, "w") as f:
                 f.write(scene_text(name, case, dx, box, a.law, os.path.join(d, "run"), a.t_end_us,
-                                   a.sheet_refine, aspect, a.floor))
+                                   a.sheet_refine, aspect, a.floor, a.sides))
         if a.scene_only:
             print(scene)
             continue
@@ -256,7 +261,8 @@ def main():
         where = box if a.sheet_refine == 1 else f"{box}, {5 * a.sheet_refine} x {rows_cg * a.sheet_refine} CGPs"
         where += ("" if aspect == "7" else ", strip (L/b infinite)" if aspect == "strip"
                   else f", L/b {beam.length / beam.b:.1f}") + (
-            "" if a.floor == "wall" else ", free-slip floor")
+            "" if a.floor == "wall" else ", free-slip floor") + (
+            "" if a.sides == "periodic" else f", {a.sides.replace('_', '-')} sides")
         rows.append((case, dx, where, m, r, beam))
         curves.append((name, t, x, tr, xr))
         print(f"{name}: sim {m}; sader {r}", flush=True)
