@@ -69,7 +69,11 @@
 # When one process dies, the other is given time to notice and stop by itself (it writes
 # its checkpoint, its output and the reason): the scene's longer timeout (handshake_timeout_s
 # or peer_timeout_s, [coupling]) plus 30 s to write (COSIM_SURVIVOR_GRACE_S overrides it);
-# then it is stopped with SIGTERM (it still writes its checkpoint), and killed 30 s later.
+# after a fluid that ended with a documented code past the handshake (it published stop_t),
+# only 30 s to write (COSIM_STOP_GRACE_S), and a solid still running then is reported as
+# "did not exit within its grace ... after the fluid's stop_t"; then it is stopped with
+# SIGTERM (it still writes its checkpoint), and killed 30 s later. A solid that exits 0 while
+# the fluid still runs is reported as having left before the run's end, with its last step.
 # SIGINT (Ctrl-C) or SIGTERM to the launcher interrupts the fluid, which stops the run at its
 # next step: both servers write a checkpoint of that step and the reason, exit 1.
 # The exit status is always one of the servers' documented codes 0-4: the first failure's
