@@ -118,6 +118,22 @@ TEST(SolidLibrary, CoupledRunBlamesTheSolidForItsFaults) {
   }
 }
 
+// The same exit codes from C++ and Python: an answer with one marker too few is refused with
+// exit code 3 (unhealthy) by the library in either language.
+TEST(SolidLibrary, MisSizedAnswerExitsThreeFromCppAndPython) {
+  const fs::path dir = cosim::test::scratch("sdk_mis_sized");
+  const fs::path scene = kSource / "scenes" / "coupled_spring_sheet.toml";
+  const std::string python = "env PYTHONPATH=" + (kBuild / "sdk" / "python").string() + " /usr/bin/python3 " +
+                             (kSource / "tests" / "conformance" / "broken_python_solid.py").string();
+  for (const std::string& solid : {std::string(BROKEN_SDK_SOLID_EXE), python}) {
+    const fs::path out = dir / (solid == python ? "python" : "cpp");
+    const int status = cosim::test::run_launcher(kSource, scene, out, "--solid-cmd " + quoted(solid + " --fault mis-sized"));
+    EXPECT_EQ(status, 3) << cosim::test::logs(out);
+    EXPECT_EQ(slurp(out / "solid.exit"), "3\n") << cosim::test::logs(out);
+    EXPECT_NE(slurp(out / "solid.log").find("the solid's answer for LB step 10"), std::string::npos) << cosim::test::logs(out);
+  }
+}
+
 // OUTPUT/solid.h5 of a library solid: a row per LB step with the markers, the fluid's force
 // on them and the solid's energy; the scene's [solid] section, which a library solid does not
 // read, named once in a warning.

@@ -13,6 +13,7 @@
 //   um               X_l in micrometres instead of dx (the library's X_l(0) stays in dx)
 //   exit-early       exits 0 in the middle of the run (at LB step --from) without a word
 //   linger           does not exit after the fluid's stop_t (sleeps until it is stopped)
+//   mis-sized        one position and one impulse fewer than markers (exit code 3)
 //   no-energy        the sheet's energy hook withheld (with reaction-sign: a solid that
 //                    reports no energy, for the fluid's own balance)
 //   broken_sdk_solid SCENE --fault F [--from STEP] [the library's command line]
@@ -59,6 +60,10 @@ class BrokenSheet : public spring_sheet::SpringSheet {
     if (on && has("late") && previous_.cols() == computed.cols()) a.impulse_lb = previous_;
     if (on && has("frozen")) a.position_lb = start_;
     if (on && has("um")) a.position_lb *= dx_um_;
+    if (on && has("mis-sized")) {
+      a.position_lb.conservativeResize(3, a.position_lb.cols() - 1);
+      a.impulse_lb.conservativeResize(3, a.impulse_lb.cols() - 1);
+    }
     if (on && has("end-of-step")) {
       const std::vector<double> s = save();  // the positions after the last substep, then the velocities
       a.position_lb = Eigen::Map<const Eigen::Matrix3Xd>(s.data(), 3, a.position_lb.cols());
