@@ -64,6 +64,9 @@ class BrokenSheet(spring_sheet.SpringSheet):
         self.previous = computed
         return mean, impulse
 
+    def energy_lb(self):  # withheld: the kit's own checks meet each fault (not the library's energy balance)
+        return float("nan")
+
     def restore(self, state):
         if FAULT != "restore-nothing":
             super().restore(state)

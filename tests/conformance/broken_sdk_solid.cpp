@@ -14,8 +14,10 @@
 //   exit-early       exits 0 in the middle of the run (at LB step --from) without a word
 //   linger           does not exit after the fluid's stop_t (sleeps until it is stopped)
 //   mis-sized        one position and one impulse fewer than markers (exit code 3)
-//   no-energy        the sheet's energy hook withheld (with reaction-sign: a solid that
-//                    reports no energy, for the fluid's own balance)
+//   with-energy      the sheet's energy hook (Solid::energy_lb) given: the library then
+//                    checks its energy balance itself (by default withheld, so that the
+//                    kit's own checks meet each fault; with reaction-sign: the library's
+//                    balance names it, without: the coordinator's)
 //   broken_sdk_solid SCENE --fault F [--from STEP] [the library's command line]
 #include <chrono>
 #include <cstdlib>
@@ -73,7 +75,7 @@ class BrokenSheet : public spring_sheet::SpringSheet {
   }
 
   double energy_lb() const override {
-    return has("no-energy") ? cosim::sdk::Solid::energy_lb() : SpringSheet::energy_lb();
+    return has("with-energy") ? SpringSheet::energy_lb() : cosim::sdk::Solid::energy_lb();
   }
 
   void restore(const std::vector<double>& state) override {
