@@ -380,6 +380,18 @@ SolidScene load_solid_scene(const std::string& path) {
   return protocol::config::rethrow_as<SolidSceneError>([&] { return read_solid_scene(path); });
 }
 
+std::vector<std::string> model_sections_present(const std::string& path) {
+  const SceneReader r(path, protocol::config::Process::Solid);
+  std::vector<std::string> names = {"solid", "contact", "material", "perturbation"};
+  for (const SolidModelEntry& m : solid_models())
+    for (const ModelOptions* o : m.options)
+      if (std::find(names.begin(), names.end(), o->section) == names.end()) names.emplace_back(o->section);
+  std::vector<std::string> present;
+  for (const std::string& n : names)
+    if (r.section(n).present()) present.push_back("[" + n + "]");
+  return present;
+}
+
 void apply_overrides(SolidScene& s, const SolidSceneOverrides& o) {
   const auto fail = [](const std::string& opt, const std::string& value, const std::string& msg) {
     throw SolidSceneError(protocol::config::command_line_problem(opt, value, msg));

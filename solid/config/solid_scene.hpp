@@ -10,6 +10,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <vector>
 #include <string_view>
 
 #include "protocol/units.hpp"
@@ -122,6 +123,12 @@ struct SolidScene {
 /// fluid, unread; [perturbation] is optional (the sheets start deflected and at rest, held
 /// through the rigid steps, then released); [load] belongs to standalone runs and is refused.
 SolidScene load_solid_scene(const std::string& path);
+
+/// The sections of the scene at `path` that only the solid server's models read ([solid],
+/// [contact], [material], [perturbation] and the models' own option sections), in that
+/// order, as "[name]": what a solid from outside (the solid library) leaves unread.
+/// @pre load_solid_scene(path) succeeded
+std::vector<std::string> model_sections_present(const std::string& path);
 
 /// Command-line overrides of [run] substeps (standalone), [output] directory, and
 /// [coupling] channel_prefix, lcm_url and time_ratio (coupled); validated with the rules of the file and
