@@ -14,6 +14,10 @@ scene_seconds() { sed -n "s/^[[:space:]]*$1[[:space:]]*=[[:space:]]*\([0-9][0-9.
 handshake_s=$(scene_seconds handshake_timeout_s); peer_s=$(scene_seconds peer_timeout_s)
 grace=${COSIM_SURVIVOR_GRACE_S:-$(awk -v h="${handshake_s:-120}" -v p="${peer_s:-30}" \
   'BEGIN { m = (h + 0 > p + 0) ? h + 0 : p + 0; printf "%d", m + 30.999 }')}
+# The survivor of a peer that ended with one of its documented codes after the handshake
+# (it published stop_t, three copies on the loopback): no timeout to wait out, only its
+# checkpoint and outputs to write. COSIM_STOP_GRACE_S overrides it.
+stop_grace=${COSIM_STOP_GRACE_S:-30}
 # A process stopped with SIGTERM gets this long to write its checkpoint before SIGKILL.
 term_wait=30
 
@@ -74,7 +78,7 @@ fi
 fluid_from=$(stat -c %s "$output/fluid.log"); solid_from=$(stat -c %s "$output/solid.log")
 # The fluid alone, or its grid over COSIM_FLUID_RANKS MPI ranks (run-coupled.sh --ranks)
 # in this network namespace.
-fluid_cmd=("$bin/fluid/fluid")
+fluid_cmd=("$fluid_exe")
 if [ -n "${COSIM_FLUID_RANKS:-}" ]; then
   fluid_cmd=(env COSIM_NETNS_PRIVATE=1 bash "$root/launch/mpirun-local.sh" "$COSIM_FLUID_RANKS" "${fluid_cmd[@]}")
 fi
@@ -84,7 +88,7 @@ setsid "${fluid_cmd[@]}" "$scene" --output "$output" --channel-prefix "$prefix" 
 fluid=$!
 [ -n "$interrupted" ] && kill -"$interrupted" $fluid 2>/dev/null
 echo $fluid >"$output/fluid.pid"
-setsid ${COSIM_SOLID_CMD:-$bin/solid/solid} "$scene" --output "$output" --channel-prefix "$prefix" $quiet \
+setsid ${COSIM_SOLID_CMD:-$solid_exe} "$scene" --output "$output" --channel-prefix "$prefix" $quiet \
   ${COSIM_SOLID_RESTART:+--restart "$COSIM_SOLID_RESTART"} ${COSIM_TIME_RATIO:+--time-ratio "$COSIM_TIME_RATIO"} \
   >>"$output/solid.log" 2>&1 &
 solid=$!
@@ -95,6 +99,21 @@ echo $solid >"$output/solid.pid"
 /usr/bin/python3 "$root/launch/progress.py" "$output" --pid $fluid --solid-pid $solid $quiet \
   --from-bytes "$fluid_from" "$solid_from" &
 watcher=$!
+
+# ", at step N" for a fluid that ended its run (its closing line), else "".
+fluid_end_step() {
+  local n
+  n=$(grep -oE 'coupled run done, [0-9]+ LB steps' "$output/fluid.log" 2>/dev/null | tail -1 | grep -oE '[0-9]+')
+  [ -n "$n" ] && echo " at step $n, the run's end"
+}
+# ": after solid_state_t of step K, while the fluid waited for step K + 1 of N" for a solid
+# that left early (the fluid's line naming the step it waited for), else "".
+solid_early_step() {
+  local k total
+  k=$(grep -oE 'waited for solid_state_t of step [0-9]+' "$output/fluid.log" 2>/dev/null | tail -1 | grep -oE '[0-9]+$')
+  total=$(sed -n 's/^[[:space:]]*steps[[:space:]]*=[[:space:]]*\([0-9]*\).*/\1/p' "$scene" | head -1)
+  [ -n "$k" ] && echo ": its last solid_state_t was of step $((k - 1)); the fluid waited for step $k${total:+ of $total}"
+}
 
 # Waits until process $1 or $2 ends (wait -n -p: bash 5.1; a finished child stays a zombie,
 # so kill -0 cannot tell); a trapped signal interrupts the wait: wait again. Sets ended (the
@@ -116,6 +135,13 @@ echo $s_first >"$output/$first.exit"
 # A process that refused its input (exit 2) may never have spoken to its peer, which
 # would then wait for its whole handshake timeout: stop it at once.
 if [ "$s_first" -eq 2 ]; then grace=2; fi
+# The fluid ended with a documented code after the handshake: it published stop_t (the
+# run's end, or the reason it stopped), so the solid has only its outputs to write.
+after_stop=""
+if [ "$first" = fluid ] && [ "$s_first" -le 4 ] && grep -q '^fluid: handshake accepted' "$output/fluid.log" 2>/dev/null; then
+  after_stop="the fluid's stop_t (the fluid ended with exit $s_first$(fluid_end_step))"
+  [ "$s_first" -eq 2 ] || grace=$stop_grace
+fi
 # Waits up to $2 seconds for process $1: 0 with its status in s_other once it has ended,
 # 1 while it still runs.
 wait_up_to() {
@@ -126,8 +152,14 @@ wait_up_to() {
   kill $sleeper 2>/dev/null; wait $sleeper 2>/dev/null
   s_other=$ended_status
 }
+lingered=""
 if ! wait_up_to $b "$grace"; then
-  echo "run-coupled: $other still running ${grace} s after $first ended (the scene's timeouts + 30 s); stopping it (SIGTERM)" >&2
+  if [ -n "$after_stop" ]; then
+    lingered="the $other did not exit within its grace of ${grace} s after $after_stop"
+    echo "run-coupled: $lingered; stopping it (SIGTERM)" >&2
+  else
+    echo "run-coupled: $other still running ${grace} s after $first ended (the scene's timeouts + 30 s); stopping it (SIGTERM)" >&2
+  fi
   kill -TERM $b 2>/dev/null
   if ! wait_up_to $b "$term_wait"; then
     echo "run-coupled: $other did not stop within ${term_wait} s of SIGTERM; killing it" >&2
@@ -158,7 +190,12 @@ last_line() {
 }
 for n in fluid solid; do
   s=$(cat "$output/$n.exit")
-  if [ "$s" -gt 128 ] && [ "$s" -lt 160 ]; then
+  if [ -n "$lingered" ] && [ "$n" = "$other" ]; then
+    echo "run-coupled: $lingered: stopped (status $s, counted as exit 1); a peer exits within seconds of stop_t (protocol/README.md 8, 9): $(last_line "$n")" >&2
+  elif [ "$n" = solid ] && [ "$first" = solid ] && [ "$s_first" -eq 0 ] && [ "$(cat "$output/fluid.exit")" != 0 ]; then
+    # A solid ends with 0 only after the fluid's stop_t(0): this one left before the end.
+    echo "run-coupled: the solid exited 0 before the run's end$(solid_early_step) (a solid runs until the fluid's stop_t; protocol/README.md 9): $(last_line solid)" >&2
+  elif [ "$s" -gt 128 ] && [ "$s" -lt 160 ]; then
     echo "run-coupled: $n was killed by signal $((s - 128)) (status $s, counted as exit 1): $(last_line "$n")" >&2
   elif [ "$s" != 0 ]; then
     echo "run-coupled: $n exited $s: $(last_line "$n")" >&2

@@ -9,9 +9,21 @@
 #
 # builds a second, AVX2 binary beside build/ and runs a scene with it (launch/run-tests.sh
 # does so for its x86-64-v3 pass).
-bin=${COSIM_BUILD_DIR:-$root/build}
-case $bin in /*) ;; *) bin=$PWD/$bin ;; esac
-export COSIM_BUILD_DIR=$bin
+#
+# An installed launcher (PREFIX/bin/cosim-run sets COSIM_PREFIX_BIN to its folder): the
+# servers and tools are that folder's, nothing is built, and `installed` is 1.
+# The executables: fluid_exe, solid_exe, record_exe (cosim-record).
+if [ -n "${COSIM_PREFIX_BIN:-}" ]; then
+  installed=1
+  bin=$COSIM_PREFIX_BIN
+  fluid_exe=$bin/fluid solid_exe=$bin/solid record_exe=$bin/cosim-record
+else
+  installed=0
+  bin=${COSIM_BUILD_DIR:-$root/build}
+  case $bin in /*) ;; *) bin=$PWD/$bin ;; esac
+  export COSIM_BUILD_DIR=$bin
+  fluid_exe=$bin/fluid/fluid solid_exe=$bin/solid/solid record_exe=$bin/tools/record/cosim-record
+fi
 
 # new_folder PARENT: prints PARENT/<UTC date-time>, or PARENT/<UTC date-time>-K where that
 # exists already, a folder no earlier call used (nothing a user ran before is overwritten).

@@ -64,6 +64,13 @@ BOXES = {"small": (12.3, 3.5, 10.2), "large": (20.5, 6.6, 15.4),
 # stable step (L/b 30: 1.2e-12 s against dt_CG 3.0e-12 s at A_T 150), hence 4 A_T there
 # (dt_CG at 0.62 of it, as at L/b 15).
 ASPECTS = {"7": (40, 9, 1), "15": (80, 11, 1), "30": (160, 13, 4)}
+# "strip": the limit L/b -> infinity, Sader's own setting. A rigid plate of the same width and
+# mass per area on a spring of the paper sheet's f_vac (solid model "sprung": one degree of
+# freedom, Sader's oscillator with no mode shape) spanning a box periodic along its height
+# (8 cells, one row of CGPs per cell): no tip, no root, no wall. What is left between it and
+# the theory is the coupling's error (and the box's, from its periodic images).
+STRIP_CELLS = 8
+F_VAC_PAPER_HZ = 5.3238e6  # the 5 x 40 sheet's first eigenfrequency (`solid SCENE --check`)
 TIP_UM = 0.02
 
 
@@ -73,13 +80,16 @@ def tau_for(nu, dx_m):
 
 
 def scene_text(name, case, dx_um, box, law="momentum_exchange", out_dir=None, t_end_us=None, refine=1,
-               aspect="7", floor="wall"):
+               aspect="7", floor="wall", sides="periodic"):
     mass, nu, t_us = CASES[case]
     t_us = t_end_us or t_us
     dx = dx_um * 1e-6
-    rows, stages, a_t_factor = ASPECTS[aspect]
+    strip = aspect == "strip"
+    rows, stages, a_t_factor = ASPECTS["7" if strip else aspect]
     bx, top, bz = BOXES[box]
     n = [max(8, int(round(L / dx_um))) for L in (bx, rows * 0.22 + top, bz)]
+    if strip:
+        n[1] = STRIP_CELLS
     tau = tau_for(nu, dx)
     dt_lb = dx / (math.sqrt(3) * sader.SOUND_SPEED)
     steps = int(math.ceil(t_us * 1e-6 / dt_lb))
@@ -90,6 +100,19 @@ def scene_text(name, case, dx_um, box, law="momentum_exchange", out_dir=None, t_
     # (solid --check at K = 2, dx 0.128 um: dt_CG 0.32 of the stable step).
     a_t *= refine * a_t_factor
     law_line = "" if law == "momentum_exchange" else f'\n[reaction]\nlaw = "{law}"\n'
+    floors = (floor, "free_slip")
+    solid = f'model = "rcgp"\nflexural_scaling = "paper"\nstages = {stages}'
+    sheet = (f"nx_cg = {5 * refine}\nny_cg = {rows * refine}\nspacing_um = [{0.24 / refine:g}, {0.22 / refine:g}]\n"
+             f"atoms_per_cgp = {2e6 * mass / refine ** 2:g}\n"
+             f"base_um = [{n[0] * dx_um / 2:.4f}, 0.0, {n[2] * dx_um / 2:.4f}]")
+    shape = ""
+    if strip:  # one row per cell along the periodic height, the paper's mass per area
+        floors = ("periodic", "periodic")
+        solid = f'model = "sprung"\nspring_frequency_hz = {F_VAC_PAPER_HZ / math.sqrt(mass):.6g}'
+        sheet = (f"nx_cg = {5 * refine}\nny_cg = {STRIP_CELLS}\nspacing_um = [{0.24 / refine:g}, {dx_um}]\n"
+                 f"atoms_per_cgp = {2e6 * mass / refine * dx_um / 0.22:.8g}\n"
+                 f"base_um = [{n[0] * dx_um / 2:.4f}, {dx_um / 2:.6g}, {n[2] * dx_um / 2:.4f}]")
+        shape = '\nshape = "translation"'
     return f'''# Free decay in still air (launch/free_decay_study.py, issue 16); generated, do not edit.
 [scene]
 name = "{name}"
@@ -105,10 +128,10 @@ dx_um = {dx_um}
 tau = {tau:.6f}
 
 [boundaries]
-x_min = "periodic"
-x_max = "periodic"
-y_min = "{floor}"
-y_max = "free_slip"
+x_min = "{sides}"
+x_max = "{sides}"
+y_min = "{floors[0]}"
+y_max = "{floors[1]}"
 z_min = "periodic"
 z_max = "periodic"
 
@@ -126,20 +149,14 @@ time_ratio = {a_t}
 rigid_steps = 0
 {law_line}
 [solid]
-model = "rcgp"
-flexural_scaling = "paper"
-stages = {stages}
+{solid}
 
 [[sheet]]
-nx_cg = {5 * refine}
-ny_cg = {rows * refine}
-spacing_um = [{0.24 / refine:g}, {0.22 / refine:g}]
-atoms_per_cgp = {2e6 * mass / refine ** 2:g}
-base_um = [{n[0] * dx_um / 2:.4f}, 0.0, {n[2] * dx_um / 2:.4f}]
+{sheet}
 theta_deg = 90
 
 [perturbation]
-tip_displacement_um = {TIP_UM}
+tip_displacement_um = {TIP_UM}{shape}
 '''
 
 
@@ -172,10 +189,15 @@ def main():
     ap.add_argument("--law", default="momentum_exchange")
     ap.add_argument("--aspects", default="7",
                     help="L/b of the sheet, of " + ", ".join(ASPECTS) + " (the same width, mass per "
-                         "area and f_vac; longer sheets, stiffer in bending)")
+                         "area and f_vac; longer sheets, stiffer in bending), or strip (a rigid plate "
+                         "on a spring spanning a periodic height: L/b infinite)")
     ap.add_argument("--floor", default="wall", choices=["wall", "free_slip"],
                     help="the face the sheet stands on: the no-slip plate of the paper, or a free-slip "
                          "plane (a mirror: no wall under the sheet's root)")
+    ap.add_argument("--sides", default="periodic", choices=["periodic", "free_slip", "wall"],
+                    help="the two faces normal to the sheet's normal (x): periodic (images of the sheet "
+                         "along x; in a box periodic everywhere, the strip's, the fluid as a whole can "
+                         "move along x), or free-slip or no-slip walls")
     ap.add_argument("--scene-only", action="store_true")
     ap.add_argument("--table-only", action="store_true")
     ap.add_argument("--sheet-refine", type=int, default=1,
@@ -189,8 +211,8 @@ def main():
     if not 1 <= a.sheet_refine <= 4:
         ap.error(f"--sheet-refine {a.sheet_refine}: allowed 1 to 4")
     for aspect in a.aspects.split(","):
-        if aspect not in ASPECTS:
-            ap.error(f"--aspects {aspect}: allowed " + ", ".join(ASPECTS))
+        if aspect not in ASPECTS and aspect != "strip":
+            ap.error(f"--aspects {aspect}: allowed " + ", ".join(ASPECTS) + ", strip")
     for box in a.boxes.split(","):
         if box not in BOXES:
             ap.error(f"--boxes {box}: allowed " + ", ".join(BOXES))
@@ -205,18 +227,19 @@ def main():
     for case, dx, box, aspect in [(c, float(d), b, s) for c in a.cases.split(",")
                                   for d in a.resolutions.split(",") for b in a.boxes.split(",")
                                   for s in a.aspects.split(",")]:
-        rows_cg = ASPECTS[aspect][0]
+        rows_cg = STRIP_CELLS // a.sheet_refine if aspect == "strip" else ASPECTS[aspect][0]
         name = f"free_decay_{case}_dx{str(dx).replace('.', 'p')}_{box}" + (
             "" if a.law == "momentum_exchange" else "_" + a.law) + (
             "" if a.sheet_refine == 1 else f"_sheet{5 * a.sheet_refine}x{rows_cg * a.sheet_refine}") + (
-            "" if aspect == "7" else f"_aspect{aspect}") + ("" if a.floor == "wall" else "_freeslip")
+            "" if aspect == "7" else f"_aspect{aspect}") + ("" if a.floor == "wall" else "_freeslip") + (
+            "" if a.sides == "periodic" else "_sides" + a.sides.replace("_", ""))
         d = os.path.abspath(os.path.join(a.out, name))
         os.makedirs(d, exist_ok=True)
         scene = os.path.join(d, "scene.toml")
         if not (a.table_only and os.path.exists(scene)):  # else: the scene the run was made with
             with open(scene, "w") as f:
                 f.write(scene_text(name, case, dx, box, a.law, os.path.join(d, "run"), a.t_end_us,
-                                   a.sheet_refine, aspect, a.floor))
+                                   a.sheet_refine, aspect, a.floor, a.sides))
         if a.scene_only:
             print(scene)
             continue
@@ -236,8 +259,10 @@ def main():
         xr = beam.free_decay(tr)
         m, r = sader.decay_measures(t, x), sader.decay_measures(tr, xr)
         where = box if a.sheet_refine == 1 else f"{box}, {5 * a.sheet_refine} x {rows_cg * a.sheet_refine} CGPs"
-        where += ("" if aspect == "7" else f", L/b {beam.length / beam.b:.1f}") + (
-            "" if a.floor == "wall" else ", free-slip floor")
+        where += ("" if aspect == "7" else ", strip (L/b infinite)" if aspect == "strip"
+                  else f", L/b {beam.length / beam.b:.1f}") + (
+            "" if a.floor == "wall" else ", free-slip floor") + (
+            "" if a.sides == "periodic" else f", {a.sides.replace('_', '-')} sides")
         rows.append((case, dx, where, m, r, beam))
         curves.append((name, t, x, tr, xr))
         print(f"{name}: sim {m}; sader {r}", flush=True)

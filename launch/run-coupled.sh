@@ -50,6 +50,8 @@
 # the solid sees no difference, and the outputs and checkpoints are those of one process,
 # bit for bit (DESIGN 8, docs/scaling.md). A checkpoint restarts on any number of ranks.
 #
+# Installed (cmake --install), PREFIX/bin/cosim-run runs this script (PREFIX/share/cosim/launch/): the servers are PREFIX/bin's,
+# nothing is built, and the default output folder is ./out/<scene name>/<UTC date-time>.
 # The servers are build/fluid/fluid and build/solid/solid, or those of $COSIM_BUILD_DIR where it
 # is set (launch/folders.sh: e.g. a second build for x86-64-v3 beside build/).
 #
@@ -67,7 +69,11 @@
 # When one process dies, the other is given time to notice and stop by itself (it writes
 # its checkpoint, its output and the reason): the scene's longer timeout (handshake_timeout_s
 # or peer_timeout_s, [coupling]) plus 30 s to write (COSIM_SURVIVOR_GRACE_S overrides it);
-# then it is stopped with SIGTERM (it still writes its checkpoint), and killed 30 s later.
+# after a fluid that ended with a documented code past the handshake (it published stop_t),
+# only 30 s to write (COSIM_STOP_GRACE_S), and a solid still running then is reported as
+# "did not exit within its grace ... after the fluid's stop_t"; then it is stopped with
+# SIGTERM (it still writes its checkpoint), and killed 30 s later. A solid that exits 0 while
+# the fluid still runs is reported as having left before the run's end, with its last step.
 # SIGINT (Ctrl-C) or SIGTERM to the launcher interrupts the fluid, which stops the run at its
 # next step: both servers write a checkpoint of that step and the reason, exit 1.
 # The exit status is always one of the servers' documented codes 0-4: the first failure's
@@ -118,14 +124,15 @@ scene=$(cd "$(dirname "$scene")" && pwd)/$(basename "$scene")
 refuse() { echo "run-coupled: $*" >&2; exit 2; }
 [ $new_ratio -eq 0 ] || [ -n "$restart" ] || refuse "--new-time-ratio: only with --restart (a fresh run takes --time-ratio N)"
 
+[ "$installed" -eq 0 ] || build=0  # an installed launcher runs what is installed
 if [ $build -eq 1 ]; then
   bash "$root/launch/bootstrap.sh"
   bash "$root/launch/build.sh" >/dev/null
 fi
-[ -x "$bin/fluid/fluid" ] || refuse "$bin/fluid/fluid is missing: build first (bash launch/build.sh, or drop --no-build)"
-[ $log -eq 0 ] || [ -x "$bin/tools/record/cosim-record" ] ||
-  refuse "--log: $bin/tools/record/cosim-record is missing: build first (bash launch/build.sh, or drop --no-build)"
-if [ -n "$ranks" ]; then
+[ -x "$fluid_exe" ] || refuse "$fluid_exe is missing: build first (bash launch/build.sh, or drop --no-build)"
+[ $log -eq 0 ] || [ -x "$record_exe" ] ||
+  refuse "--log: $record_exe is missing: build first (bash launch/build.sh, or drop --no-build)"
+if [ -n "$ranks" ] && [ "$installed" -eq 0 ]; then
   grep -q "COSIM_HAVE_MPI:INTERNAL=\(ON\|TRUE\|1\)" "$bin/CMakeCache.txt" 2>/dev/null ||
     refuse "--ranks $ranks: this build has no MPI (install libopenmpi-dev and openmpi-bin, then rebuild)"
 fi
@@ -142,7 +149,10 @@ with h5py.File(sys.argv[1], "r") as f:
 # Whether a folder holds a run's outputs.
 holds_run() { [ -f "$1/run.id" ] || [ -f "$1/monitor.h5" ] || [ -f "$1/solid.h5" ] || [ -d "$1/checkpoints" ]; }
 # A new folder out/<scene name>/<UTC date-time>[-K] (COSIM_OUTPUT_ROOT instead of out/).
-run_folder() { new_folder "${COSIM_OUTPUT_ROOT:-$root/out}/$name"; }
+# An installed launcher's default is ./out/ (the prefix is not the user's).
+out_root=$root/out
+[ "$installed" -eq 0 ] || out_root=$PWD/out
+run_folder() { new_folder "${COSIM_OUTPUT_ROOT:-$out_root}/$name"; }
 
 export COSIM_FLUID_RESTART="" COSIM_SOLID_RESTART="" COSIM_NEW_TIME_RATIO=""
 run_id=""
@@ -202,7 +212,7 @@ token=$(od -An -N8 -tx1 /dev/urandom | tr -d ' \n')
 prefix="COSIM_${token:0:8}_"
 export COSIM_RUN_TOKEN=$token
 
-export COSIM_SOLID_CMD=${solid_cmd:-$bin/solid/solid}
+export COSIM_SOLID_CMD=${solid_cmd:-$solid_exe}
 export COSIM_EXTRA_CMD=$extra
 inner=(bash "$root/launch/coupled-inner.sh" "$root" "$scene" "$output" "$prefix" "$log" "$quiet")
 retries=0; retried=""

@@ -13,7 +13,7 @@ start_traffic_log() {
   [ -f "$output/record.log" ] && from=$(stat -c %s "$output/record.log")
   # In a session of its own, as the servers (a Ctrl-C at the terminal reaches the launcher,
   # which stops the recorder only after the servers have ended and said so).
-  setsid "$bin/tools/record/cosim-record" "$output/traffic.lcmlog" --channels "$channels" --lcm-url "$url" \
+  setsid "$record_exe" "$output/traffic.lcmlog" --channels "$channels" --lcm-url "$url" \
     >>"$output/record.log" 2>&1 &
   traffic_log_pid=$!
   for ((k = 0; k < 200; k++)); do

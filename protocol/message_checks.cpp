@@ -192,17 +192,22 @@ class Bytes {
 
   /// Nothing may follow the last field.
   void end() {
+    at_ = pos_;
     if (!problem_ && left() != 0)
       fail(std::to_string(left()) + " bytes follow the last field");
   }
 
  private:
+  /// The problem, and where decoding failed: the first byte of the field that did not fit.
   void fail(const std::string& what) {
-    if (!problem_) problem_ = std::string(type_) + ": " + what;
+    if (!problem_)
+      problem_ = std::string(type_) + ": " + what + " (decoding failed at byte " + std::to_string(at_) + " of " +
+                 std::to_string(size_) + ")";
   }
 
   std::optional<std::uint64_t> read(std::size_t n, const char* field) {
     if (problem_) return std::nullopt;
+    at_ = pos_;
     if (left() < n) {
       fail(std::string(field) + ": the message ends after " + std::to_string(size_) +
            " bytes (" + std::to_string(n) + " more needed)");
@@ -218,6 +223,7 @@ class Bytes {
   const unsigned char* p_;
   std::size_t size_;
   std::size_t pos_ = 0;
+  std::size_t at_ = 0;  ///< where the field being read starts
   std::optional<std::string> problem_;
 };
 

@@ -31,6 +31,9 @@
 #include "common/run/exit_codes.hpp"
 #include "common/text/text.hpp"
 #include "protocol/units.hpp"
+#include "common/run/provenance.hpp"
+#include "sdk/energy_balance.hpp"
+#include "sdk/solid_series.hpp"
 #include "solid/coupled/coupled_solid.hpp"
 #include "solid/coupling/fluid_state_check.hpp"
 #include "solid/schemes/scheme_context.hpp"
@@ -157,6 +160,7 @@ class SdkRun {
     n_ = start.position_lb.cols();
     x_ = start.position_lb;
     area_ = start.area_lb;
+    warn_unread_sections(start);
     const double stable = solid_.stable_dt_cg_s();
     if (!(stable > 0.0))
       return report(Ending{exit_code::bad_input, solid_.model() + ": stable_dt_cg_s() = " + fmt("%g", stable) +
@@ -193,6 +197,11 @@ class SdkRun {
       peer_.publish_state(0, 0, 0.0, x_, Eigen::Matrix3Xd::Zero(3, n_), 0);
     }
     first_step_ = peer_.last_step();
+    // The energy balance from here (a restart's: from the restored state), when the solid
+    // reports its energy; solid.h5's rows from here.
+    if (const double e0 = solid_.energy_lb(); std::isfinite(e0)) balance_.emplace(e0, x_);
+    series_.emplace(units_, solid_.model(), n_);
+    if (o_.restart.empty()) series_->add(0, x_, Eigen::Matrix3Xd::Zero(3, n_), energy(), balance_ ? 0.0 : kNone);
     start_ = Clock::now();
     peer_.heard();
     for (;;) {
@@ -230,6 +239,9 @@ class SdkRun {
       const Clock::time_point t0 = Clock::now();
       try {
         a = solid_.step(in);
+      } catch (const std::length_error& e) {  // a mis-sized answer (the Python binding's)
+        return Ending{exit_code::unhealthy,
+                      "the solid's answer for LB step " + std::to_string(m.step) + ": " + one_line(e.what()), true};
       } catch (const std::exception& e) {
         return Ending{exit_code::system, solid_.model() + ": step() of LB step " + std::to_string(m.step) + ": " +
                                              one_line(e.what()),
@@ -240,7 +252,11 @@ class SdkRun {
       if (auto e = answer_problem(a, n_, m.step)) return e;
       substeps = a_t;
       x_ = a.position_lb;
+      if (balance_)
+        if (const auto t = balance_->add(m.step, a.position_lb, a.impulse_lb, solid_.energy_lb()))
+          return Ending{exit_code::unhealthy, solid_.model() + ": " + t->diagnosis, true};
     }
+    series_->add(m.step, a.position_lb, a.impulse_lb, energy(), balance_ ? balance_->work() : kNone);
     total_substeps_ += substeps;
     peer_.publish_state(m.step, substeps, static_cast<double>(total_substeps_) * units_.dt_cg_s(), a.position_lb,
                         a.impulse_lb, 0);
@@ -330,6 +346,7 @@ class SdkRun {
       }
     }
     peer_.stop(e);
+    write_series();
     const double wall = std::chrono::duration<double>(Clock::now() - start_).count();
     std::cout << "solid: coupled run " << (e.code == exit_code::ok ? "done" : "stopped") << " at step "
               << peer_.last_step() << " of " << peer_.total_steps() << ", " << total_substeps_ << " substeps in "
@@ -338,6 +355,43 @@ class SdkRun {
       std::cout << "solid: per LB step: step() " << fmt("%.4g", 1e3 * compute_s_ / double(computed_)) << " ms over "
                 << computed_ << " steps\n";
     return report(e);
+  }
+
+  static constexpr double kNone = std::numeric_limits<double>::quiet_NaN();
+
+  /// E after the last step when the solid reports it, else NaN.
+  double energy() const { return balance_ ? solid_.energy_lb() : kNone; }
+
+  /// OUTPUT/solid.h5 (sdk/solid_series.hpp) and the energy balance's margin; a file that
+  /// cannot be written is said on one line, the run's ending stands.
+  void write_series() {
+    if (!series_) return;
+    if (balance_)
+      std::cout << "solid: energy balance: the largest unexplained energy " << fmt("%.3g", balance_->max_ratio())
+                << " of the energy scale (limit " << fmt("%g", EnergyBalance::kGrowth) << "); the fluid's work "
+                << fmt("%.4g", balance_->work()) << " rho_air dx^3 c^2\n";
+    const std::filesystem::path file = std::filesystem::path(s_.output_dir) / "solid.h5";
+    try {
+      std::filesystem::create_directories(s_.output_dir);
+      series_->write(file.string());
+    } catch (const std::exception& x) {
+      std::cout << "solid: " << file.string() << " not written: " << one_line(x.what()) << "\n";
+    }
+  }
+
+  /// The scene's sections this solid does not read, named once: the solid server's model
+  /// sections, and [[sheet]] when the solid's markers are not the scene's.
+  void warn_unread_sections(const Markers& start) const {
+    std::vector<std::string> unread = solid::model_sections_present(s_.path);
+    const bool own = start.position_lb.cols() != info_.position_lb.cols() ||
+                     !(Eigen::Matrix3Xd(start.position_lb).array() == Eigen::Matrix3Xd(info_.position_lb).array()).all();
+    if (!s_.config.sheets.empty() && own) unread.push_back("[[sheet]] (" + solid_.model() + " has markers of its own)");
+    if (unread.empty()) return;
+    std::string list;
+    for (const std::string& u : unread) list += (list.empty() ? "" : ", ") + u;
+    std::cout << "solid: warning: " << s_.path << ": " << list << " not read: " << solid_.model()
+              << " is a solid on the library, which reads [scene], [grid], [output], [coupling] and the [[sheet]] "
+                 "markers (the solid server's model sections are for build/solid/solid)\n";
   }
 
   int report(const Ending& e) {
@@ -356,6 +410,8 @@ class SdkRun {
   solid::SolidPeer peer_;
   Eigen::Matrix3Xd x_;
   Eigen::VectorXd area_;
+  std::optional<EnergyBalance> balance_;
+  std::optional<SolidSeries> series_;
   std::int64_t total_substeps_ = 0, computed_ = 0, first_step_ = 0;
   double compute_s_ = 0.0;
   Clock::time_point start_ = Clock::now();
@@ -364,6 +420,11 @@ class SdkRun {
 int run_impl(Solid& solid, std::vector<std::string> args) {
   const std::string program =
       args.empty() ? std::string("solid") : std::filesystem::path(args.front()).filename().string();
+  {  // the provenance solid.h5 carries (common/run/provenance.hpp)
+    std::vector<char*> raw;
+    for (std::string& a : args) raw.push_back(a.data());
+    protocol::record_invocation(program, static_cast<int>(raw.size()), raw.data());
+  }
   CLI::App app{"A solid model on the cosim solid library, coupled to the fluid over LCM (protocol/README.md).\n"
                "Exit status: 0 done, 1 system error, 2 invalid scene or command line or refused handshake, "
                "3 non-finite answer, 4 the fluid was lost or stopped with an error.",
@@ -404,6 +465,7 @@ int run_impl(Solid& solid, std::vector<std::string> args) {
   solid::SolidScene scene;
   try {
     scene = solid::load_solid_scene(scene_path);
+    protocol::record_scene(scene.path);
     solid::SolidSceneOverrides ov;
     if (o_output->count()) ov.output_dir = output;
     if (o_prefix->count()) ov.channel_prefix = prefix;

@@ -437,6 +437,8 @@ struct FakeSolid {
   std::function<std::vector<std::uint8_t>(std::vector<std::uint8_t>)> raw_spoil;
   /// Applied to every hello_t this solid sends.
   std::function<void(cosimlcm::hello_t&)> spoil_hello;
+  /// Applied to the bytes of every hello_t this solid sends, after `spoil_hello`.
+  std::function<std::vector<std::uint8_t>(std::vector<std::uint8_t>)> raw_hello;
 
   // ---- what it saw ----
   std::map<std::int64_t, cosimlcm::fluid_state_t> samples;  ///< first copy per step
@@ -491,7 +493,14 @@ struct FakeSolid {
     if (m->role != "fluid" || started) return;
     cosimlcm::hello_t h = hello;
     if (spoil_hello) spoil_hello(h);
-    for (int k = 0; k < 3; ++k) bus.publish(ch.hello, &h);  // a solid repeats its hello
+    for (int k = 0; k < 3; ++k) {  // a solid repeats its hello
+      if (raw_hello) {
+        const std::vector<std::uint8_t> raw = raw_hello(encode(h));
+        bus.publish(ch.hello, raw.data(), static_cast<unsigned int>(raw.size()));
+      } else {
+        bus.publish(ch.hello, &h);
+      }
+    }
   }
   void on_welcome(const lcm::ReceiveBuffer*, const std::string&, const cosimlcm::welcome_t* m) {
     welcomes.push_back(*m);
@@ -684,6 +693,23 @@ TEST(FluidCoupled, MalformedMessagesAreRejected) {
   ASSERT_FALSE(gas.welcomes.empty());
   EXPECT_EQ(gas.welcomes[0].accepted, 0);
   EXPECT_EQ(gas.welcomes[0].reason, "handshake refused: hello_t: role = 'gas'; allowed: 'fluid', 'solid'");
+
+  // A solid of another protocol version (another fingerprint, the run's token): its hello_t
+  // does not decode; the handshake is refused at once, naming the type and the byte.
+  lcm::LCM old_bus("memq://");
+  FakeSolid old(old_bus, scene, 2);
+  old.raw_hello = [](std::vector<std::uint8_t> b) {
+    b[7] ^= 0x01;
+    return b;
+  };
+  const auto t0 = std::chrono::steady_clock::now();
+  const FluidOutcome o = run_fluid(scene, old_bus);
+  EXPECT_EQ(o.code, 2) << o.out << o.err;
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 10.0);
+  EXPECT_NE(o.err.find("handshake refused: the solid's hello_t does not decode: hello_t: fingerprint = 0x"),
+            std::string::npos)
+      << o.err;
+  EXPECT_NE(o.err.find("(decoding failed at byte 0 of "), std::string::npos) << o.err;
   fs::remove_all(dir);
 }
 

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <vector>
 
 #include "tests/support/run_compare.hpp"
 
@@ -76,6 +77,102 @@ TEST(SolidLibrary, SdkSolidRestartsFromCheckpoint) {
   EXPECT_EQ(cosim::test::compare_h5(full, restarted, "monitor.h5"), "");
 }
 
+// Issue 34: a solid's faults that used to end with advice about dt_CG, the inlet or the
+// grid, or with "silent" and "signal 15", end with a message naming the solid and the
+// quantity (tests/conformance/broken_sdk_solid.cpp on scenes/coupled_spring_sheet.toml).
+TEST(SolidLibrary, CoupledRunBlamesTheSolidForItsFaults) {
+  const fs::path dir = cosim::test::scratch("sdk_blame");
+  const fs::path scene = kSource / "scenes" / "coupled_spring_sheet.toml";
+  struct Case {
+    std::string fault;     ///< --fault (and --from)
+    int status;            ///< the launcher's
+    std::vector<std::string> said;  ///< in its output, all of them
+  };
+  const std::vector<Case> cases = {
+      // The library's energy balance (the sheet reports its energy).
+      {"reaction-sign,with-energy", 3, {"the solid stopped at step", "watchdog energy_balance", "the solid gains energy"}},
+      // No energy reported: the coordinator's own balance of the fluid's work.
+      {"reaction-sign", 3,
+       {"watchdog cgp_speed", "while the fluid took energy from them", "comes from the solid"}},
+      // Positions in um: the coordinator's motion against the impulses.
+      {"um", 3, {"watchdog cgp_speed at step 10", "the solid's positions and impulses disagree", "not in lattice units"}},
+      {"exit-early --from 30", 4,
+       {"the solid exited 0 before the run's end: its last solid_state_t was of step 29; the fluid waited for step 30 of 60"}},
+      {"linger", 1, {"the solid did not exit within its grace of 3 s after the fluid's stop_t (the fluid ended with exit 0 at step 60"}},
+  };
+  for (const Case& c : cases) {
+    std::string name = c.fault;
+    for (char& ch : name)
+      if (ch == ' ' || ch == ',') ch = '_';
+    const fs::path out = dir / name;
+    const int status = cosim::test::run_launcher(
+        kSource, scene, out, "--solid-cmd " + quoted(std::string(BROKEN_SDK_SOLID_EXE) + " --fault " + c.fault),
+        "COSIM_STOP_GRACE_S=3");
+    EXPECT_EQ(status, c.status) << c.fault << "\n" << cosim::test::logs(out);
+    const std::string said = slurp(out / "launcher.log");
+    for (const std::string& s : c.said) EXPECT_NE(said.find(s), std::string::npos) << c.fault << ": " << s << "\n" << said;
+    // No advice that the measurement does not support.
+    for (const std::string advice : {"a smaller dt_CG may cure it", "a slower inlet or a finer grid", "signal 15"}) {
+      EXPECT_EQ(said.find(advice), std::string::npos) << c.fault << ": " << advice << "\n" << said;
+    }
+  }
+}
+
+// The same exit codes from C++ and Python: an answer with one marker too few is refused with
+// exit code 3 (unhealthy) by the library in either language.
+TEST(SolidLibrary, MisSizedAnswerExitsThreeFromCppAndPython) {
+  const fs::path dir = cosim::test::scratch("sdk_mis_sized");
+  const fs::path scene = kSource / "scenes" / "coupled_spring_sheet.toml";
+  const std::string python = "env PYTHONPATH=" + (kBuild / "sdk" / "python").string() + " /usr/bin/python3 " +
+                             (kSource / "tests" / "conformance" / "broken_python_solid.py").string();
+  for (const std::string& solid : {std::string(BROKEN_SDK_SOLID_EXE), python}) {
+    const fs::path out = dir / (solid == python ? "python" : "cpp");
+    const int status = cosim::test::run_launcher(kSource, scene, out, "--solid-cmd " + quoted(solid + " --fault mis-sized"));
+    EXPECT_EQ(status, 3) << cosim::test::logs(out);
+    EXPECT_EQ(slurp(out / "solid.exit"), "3\n") << cosim::test::logs(out);
+    EXPECT_NE(slurp(out / "solid.log").find("the solid's answer for LB step 10"), std::string::npos) << cosim::test::logs(out);
+  }
+}
+
+// OUTPUT/solid.h5 of a library solid: a row per LB step with the markers, the fluid's force
+// on them and the solid's energy; the scene's [solid] section, which a library solid does not
+// read, named once in a warning.
+TEST(SolidLibrary, LibrarySolidWritesSolidH5) {
+  const fs::path dir = cosim::test::scratch("sdk_solid_h5");
+  const fs::path scene = dir / "coupled_spring_sheet_with_solid.toml";
+  std::ofstream(scene) << slurp(kSource / "scenes" / "coupled_spring_sheet.toml") << "\n[solid]\nmodel = \"rcgp\"\n";
+  const fs::path out = dir / "out";
+  cosim::test::expect_run_done(out, cosim::test::run_launcher(kSource, scene, out, "--solid-cmd " + quoted(SPRING_SHEET_EXE)));
+  const std::string solid_log = slurp(out / "solid.log");
+  const std::string warning = "solid: warning: " + scene.string() + ": [solid] not read";
+  ASSERT_NE(solid_log.find(warning), std::string::npos) << solid_log;
+  EXPECT_EQ(solid_log.find(warning, solid_log.find(warning) + 1), std::string::npos) << solid_log;
+  const auto d = cosim::test::read_datasets(out / "solid.h5");
+  for (const char* name : {"step", "time_s", "marker_position_um", "marker_force_N", "total_energy_J", "fluid_work_J"})
+    ASSERT_TRUE(d.count(name)) << name;
+  // Steps 0 to 59 (the fluid's solid_state_t(0 .. N - 1)), 40 markers.
+  ASSERT_EQ(d.at("step").values.size(), 60u);
+  EXPECT_EQ(d.at("step").values.front(), 0.0);
+  EXPECT_EQ(d.at("step").values.back(), 59.0);
+  EXPECT_EQ(d.at("marker_position_um").dims, (std::vector<hsize_t>{60, 40, 3}));
+  // The first marker 12 dx downstream (x = 3.0734 um, the scene's base_um), held in the spin-up (step 9 where step 0 was), moved after the release.
+  const std::vector<double>& x = d.at("marker_position_um").values;
+  EXPECT_NEAR(x[0], 3.0734, 1e-9);
+  const std::size_t row = 40 * 3, top = 39 * 3;
+  EXPECT_EQ(x[9 * row + top], x[top]);
+  EXPECT_NE(x[59 * row + top], x[top]);
+  // The drag on the sheet in the spin-up: the fluid pushes the markers downstream (+x).
+  double fx = 0.0;
+  for (std::size_t l = 0; l < 40; ++l) fx += d.at("marker_force_N").values[(5 * 40 + l) * 3];
+  EXPECT_GT(fx, 0.0);
+  // At rest in the spin-up; energy and the fluid's work on the sheet after the release.
+  const std::vector<double>& e = d.at("total_energy_J").values;
+  EXPECT_EQ(e[5], 0.0);
+  EXPECT_GT(e.back(), 0.0);
+  EXPECT_GT(d.at("fluid_work_J").values.back(), 0.0);
+  EXPECT_NE(solid_log.find("solid: energy balance: the largest unexplained energy"), std::string::npos) << solid_log;
+}
+
 TEST(SolidLibrary, InstalledPackageBuildsExample) {
   const fs::path dir = fs::path(::testing::TempDir()) / "cosim_sdk_install";
   fs::remove_all(dir);
@@ -111,6 +208,42 @@ TEST(SolidLibrary, InstalledPackageBuildsExample) {
                   dir / "python");
   EXPECT_EQ(r.status, 0) << r.err;
   EXPECT_EQ(r.out, "(6, 3)\n") << r.err;
+}
+
+// Issue 34: an installation runs by itself. Every installed program carries a RUNPATH (the
+// installed example bin/spring_sheet finds libcosim_sdk with no environment set), passes the
+// installed conformance kit, and PREFIX/bin/cosim-run runs an installed coupled scene with the
+// installed servers: all with an empty environment but PATH.
+TEST(SolidLibrary, InstalledToolsRunFromThePrefix) {
+  const fs::path dir = cosim::test::scratch("installed_tools");
+  const fs::path prefix = dir / "prefix";
+  auto r = run_command("cmake --install " + quoted(kBuild.string()) + " --prefix " + quoted(prefix.string()), dir / "install");
+  ASSERT_EQ(r.status, 0) << r.out << r.err;
+  for (const auto& e : fs::directory_iterator(prefix / "bin")) {
+    if (slurp(e.path()).rfind("\x7f" "ELF", 0) != 0) continue;  // scripts (cosim-run)
+    r = run_command("readelf -d " + quoted(e.path().string()), dir / "readelf");
+    EXPECT_NE(r.out.find("(RUNPATH)"), std::string::npos) << e.path() << "\n" << r.out;
+    EXPECT_NE(r.out.find("$ORIGIN/../lib"), std::string::npos) << e.path() << "\n" << r.out;
+  }
+  const std::string bare = "env -i PATH=/usr/sbin:/usr/bin:/sbin:/bin ";
+  r = run_command(bare + quoted((prefix / "bin" / "cosim-conformance").string()) + " --solid-cmd " +
+                      quoted((prefix / "bin" / "spring_sheet").string()) + " --work " + quoted((dir / "kit").string()),
+                  dir / "conformance");
+  EXPECT_EQ(r.status, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find("checks pass"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("FAIL"), std::string::npos) << r.out;
+  // A coupled run from the prefix alone (its launcher, scene, servers and example).
+  const fs::path out = dir / "run";
+  r = run_command("cd " + quoted(dir.string()) + " && " + bare + quoted((prefix / "bin" / "cosim-run").string()) + " " +
+                      quoted((prefix / "share" / "cosim" / "scenes" / "coupled_spring_sheet.toml").string()) +
+                      " --quiet --output " + quoted(out.string()) + " --solid-cmd " +
+                      quoted((prefix / "bin" / "spring_sheet").string()),
+                  dir / "cosim_run");
+  EXPECT_EQ(r.status, 0) << r.out << r.err << cosim::test::logs(out);
+  EXPECT_EQ(slurp(out / "fluid.exit"), "0\n") << cosim::test::logs(out);
+  EXPECT_EQ(slurp(out / "solid.exit"), "0\n") << cosim::test::logs(out);
+  EXPECT_NE(slurp(out / "fluid.log").find("coupled run done, 60 LB steps"), std::string::npos) << cosim::test::logs(out);
+  EXPECT_TRUE(fs::exists(out / "solid.h5"));
 }
 
 }  // namespace

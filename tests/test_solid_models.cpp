@@ -12,6 +12,7 @@
 #include "protocol/units.hpp"
 #include "solid/model/model_registry.hpp"
 #include "solid/models/rigid/rigid_model.hpp"
+#include "solid/models/sprung/sprung_model.hpp"
 #include "solid/model/sheet_spec.hpp"
 #include "solid/model/velocity_verlet.hpp"
 
@@ -23,6 +24,7 @@ using cosim::protocol::PhysicalConstants;
 TEST(SolidModels, UnknownSolidModelListsAvailable) {
   SolidConfig config;
   config.sheets = {SheetSpec{}};
+  config.spring.frequency_hz = 5.3238e6;  // the one option a model (sprung) cannot do without
   try {
     (void)make_solid_model("kirchhoff-typo", config);
     FAIL() << "an unknown model name must throw";
@@ -232,6 +234,71 @@ TEST(SolidModels, VelocityVerletConservesOscillatorEnergy) {
 
   // A CGP with zero inverse mass (clamped) does not move under any force.
   EXPECT_EQ(coarse.clamped_motion, 0.0);
+}
+
+// The sprung plate (solid/models/sprung/sprung_model.hpp): released from a translation q0 in
+// vacuum it oscillates as q0 cos(omega t) with omega^2 = k / M (velocity Verlet's phase error
+// (omega dt)^2 / 24 per radian), every CGP with the plate; a steady force F moves it by F / k;
+// its state restores exactly and a state that is not a translation is refused.
+TEST(SolidModels, SprungPlateOscillatesAtItsSpringFrequency) {
+  SolidConfig config;
+  config.sheets = {SheetSpec{}};
+  config.sheets[0].theta_deg = 30.0;  // a normal off the axes
+  const double f = 5.3238e6;
+  config.spring.frequency_hz = f;
+  SprungModel model(config);
+  const Eigen::Matrix3Xd x0 = model.positions();
+  const Eigen::Vector3d n = sheet_normal(config.sheets[0]);
+  const double omega = 2.0 * std::numbers::pi * f * PhysicalConstants::time_au_s;  // rad / t_AU
+  EXPECT_NEAR(model.stable_time_step() * omega, 2.0, 1e-12);
+  ASSERT_EQ(model.vacuum_eigenfrequencies_hz().size(), 1u);
+  EXPECT_EQ(model.vacuum_eigenfrequencies_hz()[0], f);
+
+  SolidState st = model.state();
+  const double q0 = 0.4;  // bohr
+  for (Eigen::Index l = 0; l < model.num_cgps(); ++l) st.positions_bohr.col(l) += q0 * n;
+  model.restore(st);
+  const double dt = 0.01 / omega;
+  const Eigen::Matrix3Xd none = Eigen::Matrix3Xd::Zero(3, model.num_cgps());
+  const int steps = int(std::round(2.0 * std::numbers::pi / (omega * dt)));  // one period
+  for (int k = 0; k < steps; ++k) model.substep(dt, none);
+  const double t = steps * dt;
+  const double expected = q0 * std::cos(omega * t * (1.0 - (omega * dt) * (omega * dt) / 24.0));
+  for (Eigen::Index l = 0; l < model.num_cgps(); ++l) {
+    const Eigen::Vector3d d = model.positions().col(l) - x0.col(l);
+    EXPECT_NEAR(n.dot(d), expected, 1e-6 * q0) << "CGP " << l;
+    EXPECT_NEAR((d - n.dot(d) * n).norm(), 0.0, 1e-12) << "CGP " << l << " left the normal";
+  }
+  const SolidObservables o = model.observables();
+  const double m = model.masses().sum();
+  EXPECT_NEAR((o.kinetic_energy_au + o.elastic_energy_au) / (0.5 * m * omega * omega * q0 * q0), 1.0, 1e-4);
+
+  // Restart: the state restores bit for bit and continues as the straight run.
+  const SolidState mid = model.state();
+  SprungModel twin(config);
+  twin.restore(mid);
+  Eigen::Matrix3Xd push = Eigen::Matrix3Xd::Zero(3, model.num_cgps());
+  push.colwise() += 1e-9 * n;
+  for (int k = 0; k < 10; ++k) {
+    model.substep(dt, push);
+    twin.substep(dt, push);
+  }
+  EXPECT_TRUE(model.positions() == twin.positions());
+  EXPECT_TRUE(model.velocities() == twin.velocities());
+
+  // A state in which one CGP left the plate is refused, in one line.
+  SolidState bent = model.state();
+  bent.positions_bohr.col(7) += 0.1 * n;
+  try {
+    twin.restore(bent);
+    FAIL() << "a bent state must be refused";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("does not move with its plate"), std::string::npos) << e.what();
+    EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos) << "one line";
+  }
+  // Without a spring frequency there is no model.
+  config.spring.frequency_hz = 0.0;
+  EXPECT_THROW(SprungModel{config}, std::invalid_argument);
 }
 
 }  // namespace

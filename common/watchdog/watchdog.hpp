@@ -72,6 +72,9 @@ struct Trip {
   std::int64_t step = 0;  ///< the LB step of the state that tripped it
   /// One line: "watchdog SENTINEL at step N: PLACE: VALUES, limit L; WHAT TO DO".
   std::string diagnosis;
+  /// The diagnosis without its advice (what the sentinel measured), for a caller that knows
+  /// the cause better (fluid/watchdog/solid_audit.hpp); empty when the diagnosis gives none.
+  std::string measurement;
   bool dt_cure = false;  ///< a smaller dt_CG (a larger A_T) may cure it
 };
 

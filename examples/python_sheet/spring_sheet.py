@@ -80,6 +80,10 @@ class SpringSheet(cosim.Solid):
             mean += (1.0 if k + 1 < a_t else 0.5) * self.x
         return mean / a_t, impulse
 
+    def energy_lb(self):                          # kinetic + elastic, rho_air dx^3 c^2 (solid.h5, the energy balance)
+        stretch = np.linalg.norm(self.x[self.b] - self.x[self.a], axis=1) - self.rest
+        return float(0.5 * np.sum(self.mass[:, None] * self.v ** 2) + 0.5 * self.k * np.sum(stretch ** 2))
+
     def save(self):                                # checkpoints: positions and velocities
         return np.concatenate([self.x.ravel(), self.v.ravel()])
 

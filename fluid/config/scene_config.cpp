@@ -11,6 +11,7 @@
 #include "fluid/lattice/d3q19.hpp"
 #include "fluid/domain/decomposition.hpp"
 #include "fluid/lattice/grid_layout.hpp"
+#include "protocol/config/reaction_section.hpp"
 #include "protocol/config/scene_reader.hpp"
 #include "protocol/config/shared_sections.hpp"
 #include "protocol/lcm_url.hpp"
@@ -567,7 +568,10 @@ FluidScene read_scene(const std::string& path) {
   load_fluid(r, s);
   load_held_body(r, s);
   load_output_and_initial(r, s);
-  if (r.coupled()) s.coupling = protocol::config::read_coupling(r);
+  if (r.coupled()) {
+    s.coupling = protocol::config::read_coupling(r);
+    s.reaction_law = protocol::config::read_reaction_law(r, *s.coupling);
+  }
   s.watchdog = protocol::config::read_watchdog(r);
 
   // What the solver itself would refuse; the checks above should have caught all of it.

@@ -14,6 +14,7 @@
 #include "fluid/solver/fluid_solver.hpp"
 #include "protocol/units.hpp"
 #include "protocol/config/coupling_settings.hpp"
+#include "protocol/config/reaction_settings.hpp"
 #include "common/watchdog/watchdog.hpp"
 
 namespace cosim::fluid {
@@ -110,6 +111,9 @@ struct FluidScene {
   /// [watchdog] (common/watchdog/watchdog.hpp; defaults when absent): a fluid-only run uses
   /// health_every and the density bounds, a coupled run every sentinel.
   protocol::WatchdogSettings watchdog;
+  /// The solid's [reaction] law (the solid applies it; the coordinator's audit of the
+  /// solid's impulses reads them by it: fluid/watchdog/solid_audit.hpp).
+  protocol::config::ReactionLaw reaction_law = protocol::config::ReactionLaw::MomentumExchange;
 };
 
 /// Reads and validates a scene file. Unknown keys or sections, wrong types, values out of

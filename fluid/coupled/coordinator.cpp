@@ -141,6 +141,7 @@ void Coordinator::added_mass_check(int time_ratio) {
     return;
   }
   const protocol::AddedMass am = protocol::added_mass(m, a, units_.air_density_kg_m3(), units_.dx_m(), time_ratio);
+  added_mass_ = am;
   const std::string warning = protocol::added_mass_warning(am, s_.watchdog.relaxation_substeps_min, time_ratio);
   if (!warning.empty())
     out_ << "fluid: " << warning << "\n";
@@ -150,6 +151,11 @@ void Coordinator::added_mass_check(int time_ratio) {
          << " substeps (watchdog.relaxation_substeps_min = " << protocol::fmt("%g", s_.watchdog.relaxation_substeps_min)
          << ")\n";
   out_.flush();
+}
+
+double Coordinator::light_cgp_area_lb() const {
+  const double a = solid_hello_ ? solid_hello_->light_cgp_area_m2 : 0.0;
+  return a > 0.0 && std::isfinite(a) ? a / (units_.dx_m() * units_.dx_m()) : 0.0;
 }
 
 /// The line the launcher reads to run again with a larger A_T ([watchdog] retry): the new
@@ -177,6 +183,13 @@ void Coordinator::announce_retry(std::int64_t before, int from, int to) {
 bool Coordinator::subscribe() {
   link_.expect([this] { return expectation(); });
   link_.on_undecodable([this](const std::string& channel, const protocol::MessageHeader& h, const std::string& why) {
+    // A hello_t of this run that does not decode (a solid of another protocol version): the
+    // handshake is refused with the reason after kRejectedCopiesLimit copies, not waited out.
+    if (channel == ch_.hello && !solid_hello_ && !hello_refusal_ &&
+        ++hellos_refused_ >= protocol::kRejectedCopiesLimit)
+      hello_refusal_ = "the solid's hello_t does not decode: " + why +
+                       " (a solid of another protocol version? this fluid speaks protocol " +
+                       std::string(protocol::kProtocolVersion) + ", protocol/README.md)";
     if (channel != ch_.solid_state) return;
     // A copy of this run that does not decode counts toward the three-copies rule of its step.
     cosimlcm::solid_state_t header{};

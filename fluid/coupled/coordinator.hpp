@@ -28,6 +28,7 @@
 #include "fluid/config/scene_config.hpp"
 #include "protocol/handshake.hpp"
 #include "common/run/exit_codes.hpp"
+#include "common/watchdog/watchdog.hpp"
 #include "protocol/session/peer_link.hpp"
 #include "protocol/session/run_phase.hpp"
 #include "protocol/session/state_inbox.hpp"
@@ -107,6 +108,11 @@ class Coordinator {
   void set_first_step(std::int64_t step) { first_step_ = step; }
   std::string counters() const { return protocol::session_counters(link_, inbox_, resends_); }
   const std::string& last_reason() const { return last_reason_; }
+  /// The handshake's added-mass numbers of the lightest CGP; none when the solid does not
+  /// report its CGPs' mass.
+  const std::optional<protocol::AddedMass>& added_mass() const { return added_mass_; }
+  /// dA of the lightest CGP (hello_t), dx^2; 0 when not reported.
+  double light_cgp_area_lb() const;
   /// Where margins and summaries go ("fluid: ..." lines).
   std::ostream& out() { return out_; }
   /// Called by end() before the counters: the watchdog's margins line, when FluidRun has one.
@@ -154,6 +160,7 @@ class Coordinator {
   protocol::ResendCounts resends_;
   std::function<void(std::ostream&)> end_hook_;
   std::string last_reason_;
+  std::optional<protocol::AddedMass> added_mass_;
 };
 
 }  // namespace cosim::fluid

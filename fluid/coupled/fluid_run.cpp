@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <type_traits>
 
+#include "common/text/text.hpp"
 #include "fluid/coupled/coordinator.hpp"
 #include "fluid/lattice/d3q19.hpp"
 #include "fluid/schemes/fluid_scheme.hpp"
@@ -80,7 +81,9 @@ FluidRun::FluidRun(const FluidScene& scene, const CoupledFluidOptions& options, 
       limits_{scene.mach_limit, 0.0, scene.watchdog.rho_min, scene.watchdog.rho_max},
       dt_us_(coordinator.units().dt_lb_s() * 1e6),
       monitor_path_((std::filesystem::path(created(scene.output_dir)) / "monitor.h5").string()),
-      snapshots_(scene, dt_us_), markers_(scene.watchdog, scene.mach_limit, scene.coupling->time_ratio) {
+      snapshots_(scene, dt_us_), markers_(scene.watchdog, scene.mach_limit, scene.coupling->time_ratio),
+      audit_(scene.coupling->rigid_steps, scene.reaction_law == protocol::config::ReactionLaw::MomentumExchange ||
+                                              scene.reaction_law == protocol::config::ReactionLaw::PerSubstepOverTimeRatio) {
   domain_.initialize(s_);
   coord_.on_end([this](std::ostream& out) {
     if (markers_.has_reference()) out << "fluid: watchdog margins: " << markers_.margins() << "\n";
@@ -131,8 +134,13 @@ std::int64_t FluidRun::start(std::optional<int>& failed) {
 
 // ---- the stability watchdog (DESIGN 6; common/watchdog/watchdog.hpp) ----
 
-std::optional<int> FluidRun::check_positions(std::int64_t step, const std::vector<Vec3>& x) {
+std::optional<int> FluidRun::check_positions(std::int64_t step, const std::vector<Vec3>& x,
+                                             const std::vector<Vec3>& j) {
   const Clock::time_point w0 = Clock::now();
+  static const std::vector<double> no_rho;
+  static const std::vector<Vec3> no_u;
+  const bool sampled = sample_step_ == step;
+  audit_.observe(step, x, j, sampled ? sample_rho_ : no_rho, sampled ? sample_u_ : no_u);
   if (const auto t = markers_.check_positions(step, x)) return trip(*t, true, step);
   timing_.watch += std::chrono::duration<double>(Clock::now() - w0).count();
   return std::nullopt;
@@ -142,6 +150,11 @@ std::optional<int> FluidRun::sample_markers(std::int64_t now, const std::vector<
                                             std::vector<MarkerSample>& samples) {
   const std::size_t n = x.size();
   domain_.sample(x, samples);
+  // What fluid_state_t(now) carries, for the audit of the solid's answer to it.
+  sample_step_ = now;
+  sample_rho_.resize(n);
+  sample_u_.resize(n);
+  for (std::size_t l = 0; l < n; ++l) sample_rho_[l] = samples[l].rho, sample_u_[l] = samples[l].u;
   // rho_l over the kernel's weight in the fluid: the density the kernel sees, also at a
   // marker on the wall (half the kernel outside).
   const Clock::time_point w1 = Clock::now();
@@ -182,7 +195,8 @@ int FluidRun::unhealthy(const std::string& problem, std::int64_t step) {
 /// `checkpoint_state` and that state is healthy (else the latest periodic one stands), the
 /// retry advice for the launcher, and stop_t(3) to the solid. Nothing of the tripped state
 /// is written.
-int FluidRun::trip(const protocol::Trip& t, bool checkpoint_state, std::int64_t step) {
+int FluidRun::trip(const protocol::Trip& tripped, bool checkpoint_state, std::int64_t step) {
+  const protocol::Trip t = blame(tripped);
   std::string reason = t.diagnosis;
   if (checkpoint_state && step >= 1 && step > coord_.first_step()) {
     const std::string problem = health_problem(*domain_.summary(), limits_);
@@ -191,6 +205,24 @@ int FluidRun::trip(const protocol::Trip& t, bool checkpoint_state, std::int64_t 
   }
   if (t.dt_cure) coord_.announce_retry(step, s_.coupling->time_ratio, 0);
   return coord_.stop_and_end({exit_code::unhealthy, reason, false}, step);
+}
+
+/// A sentinel on the markers whose cause the exchanged data show to be the solid's
+/// (fluid/watchdog/solid_audit.hpp): its measurement and the solid named, no advice about
+/// dt_CG, the inlet or the grid, unless the handshake's added-mass check measured that the
+/// substeps do not resolve the fluid's reaction (then a smaller dt_CG may cure it).
+protocol::Trip FluidRun::blame(const protocol::Trip& t) const {
+  if (t.measurement.empty()) return t;
+  const auto am = coord_.added_mass();
+  const auto why = audit_.blame(coord_.light_cgp_area_lb());
+  if (!why) return t;
+  protocol::Trip b = t;
+  b.diagnosis = t.measurement + "; " + *why;
+  b.dt_cure = am && am->relaxation_substeps < s_.watchdog.relaxation_substeps_min;
+  if (b.dt_cure)
+    b.diagnosis += "; but the substeps do not resolve the fluid's reaction on the lightest CGP (T = " +
+                   protocol::fmt("%.3g", am->relaxation_substeps) + " substeps): a smaller dt_CG may cure it";
+  return b;
 }
 
 std::optional<int> FluidRun::step_outputs(std::int64_t now, bool last, bool periodic) {

@@ -19,6 +19,7 @@
 #include "fluid/config/scene_config.hpp"
 #include "fluid/io/snapshots.hpp"
 #include "fluid/watchdog/marker_watch.hpp"
+#include "fluid/watchdog/solid_audit.hpp"
 #include "common/run/progress.hpp"
 #include "common/run/exit_codes.hpp"
 #include "common/watchdog/watchdog.hpp"
@@ -68,8 +69,10 @@ class FluidRun {
 
   // ---- the watchdog (DESIGN 6; common/watchdog/watchdog.hpp) ----
   /// How far each marker moved, how far apart they are (before the fluid at `step` is
-  /// touched: it is kept, if healthy, as the checkpoint of a trip). The exit code of a trip.
-  std::optional<int> check_positions(std::int64_t step, const std::vector<Vec3>& x);
+  /// touched: it is kept, if healthy, as the checkpoint of a trip); the markers X_l and
+  /// impulses J_l go to the audit of the solid that a trip's diagnosis consults
+  /// (fluid/watchdog/solid_audit.hpp). The exit code of a trip.
+  std::optional<int> check_positions(std::int64_t step, const std::vector<Vec3>& x, const std::vector<Vec3>& j);
   protocol::MarkerWatch& markers() { return markers_; }
   /// The flow_health sentinel every watchdog.health_every steps on the state `step` that
   /// the kernel just read, from its extrema; the exit code of a trip.
@@ -108,6 +111,7 @@ class FluidRun {
  private:
   int unhealthy(const std::string& problem, std::int64_t step);
   int trip(const protocol::Trip& t, bool checkpoint_state, std::int64_t step);
+  protocol::Trip blame(const protocol::Trip& t) const;
   std::int64_t restore(std::optional<cosimlcm::fluid_state_t>& in_flight);
   protocol::CheckpointIdentity identity() const;
 
@@ -125,6 +129,11 @@ class FluidRun {
   std::optional<MonitorLog> log_;  ///< created at step 0, or once a restart's checkpoint is read
   Snapshots snapshots_;
   protocol::MarkerWatch markers_;  ///< the watchdog's per-step sentinels (DESIGN 6)
+  protocol::SolidAudit audit_;     ///< whether a trip is the solid's fault
+  /// The samples of the last fluid_state_t published (its step, rho_l, u_l), for the audit.
+  std::int64_t sample_step_ = -1;
+  std::vector<double> sample_rho_;
+  std::vector<Vec3> sample_u_;
   StepTiming timing_;
   double bulk_u_ = 0.0;            ///< U_b of the latest health check (Eq. 34), lattice units
   double mass0_ = 0.0;             ///< the fluid's mass at step 0 (for the drift)

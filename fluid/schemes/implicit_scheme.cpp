@@ -147,7 +147,7 @@ int ImplicitFluidScheme::run(Coordinator& coord, FluidRun& run, std::int64_t fir
       ++redone_steps_;
     }
     iteration = m.iteration;
-    if (auto code = run.check_positions(step, x)) return *code;
+    if (auto code = run.check_positions(step, x, j)) return *code;
     fluid.sample(x, start_samples);  // the fluid before the step at X_l
     fluid.spread(x, j);                         // Eqs. 21-24 and 25-26
     fluid.step();

@@ -61,7 +61,7 @@ int SerialFluidScheme::run(Coordinator& coord, FluidRun& run, std::int64_t first
     }
     // The watchdog on the markers (DESIGN 6): how far each moved, how far apart they are.
     // The fluid at `step` is not touched yet: it is kept, if healthy, as the checkpoint.
-    if (auto code = run.check_positions(step, x)) return *code;
+    if (auto code = run.check_positions(step, x, j)) return *code;
     if (step == 0 && publishes(0)) {
       // The parallel scheme's first interval (dynamic from step 1) is driven by the fluid
       // at step 0, sampled at the initial X_l (Eq. 17) and published before the first step.

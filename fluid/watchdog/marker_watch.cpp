@@ -59,12 +59,13 @@ std::optional<Trip> MarkerWatch::check_positions(std::int64_t step, const std::v
       t.sentinel = "cgp_speed";
       t.step = step;
       t.dt_cure = true;
-      t.diagnosis = head("cgp_speed", step) + "CGP " + std::to_string(l) + " at " + at(x[l]) +
-                    " moved " + fmt("%.4g", d) + " dx in one LB step (" + fmt("%.4g", d / time_ratio_) +
-                    " dx per substep at A_T = " + std::to_string(time_ratio_) + "; speed " +
-                    fmt("%.4g", d) + " c = Mach " + fmt("%.3g", d * std::sqrt(3.0)) +
-                    "), above watchdog.max_cgp_speed = " + fmt("%.4g", s_.max_cgp_speed) +
-                    " c; a solid integration that diverges (a smaller dt_CG may cure it) or a "
+      t.measurement = head("cgp_speed", step) + "CGP " + std::to_string(l) + " at " + at(x[l]) +
+                      " moved " + fmt("%.4g", d) + " dx in one LB step (" + fmt("%.4g", d / time_ratio_) +
+                      " dx per substep at A_T = " + std::to_string(time_ratio_) + "; speed " +
+                      fmt("%.4g", d) + " c = Mach " + fmt("%.3g", d * std::sqrt(3.0)) +
+                      "), above watchdog.max_cgp_speed = " + fmt("%.4g", s_.max_cgp_speed) + " c";
+      t.diagnosis = t.measurement +
+                    "; a solid integration that diverges (a smaller dt_CG may cure it) or a "
                     "flow faster than the lattice allows";
       return t;
     }
@@ -112,10 +113,11 @@ std::optional<Trip> MarkerWatch::check_samples(std::int64_t step, const std::vec
       Trip t;
       t.sentinel = "marker_density";
       t.step = step;
-      t.diagnosis = head("marker_density", step) + where + ": " +
-                    (finite ? "rho = " + fmt("%.6g", rho[l]) + " outside [" + fmt("%.4g", s_.rho_min) +
-                                  ", " + fmt("%.4g", s_.rho_max) + "] (watchdog.rho_min, rho_max)"
-                            : std::string("rho or u is not finite")) +
+      t.measurement = head("marker_density", step) + where + ": " +
+                      (finite ? "rho = " + fmt("%.6g", rho[l]) + " outside [" + fmt("%.4g", s_.rho_min) +
+                                    ", " + fmt("%.4g", s_.rho_max) + "] (watchdog.rho_min, rho_max)"
+                              : std::string("rho or u is not finite"));
+      t.diagnosis = t.measurement +
                     "; the lattice's weak compressibility is gone there (a slower flow, a larger "
                     "tau, or a finer grid)";
       return t;
@@ -126,9 +128,9 @@ std::optional<Trip> MarkerWatch::check_samples(std::int64_t step, const std::vec
       Trip t;
       t.sentinel = "marker_mach";
       t.step = step;
-      t.diagnosis = head("marker_mach", step) + where + ": |u| = " + fmt("%.4g", speed) + " c, Mach " +
-                    fmt("%.4g", mach) + " above run.mach_limit = " + fmt("%.4g", mach_limit_) +
-                    " (a slower inlet or a finer grid)";
+      t.measurement = head("marker_mach", step) + where + ": |u| = " + fmt("%.4g", speed) + " c, Mach " +
+                      fmt("%.4g", mach) + " above run.mach_limit = " + fmt("%.4g", mach_limit_);
+      t.diagnosis = t.measurement + " (a slower inlet or a finer grid)";
       return t;
     }
   }

@@ -5,11 +5,14 @@
 //   start(self, scene) -> (positions, areas)       numpy (N, 3) in dx and (N,) in dx^2
 //   step(self, step, rho, u) -> (positions, impulses)   rho (N,), u (N, 3) -> two (N, 3)
 //   stable_dt_cg_s(self) -> float                  optional (default: no limit)
+//   energy_lb(self) -> float                       optional: kinetic + elastic energy in
+//                                                  rho_air dx^3 c^2 (default: NaN, none)
 //   save(self) -> 1-d array; restore(self, state)   optional checkpoints (default: none)
 //
 // and runs with sys.exit(cosim.run(MySolid())) (argv defaults to sys.argv): the library
 // does the rest, as for a C++ solid. Arrays are row-major (N, 3), one row per marker; a
-// ValueError raised in start() ends the run with exit code 2, any other exception with 1.
+// ValueError raised in start() ends the run with exit code 2, an answer of the wrong shape
+// with 3 (as from C++), any other exception with 1.
 #include <pybind11/eigen.h>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
@@ -96,13 +99,22 @@ class PySolid : public Solid {
     py::array_t<double> rho(py::ssize_t(in.rho_lb.size()), in.rho_lb.data());
     const py::object r = f(in.step, rho, rows_of(in.velocity_lb));
     const auto [x, j] = pair_of(r, "step()");
+    // An array of the wrong shape is a mis-sized answer (exit code 3, as from C++).
+    const auto sized = [&](const py::object& o, const std::string& what) {
+      try {
+        return matrix_of(o, n_, what);
+      } catch (const std::runtime_error& e) {
+        throw std::length_error(e.what());
+      }
+    };
     Answer a;
-    a.position_lb = matrix_of(x, n_, "step(): positions");
-    a.impulse_lb = matrix_of(j, n_, "step(): impulses");
+    a.position_lb = sized(x, "step(): positions");
+    a.impulse_lb = sized(j, "step(): impulses");
     return a;
   }
 
   double stable_dt_cg_s() const override { PYBIND11_OVERRIDE(double, Solid, stable_dt_cg_s, ); }
+  double energy_lb() const override { PYBIND11_OVERRIDE(double, Solid, energy_lb, ); }
   std::vector<double> save() const override { PYBIND11_OVERRIDE(std::vector<double>, Solid, save, ); }
   void restore(const std::vector<double>& state) override {
     try {
@@ -150,6 +162,7 @@ PYBIND11_MODULE(cosim, m) {
   py::class_<Solid, PySolid>(m, "Solid", "Derive from it: model(), start(scene), step(step, rho, u)")
       .def(py::init<>())
       .def("stable_dt_cg_s", &Solid::stable_dt_cg_s)
+      .def("energy_lb", &Solid::energy_lb)
       .def("save", &Solid::save)
       .def("restore", &Solid::restore);
 

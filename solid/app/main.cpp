@@ -353,7 +353,7 @@ int run(const SolidScene& s, SolidModel& model, bool quiet) {
 
   if (s.mode == SolidRunMode::Free && s.tip_displacement_bohr != 0.0) {
     if (dynamic)
-      apply_initial_deflection(s.config, s.tip_displacement_bohr, model);
+      apply_initial_deflection(s.config, s.tip_displacement_bohr, s.deflection_shape, model);
     else
       std::printf("  note     model \"%s\" has no dynamics: the perturbation is not applied\n",
                   s.model.c_str());

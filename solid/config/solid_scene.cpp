@@ -68,7 +68,7 @@ std::vector<SectionSchema> schema() {
         "leading_edge", "atoms_per_cgp"},
        true},
       {"run", {"mode", "substeps", "dt_s", "record_every"}, false, Use::Standalone},
-      {"perturbation", {"tip_displacement_um"}},
+      {"perturbation", {"tip_displacement_um", "shape"}},
       {"load", {"pressure_Pa", "damping_ratio"}, false, Use::Standalone},
       {"output"},
       {"grid", {}, false, Use::Coupled},
@@ -284,6 +284,13 @@ double read_tip_displacement(const Table& pert) {
   return *a * kMicrometre / PhysicalConstants::bohr_m;
 }
 
+/// [perturbation] shape (optional): "cantilever" (default) or "translation".
+DeflectionShape read_deflection_shape(const Table& pert) {
+  if (const auto v = pert.choice("shape", {"cantilever", "translation"}))
+    return *v == 0 ? DeflectionShape::Cantilever : DeflectionShape::Translation;
+  return DeflectionShape::Cantilever;
+}
+
 void load_mode_sections(const SceneReader& r, SolidScene& s) {
   const Table pert = r.section("perturbation");
   const Table load = r.section("load");
@@ -301,6 +308,7 @@ void load_mode_sections(const SceneReader& r, SolidScene& s) {
       r.fail(0, "[perturbation]: missing; run.mode = \"free\" needs [perturbation] with "
                 "tip_displacement_um (or [solid] gravity_m_s2, to release the flat sheet under gravity)");
     s.tip_displacement_bohr = read_tip_displacement(pert);
+    s.deflection_shape = read_deflection_shape(pert);
   } else {
     if (!load.present())
       r.fail(0, "[load]: missing; run.mode = \"static\" needs [load] with pressure_Pa");
@@ -331,8 +339,10 @@ SolidScene read_solid_scene(const std::string& path) {
     s.watchdog = protocol::config::read_watchdog(r);
     s.reaction_law = protocol::config::read_reaction_law(r, *s.coupling);
     // A coupled release from a held deflection (in still air or in flow): optional.
-    if (const Table pert = r.section("perturbation"); pert.present())
+    if (const Table pert = r.section("perturbation"); pert.present()) {
       s.tip_displacement_bohr = read_tip_displacement(pert);
+      s.deflection_shape = read_deflection_shape(pert);
+    }
     s.dt_s = protocol::UnitConverter(s.unit_inputs()).dt_cg_s();  // dt_CG = dt_LB / A_T
     s.dt_is_default = true;
     s.substeps = 0;
@@ -368,6 +378,18 @@ double cantilever_load_shape(double s) { return (6.0 * s * s - 4.0 * s * s * s +
 
 SolidScene load_solid_scene(const std::string& path) {
   return protocol::config::rethrow_as<SolidSceneError>([&] { return read_solid_scene(path); });
+}
+
+std::vector<std::string> model_sections_present(const std::string& path) {
+  const SceneReader r(path, protocol::config::Process::Solid);
+  std::vector<std::string> names = {"solid", "contact", "material", "perturbation"};
+  for (const SolidModelEntry& m : solid_models())
+    for (const ModelOptions* o : m.options)
+      if (std::find(names.begin(), names.end(), o->section) == names.end()) names.emplace_back(o->section);
+  std::vector<std::string> present;
+  for (const std::string& n : names)
+    if (r.section(n).present()) present.push_back("[" + n + "]");
+  return present;
 }
 
 void apply_overrides(SolidScene& s, const SolidSceneOverrides& o) {

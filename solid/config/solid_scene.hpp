@@ -10,6 +10,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <vector>
 #include <string_view>
 
 #include "protocol/units.hpp"
@@ -25,6 +26,12 @@ namespace cosim::solid {
 class SolidSceneError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
+};
+
+/// The shape of a held deflection ([perturbation] shape; solid/coupled/initial_deflection.hpp).
+enum class DeflectionShape {
+  Cantilever,   ///< a uniformly loaded cantilever's, tip_displacement_um at the top row
+  Translation,  ///< every CGP moved by tip_displacement_um (a plate on a spring)
 };
 
 /// What a standalone run does.
@@ -72,6 +79,8 @@ struct SolidScene {
   /// gravity_m_s2: 0 without it, the flat sheet released at rest): normal displacement of
   /// the top row at step 0, bohr (solid/coupled/initial_deflection.hpp).
   double tip_displacement_bohr = 0.0;
+  /// [perturbation] shape: how the rows below the top one are displaced.
+  DeflectionShape deflection_shape = DeflectionShape::Cantilever;
   /// [load] (mode Static): uniform normal pressure (Pa) and the damping ratio zeta of the
   /// dynamic relaxation (damping force -2 zeta omega_1 m v).
   double pressure_Pa = 0.0;
@@ -114,6 +123,12 @@ struct SolidScene {
 /// fluid, unread; [perturbation] is optional (the sheets start deflected and at rest, held
 /// through the rigid steps, then released); [load] belongs to standalone runs and is refused.
 SolidScene load_solid_scene(const std::string& path);
+
+/// The sections of the scene at `path` that only the solid server's models read ([solid],
+/// [contact], [material], [perturbation] and the models' own option sections), in that
+/// order, as "[name]": what a solid from outside (the solid library) leaves unread.
+/// @pre load_solid_scene(path) succeeded
+std::vector<std::string> model_sections_present(const std::string& path);
 
 /// Command-line overrides of [run] substeps (standalone), [output] directory, and
 /// [coupling] channel_prefix, lcm_url and time_ratio (coupled); validated with the rules of the file and

@@ -55,7 +55,7 @@ std::optional<Ending> SolidRun::build() {
   // [perturbation]: the sheets start deflected and at rest (step 0's positions), held so
   // through the rigid steps, then released. A model without dynamics stays as built.
   if (s_.tip_displacement_bohr != 0.0 && std::isfinite(model_->stable_time_step()))
-    apply_initial_deflection(s_.config, s_.tip_displacement_bohr, *model_);
+    apply_initial_deflection(s_.config, s_.tip_displacement_bohr, s_.deflection_shape, *model_);
   coupler_ = std::make_unique<SolidCoupler>(*model_, units_, marker_areas_lb(s_.config.sheets, units_),
                                             solid_origin_lb());
   // The watchdog (DESIGN 6; common/watchdog/watchdog.hpp): a CGP's speed after every substep, the
@@ -137,8 +137,10 @@ void SolidRun::print_header(std::ostream& out, const std::string& channel_prefix
     out << "  reaction law " << protocol::config::reaction_law_name(s_.reaction_law)
         << " ([reaction]; solid/coupling/reaction_law.hpp), not the momentum-exchange default\n";
   if (s_.tip_displacement_bohr != 0.0)
-    out << "  initial  tip deflection " << fmt("%.6g", um_from_bohr(s_.tip_displacement_bohr))
-        << " um along each sheet's normal, at rest ([perturbation]; a uniformly loaded cantilever's shape)"
+    out << "  initial  " << (s_.deflection_shape == DeflectionShape::Translation ? "displacement " : "tip deflection ")
+        << fmt("%.6g", um_from_bohr(s_.tip_displacement_bohr)) << " um along each sheet's normal, at rest ([perturbation]; "
+        << (s_.deflection_shape == DeflectionShape::Translation ? "every CGP translated" : "a uniformly loaded cantilever's shape")
+        << ")"
         << (std::isfinite(stable) ? std::string() : std::string(": not applied, the model has no dynamics"))
         << "\n";
   out << "  coupling channels " << channel_prefix << "*, LCM " << c_.lcm_url

@@ -6,6 +6,7 @@
 #include "solid/models/elastic_sheet/elastic_sheet_model.hpp"
 #include "solid/models/elastic_sheet/elastic_sheet_options.hpp"
 #include "solid/models/rigid/rigid_model.hpp"
+#include "solid/models/sprung/sprung_model.hpp"
 
 namespace cosim::solid {
 
@@ -27,11 +28,14 @@ std::unique_ptr<SolidModel> make_corotational(const SolidConfig& config) {
 constexpr std::array kElasticSheetOptions{&kRcgpOptions, &kContactOptions, &kBodyForceOptions,
                                           &kMaterialOptions};
 
+constexpr std::array kSprungOptions{&kSpringOptions};
+
 // The registry: add a model here, and only here (name, factory, the options it reads).
 constexpr std::array kSolidModels{
     SolidModelEntry{ElasticSheetModel::kRcgpName, &make_rcgp, kElasticSheetOptions},
     SolidModelEntry{RigidModel::kName, &make<RigidModel>},
     SolidModelEntry{ElasticSheetModel::kCorotationalName, &make_corotational, kElasticSheetOptions},
+    SolidModelEntry{SprungModel::kName, &make<SprungModel>, kSprungOptions},
 };
 
 }  // namespace

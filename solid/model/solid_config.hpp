@@ -65,6 +65,12 @@ struct BodyForceOptions {
   Eigen::Vector3d gravity_m_s2 = Eigen::Vector3d::Zero();
 };
 
+/// The spring of the `sprung` model (solid/models/sprung/sprung_model.hpp): each sheet a
+/// rigid plate that translates along its normal with this frequency in vacuum.
+struct SpringOptions {
+  double frequency_hz = 0.0;  ///< 0: unset (the model refuses it)
+};
+
 /// The CGPs of all sheets form one array: sheet 0's CGPs first (in SheetSpec index order),
 /// then sheet 1's, and so on.
 struct SolidConfig {
@@ -72,6 +78,7 @@ struct SolidConfig {
   RcgpOptions rcgp;
   ContactOptions contact;
   BodyForceOptions body;
+  SpringOptions spring;
   /// [material]: the sheets are of this continuum material (solid/models/elastic_sheet/sheet_material.hpp), the
   /// plane-strain bar's constants instead of the RCGP construction's, and each CGP's mass
   /// rho h times its cell; unset: graphene (rcgp).

@@ -3,12 +3,16 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <utility>
 
 #include "common/text/text.hpp"
 
 namespace cosim::protocol {
 
-EnergyWatch::EnergyWatch(double growth, double floor) : growth_(growth), floor_(floor) {}
+EnergyWatch::EnergyWatch(double growth, double floor) : EnergyWatch(growth, floor, Wording{}) {}
+
+EnergyWatch::EnergyWatch(double growth, double floor, Wording wording)
+    : growth_(growth), floor_(floor), w_(std::move(wording)) {}
 
 std::optional<Trip> EnergyWatch::check(std::int64_t step, double energy, double work) {
   if (!st_.started) {
@@ -22,16 +26,17 @@ std::optional<Trip> EnergyWatch::check(std::int64_t step, double energy, double 
   if (std::isfinite(unexplained / scale)) max_ratio_ = std::max(max_ratio_, unexplained / scale);
   if (!std::isfinite(energy) || !std::isfinite(work) || unexplained > growth_ * scale) {
     Trip t;
-    t.sentinel = "energy_growth";
+    t.sentinel = w_.sentinel;
     t.step = step;
-    t.dt_cure = true;
-    t.diagnosis = "watchdog energy_growth at step " + std::to_string(step) + ": the sheets' energy " +
-                  fmt("%.4g", energy) + " J is " + fmt("%.4g", unexplained) +
-                  " J more than E(0) + the fluid's work explain (" + fmt("%.4g", st_.energy0) + " + " +
-                  fmt("%.4g", w) + " J), " + fmt("%.3g", unexplained / scale) +
-                  " times the energy scale so far " + fmt("%.4g", scale) +
-                  " J, above watchdog.energy_growth = " + fmt("%.4g", growth_) +
-                  ": a force the substeps do not resolve (a smaller dt_CG may cure it)";
+    t.dt_cure = w_.dt_cure;
+    const std::string unit = " " + w_.unit;
+    t.diagnosis = "watchdog " + w_.sentinel + " at step " + std::to_string(step) + ": " + w_.subject + " " +
+                  fmt("%.4g", energy) + unit + " is " + fmt("%.4g", unexplained) + unit +
+                  " more than E(0) + the fluid's work explain (" + fmt("%.4g", st_.energy0) + " + " +
+                  fmt("%.4g", w) + unit + "), " + fmt("%.3g", unexplained / scale) +
+                  " times the energy scale so far " + fmt("%.4g", scale) + unit + ", above " +
+                  (w_.sentinel == "energy_growth" ? "watchdog.energy_growth = " : "") + fmt("%.4g", growth_) +
+                  ": " + w_.cause;
     return t;
   }
   st_.work = w;

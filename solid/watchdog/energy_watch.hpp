@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <optional>
+#include <string>
 
 #include "common/watchdog/watchdog.hpp"
 
@@ -21,14 +22,26 @@ namespace cosim::protocol {
 /// everything the run has seen.
 class EnergyWatch {
  public:
+  /// How a trip reads: the sentinel's name, what the energy is of, its unit, the cause and
+  /// whether a smaller dt_CG may cure it. The defaults are the solid server's (its work is
+  /// each substep's power, so what it does not explain is the substeps' doing).
+  struct Wording {
+    std::string sentinel = "energy_growth";
+    std::string subject = "the sheets' energy";
+    std::string unit = "J";
+    std::string cause = "a force the substeps do not resolve (a smaller dt_CG may cure it)";
+    bool dt_cure = true;
+  };
+
   /// @param growth  watchdog.energy_growth
   /// @param floor   the smallest energy scale (the sheets at rest have none): tiny, positive
   EnergyWatch(double growth, double floor);
+  EnergyWatch(double growth, double floor, Wording wording);
 
   /// The first call takes E(0); later calls add the interval's work and check.
   /// @param energy  E after the interval of `step`
   /// @param work    the fluid's work on the CGPs over that interval
-  /// @post a Trip "energy_growth" (dt_cure) when tripped; the state is not advanced then
+  /// @post a Trip (wording's sentinel, dt_cure) when tripped; the state is not advanced then
   std::optional<Trip> check(std::int64_t step, double energy, double work);
 
   /// What a checkpoint keeps: E(0), the work so far, the work in either direction, the
@@ -44,6 +57,7 @@ class EnergyWatch {
 
  private:
   double growth_, floor_;
+  Wording w_;
   State st_;
   double max_ratio_ = 0.0;
 };

@@ -115,11 +115,22 @@ class COSIM_SDK_API Solid {
   /// The markers at the start of the run (called once, after the scene is read). The
   /// scene's markers (scene.position_lb, scene.area_lb) unless the solid has its own.
   virtual Markers start(const Scene& scene) = 0;
-  /// One LB step: A_T substeps of dt = 1 / A_T (in dt_LB) with the sample frozen.
+  /// One LB step: A_T substeps of dt = 1 / A_T (in dt_LB) with the sample frozen. An answer
+  /// of the wrong size ends the run with exit code 3, as a non-finite one does (a
+  /// std::length_error thrown here counts as such: the Python binding's, for an array of
+  /// the wrong shape); any other exception with exit code 1.
   virtual Answer step(const Interval& in) = 0;
   /// The largest stable substep in seconds (hello_t; the fluid refuses a dt_CG above it);
   /// +infinity: no limit.
   virtual double stable_dt_cg_s() const { return std::numeric_limits<double>::infinity(); }
+  /// Optional: the solid's mechanical energy (kinetic + elastic + whatever it stores) after
+  /// its last step, in lattice units rho_air dx^3 c^2 (= rho_air dx^5 / dt_LB^2); NaN (the
+  /// default): not reported. Called after start() and after every step(). When reported,
+  /// the library writes it to OUTPUT/solid.h5 (total_energy_J) and checks the energy
+  /// balance: the energy gained may not exceed the fluid's work on the markers by more than
+  /// half the energy scale (protocol/README.md 15; a trip ends the run with exit code 3,
+  /// naming the solid's energy and the work).
+  virtual double energy_lb() const { return std::numeric_limits<double>::quiet_NaN(); }
 
   /// Optional checkpoints (DESIGN 2.4): the solid's whole state after its last step, as
   /// numbers. The library writes it with the fluid's, every [coupling] checkpoint_every LB

@@ -1,0 +1,56 @@
+#include "sdk/solid_series.hpp"
+
+#include <hdf5.h>
+
+#include <cmath>
+#include <utility>
+
+#include "common/hdf5/hdf5_handle.hpp"
+#include "common/hdf5/hdf5_quiet.hpp"
+#include "common/run/provenance_h5.hpp"
+#include "solid/io/solid_h5.hpp"
+
+namespace cosim::sdk {
+
+SolidSeries::SolidSeries(const protocol::UnitConverter& units, std::string model, Eigen::Index markers)
+    : units_(units), model_(std::move(model)), n_(markers) {}
+
+void SolidSeries::add(std::int64_t step, const Eigen::Matrix3Xd& x, const Eigen::Matrix3Xd& j, double energy_lb,
+                      double work_lb) {
+  steps_.push_back(step);
+  time_s_.push_back(static_cast<double>(step) * units_.dt_lb_s());
+  const double um = units_.dx_m() * 1e6, newton = units_.force_lb_N();
+  for (Eigen::Index l = 0; l < n_; ++l)
+    for (int c = 0; c < 3; ++c) {
+      x_um_.push_back(x(c, l) * um);
+      force_N_.push_back(-j(c, l) * newton);
+    }
+  // rho_air dx^3 c^2 in joules.
+  const double c = units_.lattice_speed_m_s();
+  const double joule = units_.air_density_kg_m3() * std::pow(units_.dx_m(), 3) * c * c;
+  energy_ = energy_ || std::isfinite(energy_lb);
+  energy_J_.push_back(energy_lb * joule);
+  work_J_.push_back(work_lb * joule);
+}
+
+void SolidSeries::write(const std::string& path) const {
+  using protocol::H5Id;
+  const protocol::H5Quiet quiet;
+  const std::string what = "cannot write " + path;
+  H5Id file(H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose, what);
+  const hsize_t n = steps_.size(), m = static_cast<hsize_t>(n_);
+  solid::write_dataset(file.get(), "step", H5T_STD_I64LE, H5T_NATIVE_INT64, {n}, steps_.data());
+  solid::write_dataset(file.get(), "time_s", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n}, time_s_.data());
+  solid::write_dataset(file.get(), "marker_position_um", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n, m, 3}, x_um_.data());
+  solid::write_dataset(file.get(), "marker_force_N", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n, m, 3}, force_N_.data());
+  if (energy_) {
+    solid::write_dataset(file.get(), "total_energy_J", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n}, energy_J_.data());
+    solid::write_dataset(file.get(), "fluid_work_J", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n}, work_J_.data());
+  }
+  solid::write_attribute(file.get(), "model", model_);
+  solid::write_attribute(file.get(), "num_markers", static_cast<double>(n_));
+  protocol::stamp_file(file.get());
+  file.close(what);
+}
+
+}  // namespace cosim::sdk
