@@ -25,12 +25,34 @@ TEST(SheetInAir, FreeDecayMatchesSader) {
       "/usr/bin/python3 " + cosim::test::quoted((kSource / "launch" / "free_decay_study.py").string()) +
           " --out " + cosim::test::quoted(out.string()) +
           " --cases heavy --resolutions 0.2561 --boxes small --t-end-us 1.9"
-          " --tolerance t_cross1=0.05,t_cross2=0.05,freq=0.05,undershoot=0.15",
+          " --tolerance t_cross1=0.05,t_cross2=0.05,freq=0.05,undershoot=0.15,zeta=0.25",
       out / "logs");
   std::printf("%s%s", r.out.c_str(), r.err.c_str());
   EXPECT_EQ(r.status, 0) << r.err;
-  for (const char* k : {"t_cross1", "t_cross2", "freq", "undershoot"})
+  for (const char* k : {"t_cross1", "t_cross2", "freq", "undershoot", "zeta"})
     EXPECT_NE(r.out.find(std::string("0.2561 small: ") + k), std::string::npos) << k << " not checked";
+}
+
+// Sader's own problem (docs/validation.md, "The strip limit"): a rigid strip of the paper's
+// width and mass per area on a spring at the paper's sheet's vacuum frequency (the `sprung`
+// model), periodic along its length (L/b infinite), far from any wall, released from a
+// translation. At dx 0.128 um (the sheet as 10 x 8 CGPs) in the x2 box the coupling meets the
+// strip theory within 1.2 %; at 0.2561 um within 5 %, at 0.5122 um it misses by 14-32 %.
+// Run to 0.6 us: past the undershoot (at 0.46 us), which is all the checks read.
+TEST(SheetInAir, SlenderSheetFreeDecayMatchesSader) {
+  const fs::path out = fs::path(::testing::TempDir()) / "cosim_slender_free_decay";
+  fs::remove_all(out);
+  const cosim::test::RunResult r = cosim::test::run_command(
+      "/usr/bin/python3 " + cosim::test::quoted((kSource / "launch" / "free_decay_study.py").string()) +
+          " --out " + cosim::test::quoted(out.string()) +
+          " --cases paper --resolutions 0.128 --boxes x2 --aspects strip --sheet-refine 2"
+          " --t-end-us 0.6 --tolerance t_cross1=0.05,undershoot=0.05,zeta=0.10",
+      out / "logs");
+  std::printf("%s%s", r.out.c_str(), r.err.c_str());
+  EXPECT_EQ(r.status, 0) << r.err;
+  for (const char* k : {"t_cross1", "undershoot", "zeta"})
+    EXPECT_NE(r.out.find(std::string("strip (L/b infinite): ") + k), std::string::npos)
+        << k << " not checked";
 }
 
 }  // namespace

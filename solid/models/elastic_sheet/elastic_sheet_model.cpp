@@ -12,6 +12,7 @@
 
 #include "protocol/units.hpp"
 #include "solid/rcgp/rcgp_cache.hpp"
+#include "solid/model/model_checks.hpp"
 #include "solid/model/velocity_verlet.hpp"
 
 namespace cosim::solid {
@@ -174,11 +175,7 @@ double ElasticSheetModel::potential_energy(const Eigen::Matrix3Xd& x) {
 }
 
 void ElasticSheetModel::substep(double dt, const Eigen::Matrix3Xd& external_forces) {
-  if (!(dt > 0.0) || !std::isfinite(dt))
-    fail(__LINE__, "a substep needs a positive, finite dt; got " + std::to_string(dt));
-  if (external_forces.cols() != num_cgps())
-    fail(__LINE__, "external forces for " + std::to_string(external_forces.cols()) +
-                       " CGPs handed to a model of " + std::to_string(num_cgps()) + " CGPs");
+  check_substep_args(dt, external_forces, num_cgps());
   f_ext_ = external_forces;
   velocity_verlet_substep(x_, v_, inv_mass_, f_int_, f_ext_, dt,
                           [this](const Eigen::Matrix3Xd& x, Eigen::Matrix3Xd& f) {
@@ -293,16 +290,7 @@ std::string ElasticSheetModel::rcgp_report() const {
 SolidState ElasticSheetModel::state() const { return {std::string(name()), x_, v_, f_ext_}; }
 
 void ElasticSheetModel::restore(const SolidState& state) {
-  if (state.model != name())
-    fail(__LINE__, "cannot restore the " + std::string(name()) +
-                       " model from a checkpoint of model \"" + state.model + "\"");
-  if (state.positions_bohr.cols() != num_cgps() || state.velocities_au.cols() != num_cgps() ||
-      state.external_forces_au.cols() != num_cgps())
-    fail(__LINE__, "the checkpoint holds " + std::to_string(state.positions_bohr.cols()) +
-                       " CGPs; this scene's sheets have " + std::to_string(num_cgps()));
-  if (!state.positions_bohr.allFinite() || !state.velocities_au.allFinite() ||
-      !state.external_forces_au.allFinite())
-    fail(__LINE__, "the checkpoint holds a non-finite position, velocity or force");
+  check_state_shape(name(), state, num_cgps());
   x_ = state.positions_bohr;
   v_ = state.velocities_au;
   f_ext_ = state.external_forces_au;

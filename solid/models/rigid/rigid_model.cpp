@@ -5,6 +5,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "solid/model/model_checks.hpp"
+
 namespace cosim::solid {
 
 namespace {
@@ -34,11 +36,7 @@ RigidModel::RigidModel(const SolidConfig& config) : config_(config) {
 double RigidModel::stable_time_step() const { return std::numeric_limits<double>::infinity(); }
 
 void RigidModel::substep(double dt, const Eigen::Matrix3Xd& external_forces) {
-  if (!(dt > 0.0) || !std::isfinite(dt))
-    fail(__LINE__, "a substep needs a positive, finite dt; got " + std::to_string(dt));
-  if (external_forces.cols() != num_cgps())
-    fail(__LINE__, "external forces for " + std::to_string(external_forces.cols()) +
-                       " CGPs handed to a model of " + std::to_string(num_cgps()) + " CGPs");
+  check_substep_args(dt, external_forces, num_cgps());
   external_forces_ = external_forces;
 }
 
@@ -66,13 +64,7 @@ SolidState RigidModel::state() const {
 }
 
 void RigidModel::restore(const SolidState& state) {
-  if (state.model != kName)
-    fail(__LINE__, "cannot restore the rigid model from a checkpoint of model \"" +
-                       state.model + "\"");
-  if (state.positions_bohr.cols() != num_cgps() || state.velocities_au.cols() != num_cgps() ||
-      state.external_forces_au.cols() != num_cgps())
-    fail(__LINE__, "the checkpoint holds " + std::to_string(state.positions_bohr.cols()) +
-                       " CGPs; this scene's sheets have " + std::to_string(num_cgps()));
+  check_state_shape(kName, state, num_cgps());
   if (state.positions_bohr != positions_ || !state.velocities_au.isZero(0.0))
     fail(__LINE__, "the checkpoint's sheets moved; a rigid model holds them at the scene's "
                    "positions: check that the checkpoint belongs to this scene");

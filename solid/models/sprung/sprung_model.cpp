@@ -6,6 +6,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "solid/model/model_checks.hpp"
+
 #include "protocol/config/scene_reader.hpp"
 #include "protocol/units.hpp"
 
@@ -77,11 +79,7 @@ double SprungModel::normal_force(const Plate& p, const Eigen::Matrix3Xd& forces)
 }
 
 void SprungModel::substep(double dt, const Eigen::Matrix3Xd& external_forces) {
-  if (!(dt > 0.0) || !std::isfinite(dt))
-    fail(__LINE__, "a substep needs a positive, finite dt; got " + std::to_string(dt));
-  if (external_forces.cols() != num_cgps())
-    fail(__LINE__, "external forces for " + std::to_string(external_forces.cols()) +
-                       " CGPs handed to a model of " + std::to_string(num_cgps()) + " CGPs");
+  check_substep_args(dt, external_forces, num_cgps());
   // Velocity Verlet on q, the external force held over the substep (as the elastic models):
   //   v += a dt / 2; q += v dt; v += a(q) dt / 2,  a = (F_n - k q) / M.
   for (const Plate& p : plates_) {
@@ -133,13 +131,7 @@ SolidState SprungModel::state() const {
 }
 
 void SprungModel::restore(const SolidState& state) {
-  if (state.model != kName)
-    fail(__LINE__, "cannot restore the sprung model from a checkpoint of model \"" +
-                       state.model + "\"");
-  if (state.positions_bohr.cols() != num_cgps() || state.velocities_au.cols() != num_cgps() ||
-      state.external_forces_au.cols() != num_cgps())
-    fail(__LINE__, "the checkpoint holds " + std::to_string(state.positions_bohr.cols()) +
-                       " CGPs; this scene's sheets have " + std::to_string(num_cgps()));
+  check_state_shape(kName, state, num_cgps());
   // Each plate's CGPs must share one translation and one velocity along its normal: the
   // model has no other motion. Compared in the state's own arithmetic (reference + q n),
   // to a bohr's 1e-9, so that a checkpoint of this model restores bit for bit.
