@@ -69,7 +69,8 @@ std::string default_scene() {
 int main_impl(int argc, char** argv) {
   CLI::App app{"The conformance kit: drives a solid process through the protocol with a mock fluid and reports "
                "each check (handshake, lattice units, substeps, spin-up impulse, impulse vs motion, response to the "
-               "fluid, resends, duplicates, stops, timeouts, bit-identical runs, energy in still fluid, a long "
+               "fluid, resends, duplicates, stops, timeouts, bit-identical runs, energy in still fluid, the energy "
+               "balance against the solid's own energy (its solid.h5), a long "
                "session, a restart) as PASS or FAIL with a one-line reason.\n"
                "Exit status: 0 every check passes, 1 a check fails, 2 bad command line or scene.",
                "cosim-conformance"};
