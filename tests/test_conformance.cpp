@@ -45,7 +45,10 @@ TEST(Conformance, ConformanceKitPassesEveryModel) {
     const fs::path golden = kSource / "tests" / "conformance" / "golden" / (model + ".csv");
     const auto r = kit(SOLID_EXE, scene, dir / model, " --golden " + quoted(golden.string()));
     EXPECT_EQ(r.status, 0) << model << ":\n" << r.out << r.err;
-    EXPECT_NE(r.out.find("18 of 18 checks pass"), std::string::npos) << model << ":\n" << r.out;
+    EXPECT_NE(r.out.find("19 of 19 checks pass"), std::string::npos) << model << ":\n" << r.out;
+    // Every model's solid.h5 has total_energy_J: the energy balance applies.
+    EXPECT_NE(r.out.find("the solid's energy change is the work of the fluid's reaction"), std::string::npos)
+        << model << ":\n" << r.out;
   }
   const std::string python = "env PYTHONPATH=" + (fs::path(COSIM_BINARY_DIR) / "sdk" / "python").string() +
                              " /usr/bin/python3 " + (kSource / "examples" / "python_sheet" / "spring_sheet.py").string();
@@ -54,7 +57,12 @@ TEST(Conformance, ConformanceKitPassesEveryModel) {
                                   {"python_sheet", python}}) {
     const auto r = kit(cmd, kScene, dir / name);
     EXPECT_EQ(r.status, 0) << name << ":\n" << r.out << r.err;
-    EXPECT_NE(r.out.find("17 of 17 checks pass"), std::string::npos) << name << ":\n" << r.out;
+    EXPECT_NE(r.out.find("18 of 18 checks pass"), std::string::npos) << name << ":\n" << r.out;
+    // The library's examples report their energy (Solid::energy_lb); the C plate none.
+    EXPECT_NE(r.out.find(name == "prescribed_plate" ? "energy balance           not applicable"
+                                                    : "the solid's energy change is the work of the fluid's reaction"),
+              std::string::npos)
+        << name << ":\n" << r.out;
   }
 }
 
@@ -142,6 +150,14 @@ TEST(Conformance, ConformanceKitCatchesInconsistentMotion) {
   for (const char* solid : {"c++", "python"})
     for (const auto& c : cases)
       expect_caught(solid, c.fault, "main,long", c.check, c.words, dir / (std::string(solid) + "_" + c.fault));
+  // Markers that receive half the reaction they report (J_l = g dA at their motion, so every
+  // other check passes): the solid's own energy (solid.h5) gains half the fluid's work.
+  for (const char* solid : {"c++", "python"}) {
+    const std::string out = expect_caught(solid, "half-reaction,with-energy", "main", "energy balance",
+                                          "its markers receive half the reaction it reports",
+                                          dir / (std::string(solid) + "_half_reaction"));
+    EXPECT_NE(out.find("10 of 11 checks pass; FAIL: energy balance\n"), std::string::npos) << solid << ":\n" << out;
+  }
 }
 
 TEST(Conformance, ConformanceKitChecksLongRunsAndRestarts) {

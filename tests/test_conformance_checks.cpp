@@ -120,3 +120,87 @@ TEST(ConformanceChecks, ScaleAndLagAreNamedAtRestingMarkers) {
 }
 
 }  // namespace
+
+/// The main session of one marker on a spring (mass 10, stiffness 0.02, dA = 1; lattice
+/// units) in the mock fluid's stream, integrated as the library's spring sheet is (A_T
+/// symplectic Euler substeps, the trapezoid mean of the positions), with its energy
+/// (kinetic + elastic) after every step as solid.h5 gives it (in joules of `unit_J`). Its
+/// markers receive `applied` times the reaction -g dA; it reports `reported` times g dA.
+Trace sprung_marker(double applied, double reported, double unit_J, bool energy = true) {
+  Trace t;
+  t.name = "main";
+  t.plan = main_plan();
+  cosim::protocol::Hello h;
+  h.model = "sprung-marker";
+  h.num_cgps = 1;
+  t.hello = h;
+  t.handshake.accepted = true;
+  const double mass = 10.0, k = 0.02, dt = 1.0 / kTimeRatio;
+  const Eigen::Vector3d anchor(10.0, 0.0, 5.0);
+  Eigen::Vector3d x = anchor, v = Eigen::Vector3d::Zero();
+  const auto put = [](const Eigen::Vector3d& a) { return std::vector<double>{a[0], a[1], a[2]}; };
+  std::int64_t total = 0;
+  for (std::int64_t s = 0; s <= t.plan.last_step; ++s) {
+    cosimlcm::solid_state_t m{};
+    m.seq = m.step = s;
+    m.num_cgps = 1;
+    const Eigen::Vector3d u = t.plan.flow(s, 1).col(0);
+    Eigen::Vector3d j = Eigen::Vector3d::Zero(), mean = 0.5 * x;
+    if (s > 0 && s < t.plan.rigid_steps) j = -2.0 * u;  // held: U_B = 0
+    if (s >= t.plan.rigid_steps) {
+      m.substeps = kTimeRatio;
+      for (int q = 0; q < kTimeRatio; ++q) {
+        const Eigen::Vector3d g = 2.0 * (v - u), f = -k * (x - anchor);
+        j += g / kTimeRatio;
+        v += dt / mass * (f - applied * g);
+        x += dt * v;
+        mean += (q + 1 < kTimeRatio ? 1.0 : 0.5) * x;
+      }
+      mean /= kTimeRatio;
+      j *= reported;
+    } else {
+      mean = x;
+    }
+    total += m.substeps;
+    m.solid_time_s = double(total) * 1e-9;
+    m.position_lb.push_back(put(mean));
+    m.impulse_lb.push_back(put(j));
+    t.states.push_back(m);
+    if (energy) {
+      t.energies.step.push_back(s);
+      t.energies.total_J.push_back((0.5 * mass * v.squaredNorm() + 0.5 * k * (x - anchor).squaredNorm()) * unit_J);
+    }
+  }
+  if (!energy) t.energies.none = "the solid wrote no solid.h5";
+  return t;
+}
+
+TEST(ConformanceChecks, EnergyBalanceNamesImpulseAndEnergyThatDisagree) {
+  Context c = context();
+  c.area_lb = Eigen::VectorXd::Ones(1);
+  c.energy_unit_J = 3.5e-17;
+  const Trace clean = sprung_marker(1.0, 1.0, c.energy_unit_J);
+  const Verdict ok = check_energy_balance({&clean}, c);
+  EXPECT_TRUE(ok.pass) << ok.reason;
+  EXPECT_TRUE(check_impulse_motion(clean, c).pass) << check_impulse_motion(clean, c).reason;
+  const Trace silent = sprung_marker(1.0, 1.0, c.energy_unit_J, false);
+  const Verdict na = check_energy_balance({&silent}, c);
+  EXPECT_TRUE(na.pass) << na.reason;
+  EXPECT_NE(na.reason.find("not applicable: the solid reports no energy"), std::string::npos) << na.reason;
+  // J x 2 and x 1/2 of what the dynamics used, and a reaction of the wrong sign.
+  const struct {
+    double applied, reported;
+    const char* words;
+  } faults[] = {
+      {1.0, 2.0, "J_l is twice the impulse its own dynamics used"},
+      {0.5, 1.0, "J_l is twice the impulse its own dynamics used"},
+      {1.0, 0.5, "J_l is half the impulse its own dynamics used"},
+      {-1.0, 1.0, "the reaction on its markers has the wrong sign"},
+  };
+  for (const auto& f : faults) {
+    const Trace t = sprung_marker(f.applied, f.reported, c.energy_unit_J);
+    const Verdict v = check_energy_balance({&t}, c);
+    EXPECT_FALSE(v.pass) << f.applied << " " << f.reported << ": " << v.reason;
+    EXPECT_NE(v.reason.find(f.words), std::string::npos) << f.applied << " " << f.reported << ": " << v.reason;
+  }
+}

@@ -202,7 +202,7 @@ TEST(SolidLibrary, InstalledPackageBuildsExample) {
                   dir / "conformance");
   EXPECT_EQ(r.status, 0) << r.out << r.err;
   EXPECT_NE(r.out.find((prefix / "share" / "cosim" / "scenes" / "conformance.toml").string()), std::string::npos) << r.out;
-  EXPECT_NE(r.out.find("17 of 17 checks pass"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("18 of 18 checks pass"), std::string::npos) << r.out;
   r = run_command("PYTHONPATH=" + quoted((prefix / "lib" / "python3" / "dist-packages").string()) +
                       " /usr/bin/python3 -c 'import cosim; print(cosim.synthetic_scene(2, 3, 10).positions.shape)'",
                   dir / "python");

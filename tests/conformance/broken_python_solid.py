@@ -1,9 +1,10 @@
 #!/usr/bin/python3
 """A deliberately broken solid in Python on the solid library for the conformance kit's tests
 (tests/test_conformance.cpp): the sheet of examples/python_sheet/spring_sheet.py with one
-planted defect chosen by --fault, from LB step --from on (default: every step); the faults
-are those of broken_sdk_solid.cpp (none, double, half, over-time-ratio, late, frozen,
-end-of-step, reaction-sign, restore-nothing, mis-sized).
+planted defect chosen by --fault F[,F2...], from LB step --from on (default: every step); the
+faults are those of broken_sdk_solid.cpp (none, double, half, over-time-ratio, late, frozen,
+end-of-step, reaction-sign, half-reaction, double-reaction, restore-nothing, mis-sized,
+with-energy).
 
     broken_python_solid.py SCENE --fault F [--from STEP] [the library's command line]
 """
@@ -27,6 +28,7 @@ def take(option, default):
 
 FAULT = take("--fault", "none")
 FROM = int(take("--from", "0"))
+FAULTS = set(FAULT.split(","))
 
 
 class BrokenSheet(spring_sheet.SpringSheet):
@@ -41,34 +43,40 @@ class BrokenSheet(spring_sheet.SpringSheet):
 
     def step(self, step, rho, u):
         on = step >= FROM
-        if on and FAULT == "reaction-sign":   # the marker receives +g dA; J is negated back to g dA
+        if on and "reaction-sign" in FAULTS:   # the marker receives +g dA; J is negated back to g dA
             mean, impulse = super().step(step, -rho, u)
             impulse = -impulse
+        elif on and "half-reaction" in FAULTS:  # the marker receives -g dA / 2; J scaled back to g dA
+            mean, impulse = super().step(step, 0.5 * rho, u)
+            impulse = 2.0 * impulse
+        elif on and "double-reaction" in FAULTS:  # the marker receives -2 g dA
+            mean, impulse = super().step(step, 2.0 * rho, u)
+            impulse = 0.5 * impulse
         else:
             mean, impulse = super().step(step, rho, u)
         computed = impulse.copy()
-        if on and FAULT == "double":
+        if on and "double" in FAULTS:
             impulse = 2.0 * impulse
-        if on and FAULT == "half":
+        if on and "half" in FAULTS:
             impulse = 0.5 * impulse
-        if on and FAULT == "over-time-ratio":
+        if on and "over-time-ratio" in FAULTS:
             impulse = impulse / self.time_ratio
-        if on and FAULT == "late" and self.previous is not None:
+        if on and "late" in FAULTS and self.previous is not None:
             impulse = self.previous
-        if on and FAULT == "frozen":
+        if on and "frozen" in FAULTS:
             mean = self.start_x.copy()
-        if on and FAULT == "end-of-step":
+        if on and "end-of-step" in FAULTS:
             mean = self.x.copy()
-        if on and FAULT == "mis-sized":
+        if on and "mis-sized" in FAULTS:
             mean, impulse = mean[:-1], impulse[:-1]
         self.previous = computed
         return mean, impulse
 
-    def energy_lb(self):  # withheld: the kit's own checks meet each fault (not the library's energy balance)
-        return float("nan")
+    def energy_lb(self):  # withheld (the kit's own checks meet each fault), unless with-energy
+        return super().energy_lb() if "with-energy" in FAULTS else float("nan")
 
     def restore(self, state):
-        if FAULT != "restore-nothing":
+        if "restore-nothing" not in FAULTS:
             super().restore(state)
 
 

@@ -9,6 +9,9 @@
 //   frozen           X_l the start positions while J follows the motion
 //   end-of-step      X_l the positions at the interval's end, not the substeps' mean
 //   reaction-sign    the markers receive +g dA instead of -g dA (J = g dA as it should be)
+//   half-reaction    the markers receive -g dA / 2 while J = g dA as it should be (its energy
+//                    and its impulses disagree: with with-energy, the kit's energy balance)
+//   double-reaction  the markers receive -2 g dA while J = g dA
 //   restore-nothing  restore() keeps the state it has
 //   um               X_l in micrometres instead of dx (the library's X_l(0) stays in dx)
 //   exit-early       exits 0 in the middle of the run (at LB step --from) without a word
@@ -53,8 +56,14 @@ class BrokenSheet : public spring_sheet::SpringSheet {
     // g dA = 2 rho (U_B - u) dA with -rho is -g dA: the marker then receives +g dA, and the
     // impulse summed is -J; negated back, J is what the motion gives.
     if (on && has("reaction-sign")) run.rho_lb = -in.rho_lb;
+    // Likewise g dA with rho / 2 (2 rho): the marker receives half (twice) the reaction, and
+    // the impulse summed, scaled back, is the J its motion gives.
+    if (on && has("half-reaction")) run.rho_lb = 0.5 * in.rho_lb;
+    if (on && has("double-reaction")) run.rho_lb = 2.0 * in.rho_lb;
     cosim::sdk::Answer a = SpringSheet::step(run);
     if (on && has("reaction-sign")) a.impulse_lb = -a.impulse_lb;
+    if (on && has("half-reaction")) a.impulse_lb *= 2.0;
+    if (on && has("double-reaction")) a.impulse_lb *= 0.5;
     const cosim::sdk::Matrix3X computed = a.impulse_lb;
     if (on && has("double")) a.impulse_lb *= 2.0;
     if (on && has("half")) a.impulse_lb *= 0.5;

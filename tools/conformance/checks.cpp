@@ -631,6 +631,116 @@ Verdict check_still_energy(const Trace& t, const Context& c) {
                         std::to_string(first) + "-" + std::to_string(last) + ")");
 }
 
+namespace {
+
+/// The balance of one free step m of a session: the solid's energy change E(m) - E(m - 1)
+/// against W(m) = -sum_l J_l(m) . D_l(m), the work of the reaction -g_l dA_l on the markers
+/// (Eqs. 18-19; J_l the substeps' mean of g_l dA_l, Eq. 24), D_l(m) the marker's displacement
+/// over the step, U_mean_l(m) x 1 dt_LB: estimated as `velocity` does for impulse vs motion,
+/// (X_l(m + 1) - X_l(m - 1)) / 2, with its error bound dV_l. The bound of |dE - W| is
+/// sum_l |J_l| dV_l (the displacement's error) plus round-off, 1e-12 (|E(m)| + |E(m - 1)| +
+/// sum_l |J_l| |D_l|). Not in it, and measured well inside it for every model
+/// (tools/conformance/README.md): the variation of g within the step (-2 rho dA times the
+/// integral of |U_B - U_mean|^2, second order) and the solid's own integrator error.
+struct StepBalance {
+  std::int64_t step = 0;
+  double de = 0.0, work = 0.0, bound = 0.0;
+  double residual() const { return de - work; }
+};
+
+/// What the energy change is, as a multiple k of the kit's work (the least-squares fit of
+/// dE = k W over the steps): the usual faults named.
+std::string diagnose_energy(const std::vector<StepBalance>& steps) {
+  double dw = 0.0, ww = 0.0;
+  for (const StepBalance& s : steps) {
+    dw += s.de * s.work;
+    ww += s.work * s.work;
+  }
+  const double k = ww > 0.0 ? dw / ww : 0.0;
+  const std::string fit = "the solid's energy changes by " + fmt("%.3g", k) + " times the work of the reaction its J_l and X_l give";
+  if (std::abs(k - 0.5) < 0.1)
+    return fit + ": its markers receive half the reaction it reports (J_l is twice the impulse its own dynamics used)";
+  if (std::abs(k - 2.0) < 0.2)
+    return fit + ": its markers receive twice the reaction it reports (J_l is half the impulse its own dynamics used)";
+  if (std::abs(k + 1.0) < 0.2)
+    return fit + ": the reaction on its markers has the wrong sign (they receive +g dA, J_l says -g dA; the solid gains "
+                 "what the fluid loses)";
+  if (std::abs(k) < 0.1) return fit + ": the energy it reports does not follow its motion (energy_lb not updated?)";
+  return fit + ": its energy, its motion and its impulses disagree";
+}
+
+}  // namespace
+
+Verdict check_energy_balance(const std::vector<const Trace*>& sessions, const Context& c) {
+  const std::string name = "energy balance";
+  std::vector<std::string> none;
+  double worst = -1.0, de_total = 0.0, w_total = 0.0;
+  std::string worst_at, totals;
+  for (const Trace* tp : sessions) {
+    const Trace& t = *tp;
+    if (!t.energies.reported()) {
+      none.push_back("session '" + t.name + "': " + t.energies.none);
+      continue;
+    }
+    const std::int64_t first = std::max<std::int64_t>(t.plan.rigid_steps, 1), last = t.plan.last_step - 1;
+    if (const std::string why = need_steps(t, first - 1, last + 1); !why.empty()) return fail(name, why);
+    if (!(c.energy_unit_J > 0.0)) return fail(name, "the scene's energy unit is unknown");
+    std::map<std::int64_t, double> e;
+    for (std::size_t i = 0; i < t.energies.step.size(); ++i) e[t.energies.step[i]] = t.energies.total_J[i] / c.energy_unit_J;
+    for (std::int64_t k = first - 1; k <= last; ++k) {
+      if (!e.count(k))
+        return fail(name, "the solid's solid.h5 of session '" + t.name + "' has total_energy_J but no row of step " +
+                              std::to_string(k));
+      if (!std::isfinite(e[k]))
+        return fail(name, "the solid's total_energy_J of step " + std::to_string(k) + ", session '" + t.name + "', is " +
+                              fmt("%g", e[k]));
+    }
+    std::vector<StepBalance> steps;
+    for (std::int64_t m = first; m <= last; ++m) {
+      const bool kink = kink_near(t, m);
+      StepBalance s;
+      s.step = m;
+      s.de = e[m] - e[m - 1];
+      double scale = 0.0;
+      for (std::size_t l = 0; l < markers(t); ++l) {
+        const VelocityEstimate v = velocity(t, m, l, c.time_ratio, kink);
+        const Vec j = col(t.state(m)->impulse_lb, l);
+        s.work -= j.dot(v.v);
+        s.bound += j.norm() * v.error;
+        scale += j.norm() * v.v.norm();
+      }
+      s.bound += kRound * (std::abs(e[m]) + std::abs(e[m - 1]) + scale);
+      steps.push_back(s);
+    }
+    for (const StepBalance& s : steps) {
+      const double ratio = std::abs(s.residual()) / std::max(s.bound, 1e-300);
+      if (ratio > 1.0)
+        return fail(name, "step " + std::to_string(s.step) + ", session '" + t.name + "': the solid's energy changed by " +
+                              fmt("%.4g", s.de) + " rho_air dx^3 c^2 (solid.h5's total_energy_J), the fluid's reaction did work " +
+                              fmt("%.4g", s.work) + " on its markers (-sum_l J_l . D_l, D_l from the reported X_l); |difference| " +
+                              fmt("%.3g", std::abs(s.residual())) + " > bound " + fmt("%.3g", s.bound) + ": " +
+                              diagnose_energy(steps));
+      if (ratio > worst) {
+        worst = ratio;
+        worst_at = "step " + std::to_string(s.step) + ", session '" + t.name + "'";
+      }
+      de_total += s.de;
+      w_total += s.work;
+    }
+    totals += (totals.empty() ? "" : ", ") + t.name + " steps " + std::to_string(first) + "-" + std::to_string(last);
+  }
+  std::string missing;
+  for (const std::string& x : none) missing += (missing.empty() ? "" : "; ") + x;
+  if (totals.empty())
+    return pass(name, "not applicable: the solid reports no energy (" + (none.empty() ? std::string("no session") : none.front()) +
+                          "); checked where the solid writes solid.h5 with total_energy_J into its --output folder "
+                          "(Solid::energy_lb, the solid server)");
+  return pass(name, "the solid's energy change is the work of the fluid's reaction on its markers at every free step (" +
+                        totals + "): sum dE = " + fmt("%.4g", de_total) + ", sum W = " + fmt("%.4g", w_total) +
+                        " rho_air dx^3 c^2; the largest |dE - W| / bound " + fmt("%.2g", worst) + " (" + worst_at + ")" +
+                        (missing.empty() ? "" : "; " + missing));
+}
+
 Verdict check_long_session(const Trace& t, const Context& c) {
   const std::string name = "long session";
   for (const Verdict& v : {check_initial_state(t), check_finite({&t}), check_substeps(t, c), check_impulse_motion(t, c),
@@ -680,6 +790,11 @@ std::vector<Verdict> all_checks(const Sessions& s, const Context& c) {
   if (s.still != nullptr) v.push_back(check_timeout(*s.still, c));
   if (s.repeat != nullptr) v.push_back(check_bit_identical(main, *s.repeat));
   if (s.still != nullptr) v.push_back(check_still_energy(*s.still, c));
+  {
+    std::vector<const Trace*> balanced{s.main};
+    if (s.long_run != nullptr) balanced.push_back(s.long_run);
+    v.push_back(check_energy_balance(balanced, c));
+  }
   if (s.long_run != nullptr) v.push_back(check_long_session(*s.long_run, c));
   if (s.restart_asked) v.push_back(check_restart(main, s.restart, s.checkpoint));
   return v;

@@ -25,6 +25,7 @@ struct Context {
   Eigen::VectorXd area_lb;   ///< dA_l of the scene's markers (empty: not known)
   Eigen::Matrix3Xd position_lb;  ///< X_l of the scene's [[sheet]]s at the start, dx (empty: not known)
   double dx_m = 0.0;             ///< the scene's dx, for naming positions in other units
+  double energy_unit_J = 0.0;    ///< rho_air dx^3 c^2 in joules (F_LB dx): solid.h5's energies to lattice units
   double peer_timeout_s = 30.0;
   /// The scene's [reaction] law: g dA as a function of U_B and u (solid/coupling/reaction_law.hpp).
   protocol::config::ReactionLaw law = protocol::config::ReactionLaw::MomentumExchange;
@@ -68,6 +69,11 @@ Verdict check_error_stop(const Trace& repeat);
 Verdict check_timeout(const Trace& still, const Context& c);
 Verdict check_bit_identical(const Trace& main, const Trace& repeat);
 Verdict check_still_energy(const Trace& still, const Context& c);
+/// The solid's own energy (solid.h5's total_energy_J, Trace::energies) against the work of
+/// the fluid's reaction on its markers computed from the exchanged J_l and X_l, step by step
+/// over the free steps of each session given; not applicable (a pass saying so) where the
+/// solid reports no energy.
+Verdict check_energy_balance(const std::vector<const Trace*>& sessions, const Context& c);
 
 /// The traces of the sessions that ran (null: not run; `main` always runs).
 struct Sessions {

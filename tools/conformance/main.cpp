@@ -69,7 +69,8 @@ std::string default_scene() {
 int main_impl(int argc, char** argv) {
   CLI::App app{"The conformance kit: drives a solid process through the protocol with a mock fluid and reports "
                "each check (handshake, lattice units, substeps, spin-up impulse, impulse vs motion, response to the "
-               "fluid, resends, duplicates, stops, timeouts, bit-identical runs, energy in still fluid, a long "
+               "fluid, resends, duplicates, stops, timeouts, bit-identical runs, energy in still fluid, the energy "
+               "balance against the solid's own energy (its solid.h5), a long "
                "session, a restart) as PASS or FAIL with a one-line reason.\n"
                "Exit status: 0 every check passes, 1 a check fails, 2 bad command line or scene.",
                "cosim-conformance"};
@@ -140,6 +141,7 @@ int main_impl(int argc, char** argv) {
   ctx.peer_timeout_s = scene.coupling->peer_timeout_s;
   ctx.position_lb = solid::marker_positions_lb(scene.config.sheets, units);
   ctx.dx_m = units.dx_m();
+  ctx.energy_unit_J = units.force_lb_N() * units.dx_m();  // rho_air dx^3 c^2 = F_LB dx
   ctx.law = scene.reaction_law;
 
   std::cout << "cosim-conformance: solid '" << command << "' on " << cand.scene_path << " (A_T = " << ctx.time_ratio

@@ -44,6 +44,8 @@ Trace run_session(const Candidate& c, const Plan& plan) {
   const std::filesystem::path dir = std::filesystem::path(c.work_dir) / plan.name;
   std::filesystem::create_directories(dir);
   t.log_path = (dir / "solid.log").string();
+  const std::filesystem::path series = dir / "solid.h5";
+  std::filesystem::remove(series);  // a file of an earlier run in the same --work folder
 
   std::ostringstream link_log;
   MockFluid fluid(token, prefix, c.lcm_url, link_log);
@@ -61,6 +63,7 @@ Trace run_session(const Candidate& c, const Plan& plan) {
     t.exit_code = solid.poll();
     if (!t.exit_code) solid.kill();
     t.last_line = protocol::one_line(solid.last_line());
+    t.energies = read_solid_energies(series.string());
     return t;
   };
   const auto gone = [&](const std::string& waiting) {

@@ -16,6 +16,7 @@
 #include "cosimlcm/solid_state_t.hpp"
 #include "cosimlcm/stop_t.hpp"
 #include "protocol/handshake.hpp"
+#include "tools/conformance/solid_energy.hpp"
 
 namespace cosim::conformance {
 
@@ -67,6 +68,8 @@ struct Trace {
   std::string last_line;          ///< the solid's last output line
   Plan plan;
   std::string log_path;
+  /// The solid's energies from the solid.h5 it wrote into its --output folder, if any.
+  SolidEnergies energies;
 
   /// The first copy of solid_state_t(step), or null.
   const cosimlcm::solid_state_t* state(std::int64_t step) const;
