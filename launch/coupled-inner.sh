@@ -10,8 +10,7 @@ root=$1 scene=$2 output=$3 prefix=$4 log=$5 quiet=$6
 # The survivor's grace: the scene's longer timeout ([coupling] handshake_timeout_s, default
 # 120 s; peer_timeout_s, default 30 s), within which it notices its peer is gone, plus 30 s
 # to write its checkpoint and outputs. COSIM_SURVIVOR_GRACE_S overrides it.
-scene_seconds() { sed -n "s/^[[:space:]]*$1[[:space:]]*=[[:space:]]*\([0-9][0-9.eE+-]*\).*/\1/p" "$scene" | head -1; }
-handshake_s=$(scene_seconds handshake_timeout_s); peer_s=$(scene_seconds peer_timeout_s)
+handshake_s=$(scene_value "$scene" coupling.handshake_timeout_s); peer_s=$(scene_value "$scene" coupling.peer_timeout_s)
 grace=${COSIM_SURVIVOR_GRACE_S:-$(awk -v h="${handshake_s:-120}" -v p="${peer_s:-30}" \
   'BEGIN { m = (h + 0 > p + 0) ? h + 0 : p + 0; printf "%d", m + 30.999 }')}
 # The survivor of a peer that ended with one of its documented codes after the handshake
@@ -53,7 +52,7 @@ if [ "$(id -u)" -eq 0 ]; then
   ip route add 224.0.0.0/4 dev lo 2>/dev/null || true
 fi
 
-url=$(sed -n 's/^[[:space:]]*lcm_url[[:space:]]*=[[:space:]]*"\(.*\)".*/\1/p' "$scene" | head -1)
+url=$(scene_value "$scene" coupling.lcm_url)
 url=${url:-udpm://239.255.76.67:7667?ttl=0}
 export COSIM_CHANNEL_PREFIX=$prefix COSIM_LCM_URL=$url
 . "$root/launch/traffic-log.sh"
@@ -111,7 +110,7 @@ fluid_end_step() {
 solid_early_step() {
   local k total
   k=$(grep -oE 'waited for solid_state_t of step [0-9]+' "$output/fluid.log" 2>/dev/null | tail -1 | grep -oE '[0-9]+$')
-  total=$(sed -n 's/^[[:space:]]*steps[[:space:]]*=[[:space:]]*\([0-9]*\).*/\1/p' "$scene" | head -1)
+  total=$(scene_value "$scene" run.steps)
   [ -n "$k" ] && echo ": its last solid_state_t was of step $((k - 1)); the fluid waited for step $k${total:+ of $total}"
 }
 

@@ -25,12 +25,25 @@ else
   fluid_exe=$bin/fluid/fluid solid_exe=$bin/solid/solid record_exe=$bin/tools/record/cosim-record
 fi
 
-# new_folder PARENT: prints PARENT/<UTC date-time>, or PARENT/<UTC date-time>-K where that
-# exists already, a folder no earlier call used (nothing a user ran before is overwritten).
+# new_folder PARENT: creates and prints PARENT/<UTC date-time>, or PARENT/<UTC date-time>-K
+# where that exists already: a folder no other call got, created by this one (mkdir without
+# -p fails where the name exists, so concurrent calls in the same second each get their own;
+# nothing a user ran before is overwritten).
 new_folder() {
   local base d k=2
+  mkdir -p "$1" || return 1
   base=$1/$(date -u +%Y%m%d-%H%M%S)
   d=$base
-  while [ -e "$d" ]; do d=$base-$k; k=$((k + 1)); done
+  until mkdir "$d" 2>/dev/null; do
+    [ -e "$d" ] || return 1  # not a name taken: the parent refuses (permissions, full disk)
+    d=$base-$k; k=$((k + 1))
+  done
   echo "$d"
+}
+
+# scene_value SCENE KEY: the value of KEY as the fluid reads SCENE (`fluid SCENE --print KEY`:
+# the servers' own TOML parser and defaults; the launcher never parses TOML itself); empty
+# where the fluid refuses the scene (the servers then say why when they start).
+scene_value() {
+  "$fluid_exe" "$1" --print "$2" 2>/dev/null | sed -n "s/^$2=//p"
 }

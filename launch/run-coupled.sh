@@ -6,10 +6,13 @@
 #                              [--solid-cmd CMD] [--extra CMD] [--restart PATH]
 #                              [--time-ratio N | --new-time-ratio N] [--ranks N]
 #
-# Each run has its own output folder: by default out/<scene name>/<UTC date-time>/ (always
-# new; $COSIM_OUTPUT_ROOT replaces out/); --output DIR must be new or hold no run (a folder
-# with run.id, monitor.h5, solid.h5 or checkpoints/ is refused, never reused silently),
-# unless the run continues that folder's run (--restart). OUTPUT/run.id holds the run's id; every checkpoint carries
+# Each run has its own output folder: by default out/<scene name>/<UTC date-time>[-K]/
+# (always new, created by the launch that gets it, so launches in the same second each get
+# their own; $COSIM_OUTPUT_ROOT replaces out/); --output DIR must be new or hold no run (a
+# folder with run.id, monitor.h5, solid.h5 or checkpoints/ is refused, never reused silently;
+# of two launches given the same new DIR at once, the one that creates DIR/run.id runs),
+# unless the run continues that folder's run (--restart; the folder's run is its run.id, or
+# where that is gone the run its checkpoints carry). OUTPUT/run.id holds the run's id; every checkpoint carries
 # it, and pruning keeps the newest three of this run only. OUTPUT/launcher.pid holds this
 # launcher's process id (for a SIGINT or SIGTERM from elsewhere).
 #
@@ -146,6 +149,16 @@ checkpoint_run_id() {
 with h5py.File(sys.argv[1], "r") as f:
     print(bytes(f["run_id"][()]).decode() if "run_id" in f else "")' "$1" 2>/dev/null || true
 }
+# Whose run a folder holds: its run.id, or where that is gone the run its checkpoints carry
+# (empty: it names none).
+folder_run_id() {
+  local f id
+  id=$(cat "$1/run.id" 2>/dev/null || true)
+  [ -n "$id" ] && { echo "$id"; return; }
+  for f in $(ls "$1/checkpoints" 2>/dev/null | grep -E '^(fluid|solid)_[0-9]{8}\.h5$'); do
+    id=$(checkpoint_run_id "$1/checkpoints/$f"); [ -n "$id" ] && { echo "$id"; return; }
+  done
+}
 # Whether a folder holds a run's outputs.
 holds_run() { [ -f "$1/run.id" ] || [ -f "$1/monitor.h5" ] || [ -f "$1/solid.h5" ] || [ -d "$1/checkpoints" ]; }
 # A new folder out/<scene name>/<UTC date-time>[-K] (COSIM_OUTPUT_ROOT instead of out/).
@@ -182,7 +195,7 @@ if [ -n "$restart" ]; then
     refuse "--restart $restart: fluid_$step.h5 is of run '$run_id', solid_$step.h5 of run '$solid_run' (allowed: both of one run)"
   if [ -z "$output" ]; then  # the checkpoints' own run folder, if they are in one
     parent=$(dirname "$ckdir")
-    if [ "$(basename "$ckdir")" = checkpoints ] && [ -f "$parent/run.id" ] && [ "$(cat "$parent/run.id")" = "$run_id" ]; then
+    if [ "$(basename "$ckdir")" = checkpoints ] && [ "$(folder_run_id "$parent")" = "$run_id" ]; then
       output=$parent
     else
       output=$(run_folder)
@@ -190,13 +203,19 @@ if [ -n "$restart" ]; then
   fi
   [ $new_ratio -eq 1 ] && COSIM_NEW_TIME_RATIO=1
 fi
-output=${output:-$(run_folder)}
+if [ -z "$output" ]; then
+  output=$(run_folder) || refuse "cannot create a run folder under ${COSIM_OUTPUT_ROOT:-$out_root}/$name (allowed: a writable COSIM_OUTPUT_ROOT or --output DIR)"
+fi
 if [ -d "$output" ] && holds_run "$output"; then
   if [ -z "$restart" ]; then
     refuse "--output $output: holds an earlier run$([ -f "$output/run.id" ] && echo " ($(cat "$output/run.id"))") (allowed: a new or empty folder, e.g. the default out/$name/DATE-TIME, or --restart $output to continue that run)"
   fi
-  if [ -f "$output/run.id" ] && [ "$(cat "$output/run.id")" != "$run_id" ]; then
-    refuse "--restart $restart: a checkpoint of another run (run '$run_id'; $output is run '$(cat "$output/run.id")') (allowed: a checkpoint of that folder's run, or a new --output folder to continue run '$run_id' in)"
+  # A folder that names no run takes no restart (it could be any run's).
+  folder_run=$(folder_run_id "$output")
+  [ -n "$folder_run" ] ||
+    refuse "--restart $restart: $output holds a run's outputs but no run.id and no checkpoint naming its run (allowed: a new --output folder to continue run '$run_id' in)"
+  if [ "$folder_run" != "$run_id" ]; then
+    refuse "--restart $restart: a checkpoint of another run (run '$run_id'; $output is run '$folder_run') (allowed: a checkpoint of that folder's run, or a new --output folder to continue run '$run_id' in)"
   fi
 fi
 mkdir -p "$output"
@@ -204,7 +223,12 @@ output=$(cd "$output" && pwd)
 if [ -z "$run_id" ]; then
   run_id=$(date -u +%Y%m%dT%H%M%SZ)-$(od -An -N4 -tx1 /dev/urandom | tr -d ' \n')
 fi
-[ -f "$output/run.id" ] || echo "$run_id" >"$output/run.id"
+# The folder claimed for this run: run.id created only where none exists (noclobber: O_EXCL),
+# so that of two launches given the same new --output at once one runs and one is refused.
+if ! { [ -f "$output/run.id" ] && [ "$(cat "$output/run.id")" = "$run_id" ]; }; then
+  (set -C; echo "$run_id" >"$output/run.id") 2>/dev/null ||
+    refuse "--output $output: claimed by another launch at the same time (run '$(cat "$output/run.id" 2>/dev/null)') (allowed: a new or empty folder, e.g. the default out/$name/DATE-TIME)"
+fi
 export COSIM_RUN_ID=$run_id
 echo $$ >"$output/launcher.pid"
 [ -n "$restart" ] && echo "run-coupled: restarting run $run_id from step $((10#$step)) ($COSIM_FLUID_RESTART, $COSIM_SOLID_RESTART)"
@@ -294,7 +318,7 @@ while :; do
     COSIM_FLUID_RESTART=""; COSIM_SOLID_RESTART=""
     start="step 0 (no checkpoint before step $before)"
   fi
-  old_ratio=${time_ratio:-$(sed -n 's/^[[:space:]]*time_ratio[[:space:]]*=[[:space:]]*\([0-9]*\).*/\1/p' "$scene" | head -1)}
+  old_ratio=${time_ratio:-$(scene_value "$scene" coupling.time_ratio)}
   retried="$retried${retried:+; }retry $retries: A_T ${old_ratio:-150} -> $next from $start"
   echo "run-coupled: watchdog retry $retries of $allowed: $why"
   echo "run-coupled: watchdog retry $retries of $allowed: A_T ${old_ratio:-150} -> $next, from $start; the failed attempt's logs are in $kept"

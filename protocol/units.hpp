@@ -44,6 +44,8 @@ class UnitConverter {
   double air_density_kg_m3() const;
   /// F_LB = rho_0 c^2 dx^(d-1) = 3 n_0 m_air c_s^2 dx^2 (Eq. 28, Table 1).
   double force_lb_N() const;
+  /// E_LB = F_LB dx = rho_0 c^2 dx^3: the lattice's unit of energy (work J . X), in joules.
+  double energy_lb_J() const { return force_lb_N() * in_.dx_m; }
   /// u_AU = l_AU / t_AU and F_AU = m_AU u_AU^2 / l_AU (Eq. 29).
   static double velocity_au_m_s();
   static double force_au_N();

@@ -25,9 +25,7 @@ void SolidSeries::add(std::int64_t step, const Eigen::Matrix3Xd& x, const Eigen:
       x_um_.push_back(x(c, l) * um);
       force_N_.push_back(-j(c, l) * newton);
     }
-  // rho_air dx^3 c^2 in joules.
-  const double c = units_.lattice_speed_m_s();
-  const double joule = units_.air_density_kg_m3() * std::pow(units_.dx_m(), 3) * c * c;
+  const double joule = units_.energy_lb_J();
   energy_ = energy_ || std::isfinite(energy_lb);
   energy_J_.push_back(energy_lb * joule);
   work_J_.push_back(work_lb * joule);

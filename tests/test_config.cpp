@@ -11,6 +11,7 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "support/run_command.hpp"
@@ -85,36 +86,44 @@ std::string solid_refusal(const fs::path& p) {
       &cosim::solid::load_solid_scene, p);
 }
 
+// URLs the rule of protocol/lcm_url.hpp accepts and refuses (LcmUrlRuleIsOneRule,
+// ExampleSolidKeepsTheUrlRule).
+const std::vector<std::string> kGoodUrls = {"memq://", "udpm://239.255.76.67:7667?ttl=0", "udpm://224.0.0.1:1?ttl=0",
+                                           "udpm://239.255.255.255:65535?ttl=0"};
+const std::vector<std::string> kBadUrls = {
+    "udpm://239.255.76.67:7667?ttl=0&ttl=1",  // the fluid used to take this one
+    "udpm://239.255.76.67:7667?ttl=1&ttl=0",
+    "udpm://239.255.76.67:7667?ttl=0&ttl=0",
+    "udpm://239.255.76.67:7667?ttl=1",
+    "udpm://239.255.76.67:7667?ttl=00",
+    "udpm://239.255.76.67:7667",
+    "udpm://239.255.76.67:7667?",
+    "udpm://239.255.76.67:7667?ttl=0&recv_buf_size=65536",
+    "udpm://10.0.0.1:7667?ttl=0",  // not a multicast group
+    "udpm://240.0.0.1:7667?ttl=0",
+    "udpm://239.255.076.67:7667?ttl=0",  // a leading zero
+    "udpm://239.255.76.67:07667?ttl=0",
+    "udpm://239.255.76.67.1:7667?ttl=0",
+    "udpm://239.255.76.67?ttl=0",
+    "udpm://239.255.76.67:0?ttl=0",
+    "udpm://239.255.76.67:65536?ttl=0",
+    "udpm://239.255.76:7667?ttl=0",
+    "udpm://?ttl=0",
+    "tcpq://localhost:7700",  // made the fluid abort (SIGABRT)
+    "file:///tmp/log?mode=w",
+    "memq://elsewhere",
+    "MEMQ://",
+    "",
+};
+
 // One rule (protocol/lcm_url.hpp) for the scene's [coupling] lcm_url in both parsers and for
 // --lcm-url of both executables: memq://, or udpm://ADDR:PORT (an IPv4 multicast group) with
 // a query of exactly ttl=0. Anything else is one line naming the key or flag, the value and
 // what is allowed, and exit status 2.
 TEST(SceneConfig, LcmUrlRuleIsOneRule) {
   using cosim::protocol::lcm_url_problem;
-  const std::vector<std::string> good = {"memq://", "udpm://239.255.76.67:7667?ttl=0",
-                                         "udpm://224.0.0.1:1?ttl=0",
-                                         "udpm://239.255.255.255:65535?ttl=0"};
-  const std::vector<std::string> bad = {
-      "udpm://239.255.76.67:7667?ttl=0&ttl=1",  // the fluid used to take this one
-      "udpm://239.255.76.67:7667?ttl=1&ttl=0",
-      "udpm://239.255.76.67:7667?ttl=0&ttl=0",
-      "udpm://239.255.76.67:7667?ttl=1",
-      "udpm://239.255.76.67:7667?ttl=00",
-      "udpm://239.255.76.67:7667",
-      "udpm://239.255.76.67:7667?",
-      "udpm://239.255.76.67:7667?ttl=0&recv_buf_size=65536",
-      "udpm://10.0.0.1:7667?ttl=0",  // not a multicast group
-      "udpm://239.255.76.67?ttl=0",
-      "udpm://239.255.76.67:0?ttl=0",
-      "udpm://239.255.76.67:65536?ttl=0",
-      "udpm://239.255.76:7667?ttl=0",
-      "udpm://?ttl=0",
-      "tcpq://localhost:7700",  // made the fluid abort (SIGABRT)
-      "file:///tmp/log?mode=w",
-      "memq://elsewhere",
-      "MEMQ://",
-      "",
-  };
+  const std::vector<std::string>& good = kGoodUrls;
+  const std::vector<std::string>& bad = kBadUrls;
   for (const std::string& u : good) EXPECT_FALSE(lcm_url_problem(u).has_value()) << u << ": " << *lcm_url_problem(u);
   for (const std::string& u : bad) {
     const auto why = lcm_url_problem(u);
@@ -257,6 +266,37 @@ TEST(SceneConfig, OneTableOwnsTheSections) {
   std::ofstream(theta) << coupled_scene("model = \"rigid\"\n", "", "[watchdog]\nmax_cgp_speed_c = 0.3\n");
   for (const std::string& m : {fluid_refusal(theta), solid_refusal(theta)})
     EXPECT_NE(m.find("did you mean \"max_cgp_speed\""), std::string::npos) << m;
+}
+
+// The raw-protocol example solid (examples/prescribed_plate, C) applies the servers' URL rule:
+// every URL the rule refuses is refused by the example with exit 2 and one line naming the
+// value; every URL it accepts passes the example's URL check (the scene's 5e6 markers then
+// stop it at the next check, before it opens LCM).
+TEST(SceneConfig, ExampleSolidKeepsTheUrlRule) {
+  const Scratch s("plate_url");
+  std::string scene = cosim::test::slurp(fs::path(COSIM_SOURCE_DIR) / "scenes" / "coupled_plate.toml");
+  for (const auto& [from, to] : {std::pair<std::string, std::string>{"nx_cg = 5", "nx_cg = 5000"}, {"ny_cg = 10", "ny_cg = 1000"}}) {
+    const std::size_t at = scene.find(from);
+    ASSERT_NE(at, std::string::npos) << from;
+    scene.replace(at, from.size(), to);
+  }
+  const fs::path p = s.file("plate.toml", scene);
+  const auto plate = [&](const std::string& url) {
+    return cosim::test::run_command(std::string(PRESCRIBED_PLATE_EXE) + " " + cosim::test::quoted(p.string()) +
+                                        " --token 0123456789abcdef --lcm-url " + cosim::test::quoted(url),
+                                    s.dir() / "plate");
+  };
+  for (const std::string& u : kGoodUrls) {
+    const cosim::test::RunResult r = plate(u);
+    EXPECT_EQ(r.status, 2) << u << ": " << r.err;
+    EXPECT_EQ(r.err.find("LCM URL"), std::string::npos) << u << " refused: " << r.err;
+    EXPECT_NE(r.err.find("at most 1000000 markers"), std::string::npos) << u << ": " << r.err;
+  }
+  for (const std::string& u : kBadUrls) {
+    const cosim::test::RunResult r = plate(u);
+    EXPECT_EQ(r.status, 2) << u << " accepted: " << r.err;
+    EXPECT_NE(r.err.find("LCM URL \"" + u + "\""), std::string::npos) << u << ": " << r.err;
+  }
 }
 
 }  // namespace

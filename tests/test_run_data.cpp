@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <set>
 #include <string>
 #include <thread>
 #include <utility>
@@ -460,6 +461,105 @@ TEST(RunData, ContinueFinishedRun) {
   // Any other change of the scene is refused.
   const fs::path other = small_scene(dir, 120, {{"u_max = 0.05", "u_max = 0.04"}}, "other");
   EXPECT_EQ(launch(other, "--restart " + quoted(run.string()), log), 2) << slurp(log);
+  if (!HasFailure()) fs::remove_all(dir);
+}
+
+// Launches started in the same second: each default folder created by the launch that gets it
+// (mkdir, not a name chosen and created later), and of two launches given the same new
+// --output one runs and the other is refused (run.id claimed with O_EXCL).
+TEST(RunData, ConcurrentLaunchesGetTheirOwnFolders) {
+  const fs::path dir = scratch("concurrent");
+  const fs::path scene = small_scene(dir, 30);
+  constexpr int kLaunches = 4;
+  const std::string env = "COSIM_OUTPUT_ROOT=" + quoted((dir / "out").string());
+  std::vector<int> status(kLaunches, -1);
+  {
+    std::vector<std::thread> launches;
+    for (int i = 0; i < kLaunches; ++i)
+      launches.emplace_back([&, i] { status[std::size_t(i)] = launch(scene, "", dir / ("l" + std::to_string(i) + ".log"), env); });
+    for (std::thread& t : launches) t.join();
+  }
+  std::vector<fs::path> runs;
+  for (const auto& e : fs::directory_iterator(dir / "out" / "small")) runs.push_back(e.path());
+  ASSERT_EQ(runs.size(), std::size_t(kLaunches));
+  std::set<std::string> ids;
+  for (int i = 0; i < kLaunches; ++i) EXPECT_EQ(status[std::size_t(i)], 0) << slurp(dir / ("l" + std::to_string(i) + ".log"));
+  for (const fs::path& r : runs) {
+    EXPECT_EQ(slurp(r / "fluid.exit"), "0\n") << logs(r);
+    EXPECT_EQ(slurp(r / "solid.exit"), "0\n") << logs(r);
+    ids.insert(slurp(r / "run.id"));
+  }
+  EXPECT_EQ(ids.size(), std::size_t(kLaunches)) << "two launches wrote into one folder";
+  // The same new --output twice at once: one run, one refusal, the run's files its own.
+  const fs::path shared = dir / "shared";
+  int a = -1, b = -1;
+  std::thread ta([&] { a = launch(scene, "--output " + quoted(shared.string()), dir / "a.log"); });
+  std::thread tb([&] { b = launch(scene, "--output " + quoted(shared.string()), dir / "b.log"); });
+  ta.join();
+  tb.join();
+  EXPECT_EQ(std::min(a, b), 0) << slurp(dir / "a.log") << slurp(dir / "b.log");
+  EXPECT_EQ(std::max(a, b), 2) << slurp(dir / "a.log") << slurp(dir / "b.log");
+  const std::string refusal = slurp(dir / (a == 2 ? "a.log" : "b.log"));
+  EXPECT_EQ(std::count(refusal.begin(), refusal.end(), '\n'), 1) << refusal;
+  EXPECT_EQ(slurp(shared / "fluid.exit"), "0\n") << logs(shared);
+  EXPECT_EQ(slurp(shared / "solid.exit"), "0\n") << logs(shared);
+  std::printf("%d folders for %d launches; the shared --output's refusal: %s", int(runs.size()), kLaunches,
+              refusal.c_str());
+  if (!HasFailure()) fs::remove_all(dir);
+}
+
+// A folder whose run.id was deleted names its run by its checkpoints: another run's
+// checkpoint is refused there, its own accepted (and run.id written back).
+TEST(RunData, RestartWithoutRunIdAsksTheCheckpoints) {
+  const fs::path dir = scratch("no_run_id");
+  const fs::path scene = small_scene(dir, 60);
+  const fs::path a = dir / "a", b = dir / "b";
+  expect_done(a, run_launcher(kSource, scene, a));
+  expect_done(b, run_launcher(kSource, scene, b));
+  const std::string id_a = slurp(a / "run.id");
+  fs::remove(a / "run.id");
+  const auto files_a = data_files(a);
+  const fs::path log = dir / "restart.log";
+  EXPECT_EQ(launch(scene, "--restart " + quoted((b / "checkpoints" / "fluid_00000040.h5").string()) + " --output " +
+                              quoted(a.string()), log),
+            2)
+      << slurp(log);
+  EXPECT_NE(slurp(log).find("a checkpoint of another run"), std::string::npos) << slurp(log);
+  EXPECT_TRUE(data_files(a) == files_a) << "a refused restart changed the folder";
+  const fs::path scene100 = small_scene(dir, 100, {}, "small");
+  EXPECT_EQ(launch(scene100, "--restart " + quoted(a.string()), log), 0) << slurp(log) << logs(a);
+  EXPECT_EQ(slurp(a / "run.id"), id_a);
+  if (!HasFailure()) fs::remove_all(dir);
+}
+
+// The launcher takes the scene's URL, timeouts and steps from the fluid (`fluid --print`),
+// never from TOML of its own: a literal string URL on another port, numbers with underscores,
+// comments after the values.
+TEST(RunData, LauncherReadsTheSceneAsTheServersDo) {
+  const fs::path dir = scratch("scene_as_servers");
+  const fs::path scene = small_scene(
+      dir, 30,
+      {{"time_ratio = 150", "time_ratio = 1_50   # A_T\nlcm_url = 'udpm://239.255.76.67:7668?ttl=0'  # literal, port 7668\n"
+                            "handshake_timeout_s = 1_80"}});
+  const fs::path fluid = FLUID_EXE;
+  const cosim::test::RunResult p = cosim::test::run_command(
+      quoted(fluid.string()) + " " + quoted(scene.string()) +
+          " --print coupling.lcm_url,coupling.handshake_timeout_s,coupling.peer_timeout_s,coupling.time_ratio,run.steps",
+      dir / "print");
+  ASSERT_EQ(p.status, 0) << p.err;
+  EXPECT_EQ(p.out,
+            "coupling.lcm_url=udpm://239.255.76.67:7668?ttl=0\ncoupling.handshake_timeout_s=180\n"
+            "coupling.peer_timeout_s=3\ncoupling.time_ratio=150\nrun.steps=30\n");
+  const cosim::test::RunResult bad = cosim::test::run_command(
+      quoted(fluid.string()) + " " + quoted(scene.string()) + " --print coupling.nonsense", dir / "print_bad");
+  EXPECT_EQ(bad.status, 2);
+  EXPECT_NE(bad.err.find("--print coupling.nonsense: not a key the fluid prints (allowed: "), std::string::npos) << bad.err;
+  // A run with its traffic log: the recorder listens where the servers talk.
+  const fs::path out = dir / "run";
+  ASSERT_EQ(launch(scene, "--output " + quoted(out.string()) + " --log", dir / "run.log"), 0) << slurp(dir / "run.log")
+                                                                                              << logs(out);
+  EXPECT_GT(fs::file_size(out / "traffic.lcmlog"), 1000u) << slurp(out / "record.log");
+  EXPECT_NE(slurp(out / "record.log").find("7668"), std::string::npos) << slurp(out / "record.log");
   if (!HasFailure()) fs::remove_all(dir);
 }
 

@@ -232,13 +232,34 @@ static int valid_prefix(const char *p) {
   return 1;
 }
 
-/* protocol/README.md section 1: udpm:// with ttl=0, or memq://. */
+/* A decimal number at p of 1 to `digits` digits, no sign, no leading zero (but "0"), at most
+ * `max`; its end in *end, or 0. */
+static int decimal(const char *p, int digits, long max, long *out, const char **end) {
+  int n = 0;
+  long v = 0;
+  while (isdigit((unsigned char)p[n]) && n <= digits) v = 10 * v + (p[n++] - '0');
+  if (n == 0 || n > digits || (n > 1 && p[0] == '0') || v > max) return 0;
+  *out = v;
+  *end = p + n;
+  return 1;
+}
+
+/* protocol/README.md section 1, the rule both servers apply (protocol/lcm_url.hpp): exactly
+ * "memq://", or "udpm://A.B.C.D:PORT?ttl=0" with A.B.C.D an IPv4 multicast group (224.0.0.0
+ * to 239.255.255.255), PORT 1 to 65535, and ttl=0 the whole query (no second ttl, no other
+ * item), so that no packet leaves this machine. */
 static int valid_url(const char *u) {
-  if (strncmp(u, "memq://", 7) == 0) return 1;
+  if (strcmp(u, "memq://") == 0) return 1;
   if (strncmp(u, "udpm://", 7) != 0) return 0;
-  for (const char *p = strstr(u, "ttl="); p; p = strstr(p + 1, "ttl="))
-    if ((p[-1] == '?' || p[-1] == '&') && p[4] == '0' && (p[5] == '\0' || p[5] == '&')) return 1;
-  return 0;
+  const char *p = u + 7;
+  long part[4], port;
+  for (int k = 0; k < 4; ++k) {
+    if (!decimal(p, 3, 255, &part[k], &p)) return 0;
+    if (*p++ != (k < 3 ? '.' : ':')) return 0;
+  }
+  if (part[0] < 224 || part[0] > 239) return 0;
+  if (!decimal(p, 5, 65535, &port, &p) || port == 0) return 0;
+  return strcmp(p, "?ttl=0") == 0;
 }
 
 /* ---------------------------------------------------------------------- the server --- */
@@ -635,7 +656,12 @@ static int run(int argc, char **argv) {
   output = output ? output : s.output_dir;
   if (!token || !*token) return usage("no run token: give --token T or set COSIM_RUN_TOKEN");
   if (!valid_prefix(prefix)) return usage("channel prefix: 1 to 32 characters from A-Z a-z 0-9 _ are allowed");
-  if (!valid_url(url)) return usage("LCM URL: udpm://...?ttl=0 or memq:// is allowed");
+  if (!valid_url(url)) {
+    char why[TEXT + 160];
+    snprintf(why, sizeof why, "LCM URL \"%s\" (--lcm-url or [coupling] lcm_url): udpm://ADDR:PORT?ttl=0 (an IPv4 "
+             "multicast ADDR, ttl=0 the whole query) or memq:// is allowed", url);
+    return usage(why);
+  }
   if (s.nx_cg * s.ny_cg > 1000000) return usage("[[sheet]] nx_cg x ny_cg: at most 1000000 markers are allowed");
 
   Plate p;

@@ -1,7 +1,7 @@
 // `fluid`: runs a fluid-only scene (no solid process) and reports its health.
 //
 //   fluid SCENE.toml [--steps N] [--output DIR] [--monitor-every N] [--fields-every N]
-//                    [--threads N] [--quiet] [--check]
+//                    [--threads N] [--quiet] [--check] [--print KEY,...]
 //
 // Exit status: 0 the run finished; 1 an output or system error; 2 the scene file or the
 // command line is invalid (one line on stderr); 3 the flow became unhealthy (NaN, rho <= 0,
@@ -44,6 +44,7 @@
 #include "fluid/collision/kernel_dispatch.hpp"
 #include "fluid/io/monitor_log.hpp"
 #include "fluid/config/scene_config.hpp"
+#include "fluid/config/scene_values.hpp"
 #include "fluid/io/snapshots.hpp"
 #include "protocol/channels.hpp"
 #include "common/run/progress.hpp"
@@ -385,6 +386,11 @@ int main_impl(int argc, char** argv) {
       app.add_option("--threads", threads, "OpenMP threads, 0 = OpenMP's default (run.threads)");
   app.add_flag("--quiet", quiet, "no progress line on stderr");
   app.add_flag("--check", check, "validate the scene, print the header, and exit");
+  std::string print_keys;
+  app.add_option("--print", print_keys,
+                 "print KEY=VALUE for each of the comma-separated keys as the fluid reads them "
+                 "(coupling.lcm_url, coupling.handshake_timeout_s, coupling.peer_timeout_s, "
+                 "coupling.time_ratio, coupling.channel_prefix, output.directory, run.steps) and exit");
   std::string token, channel_prefix, lcm_url;
   app.add_option("--token", token,
                  "coupled scenes: the run's token (default: the environment's COSIM_RUN_TOKEN)");
@@ -422,6 +428,10 @@ int main_impl(int argc, char** argv) {
     if (o_time_ratio->count()) ov.time_ratio = time_ratio;
     if (o_url->count()) ov.lcm_url = lcm_url;
     apply_overrides(scene, ov);
+    if (!print_keys.empty()) {
+      std::fputs(scene_values(scene, print_keys).c_str(), stdout);
+      return exit_code::ok;
+    }
   } catch (const SceneError& e) {
     std::fprintf(stderr, "%s\n", e.what());
     return exit_code::bad_input;

@@ -141,7 +141,7 @@ int main_impl(int argc, char** argv) {
   ctx.peer_timeout_s = scene.coupling->peer_timeout_s;
   ctx.position_lb = solid::marker_positions_lb(scene.config.sheets, units);
   ctx.dx_m = units.dx_m();
-  ctx.energy_unit_J = units.force_lb_N() * units.dx_m();  // rho_air dx^3 c^2 = F_LB dx
+  ctx.energy_unit_J = units.energy_lb_J();
   ctx.law = scene.reaction_law;
 
   std::cout << "cosim-conformance: solid '" << command << "' on " << cand.scene_path << " (A_T = " << ctx.time_ratio
