@@ -6,7 +6,9 @@ server, in the 2.5 x 0.41 m channel with the ramped parabolic inlet:
 scenes/benchmarks/turek_hron_fsi2.toml with its [grid] (and the sheet's CGPs) set to n cells
 per diameter: dx = D / n, nx = 25 n, ny = 4.1 n, nz = 4; the sheet's CGPs 1 dx apart across
 the span (nz of them) and L / (m + 1/2) along the bar with m = ceil(L / dx - 1/2) free rows
-(at most 1 dx), placed half a cell upstream (the scene's comment says why); sheet snapshots
+(at most 1 dx), placed half a cell upstream (the scene's comment says why); A_T the
+smallest whole number that makes dt_CG = dt_LB / A_T stable (`build/solid/solid SCENE
+--check` prints the stable step: 1 at 10 cells, 2 at 20); sheet snapshots
 every 10 ms and held_body.csv rows every 5 ms. Each is run through launch/run-coupled.sh (build first:
 bash launch/build.sh --target fluid solid).
 
@@ -35,6 +37,8 @@ import argparse
 import glob
 import math
 import os
+import re
+import shutil
 import subprocess
 import sys
 import time
@@ -43,7 +47,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from build_dir import ROOT  # noqa: E402
+from build_dir import ROOT, build_dir  # noqa: E402
 
 D_M = 0.1      # the cylinder's diameter
 L_M = 0.35     # the bar's length
@@ -89,12 +93,26 @@ def scene_text(n, seconds):
     return "\n".join(out) + "\n"
 
 
+def time_ratio(scene):
+    """A_T = ceil(dt_LB / the bar's stable step), the stable step as `solid --check` prints it
+    (the bending of the finer sheet stiffens it as 1 / spacing^2, dt_LB shrinks as dx)."""
+    text = subprocess.run([str(build_dir() / "solid" / "solid"), str(scene), "--check"], check=True,
+                          capture_output=True, text=True).stdout
+    stable = float(re.search(r"stable dt_CG \(2 / omega_max[^)]*\): ([0-9.eE+-]+) s", text).group(1))
+    dt_lb = float(re.search(r"dt_LB = ([0-9.eE+-]+) s", text).group(1))
+    return math.ceil(dt_lb / stable * (1 + 1e-12))
+
+
 def run_case(n, seconds, out):
     folder = out / f"fsi2_n{n}"
     folder.mkdir(parents=True, exist_ok=True)
     scene = folder / "scene.toml"
     scene.write_text(scene_text(n, seconds))
+    a_t = time_ratio(scene)
+    scene.write_text(re.sub(r"(?m)^time_ratio = .*$", f"time_ratio = {a_t}", scene.read_text()))
     run = folder / "run"
+    if run.exists():
+        shutil.rmtree(run)  # the study's own earlier run of this resolution: run anew
     cmd = ["bash", str(ROOT / "launch" / "run-coupled.sh"), str(scene), "--no-build", "--quiet", "--output", str(run)]
     print("turek_hron_fsi_study: " + " ".join(cmd), flush=True)
     t0 = time.monotonic()
