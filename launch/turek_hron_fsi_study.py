@@ -1,9 +1,10 @@
 #!/usr/bin/env python3
-"""Turek & Hron's FSI2 as a coupled run (issue 29): the quantities against the reference.
+"""Turek & Hron's FSI2 and FSI3 as coupled runs (issue 29): the quantities against the reference.
 
 The cylinder held by the fluid ([held_body]) with the elastic bar as a sheet of the solid
 server, in the 2.5 x 0.41 m channel with the ramped parabolic inlet:
-scenes/benchmarks/turek_hron_fsi2.toml with its [grid] (and the sheet's CGPs) set to n cells
+scenes/benchmarks/turek_hron_<case>.toml (FSI2: U_mean 1 m/s, the bar of density 1e4 and
+E 1.4 MPa; FSI3: 2 m/s, 1e3 and 5.6 MPa) with its [grid] (and the sheet's CGPs) set to n cells
 per diameter: dx = D / n, nx = 25 n, ny = 4.1 n, nz = 4; the sheet's CGPs 1 dx apart across
 the span (nz of them) and L / (m + 1/2) along the bar with m = ceil(L / dx - 1/2) free rows
 (at most 1 dx), placed half a cell upstream (the scene's comment says why); A_T the
@@ -25,12 +26,12 @@ min) / 2, amplitude = (max - min) / 2, frequency = 1 / period. The table gives e
 the reference (Turek & Hron 2006, docs/refs.bib) with the relative error of the mean (u_x,
 drag), of the amplitude and of the frequency; and the wall time per simulated second.
 
-  /usr/bin/python3 launch/turek_hron_fsi_study.py [--out out/turek_hron_fsi] [--resolutions 10]
-      [--seconds 15] [--table-only] [--run-dir DIR]
+  /usr/bin/python3 launch/turek_hron_fsi_study.py [--case fsi2|fsi3] [--out out/turek_hron_fsi]
+      [--resolutions 10] [--seconds 15] [--table-only] [--run-dir DIR]
 
 --run-dir DIR measures one run folder (e.g. of `bash launch/run-coupled.sh
-scenes/benchmarks/turek_hron_fsi2.toml --output DIR`) instead. Writes OUT/turek_hron_fsi2.md
-and OUT/turek_hron_fsi2_n<n>.png (u_y(A), u_x(A), drag and lift against time, with the
+scenes/benchmarks/turek_hron_fsi2.toml --output DIR`) instead. Writes OUT/turek_hron_<case>.md
+and OUT/turek_hron_<case>_n<n>.png (u_y(A), u_x(A), drag and lift against time, with the
 reference band) when matplotlib is there.
 """
 import argparse
@@ -54,23 +55,24 @@ L_M = 0.35     # the bar's length
 NZ = 4         # span cells
 C_M_S = 40.0   # the lattice speed of the scene (c = sqrt(3) c_s)
 # quantity: (mean, amplitude, frequency in Hz); displacements in 1e-3 m, forces in N/m
-REFERENCE = {
-    "u_x": (-14.58, 12.44, 3.8),
-    "u_y": (1.23, 80.6, 2.0),
-    "drag": (208.83, 73.75, 3.8),
-    "lift": (0.88, 234.2, 2.0),
+REFERENCES = {
+    "fsi2": {"u_x": (-14.58, 12.44, 3.8), "u_y": (1.23, 80.6, 2.0), "drag": (208.83, 73.75, 3.8),
+             "lift": (0.88, 234.2, 2.0)},
+    "fsi3": {"u_x": (-2.69, 2.53, 10.9), "u_y": (1.48, 34.38, 5.3), "drag": (457.3, 22.66, 10.9),
+             "lift": (2.22, 149.78, 5.3)},
 }
+REFERENCE = REFERENCES["fsi2"]  # the case of this run of the script (main sets it)
 UNITS = {"u_x": "1e-3 m", "u_y": "1e-3 m", "drag": "N/m", "lift": "N/m"}
 
 
-def scene_text(n, seconds):
-    """turek_hron_fsi2.toml at n cells per diameter, run for `seconds`."""
+def scene_text(n, seconds, case="fsi2"):
+    """turek_hron_<case>.toml at n cells per diameter, run for `seconds`."""
     if (41 * n) % 10 != 0:
         raise SystemExit(f"turek_hron_fsi_study: {n} cells per diameter: ny = 4.1 n must be whole (n a multiple of 10)")
     dx = D_M / n
     rows = math.ceil(L_M / dx - 0.5 - 1e-9)  # the spacing along the bar at most dx
     h = L_M / (rows + 0.5)
-    every = max(1, round(0.01 / (dx / C_M_S)))  # 10 ms of LB steps
+    every = max(1, round((0.01 if case == "fsi2" else 0.002) / (dx / C_M_S)))  # 10 ms (FSI3: 2 ms) of LB steps
     values = {
         "[grid]": {"nx": str(25 * n), "ny": str(41 * n // 10), "nz": str(NZ), "dx_um": repr(dx * 1e6)},
         "[run]": {"duration_us": f"{seconds * 1e6:.6g}"},
@@ -80,7 +82,7 @@ def scene_text(n, seconds):
                       "spacing_um": f"[{dx * 1e6!r}, {h * 1e6!r}]",
                       "base_um": f"[{(0.25 - dx / 2) * 1e6!r}, 200000.0, {1.5 * dx * 1e6!r}]"},
     }
-    with open(ROOT / "scenes" / "benchmarks" / "turek_hron_fsi2.toml") as f:
+    with open(ROOT / "scenes" / "benchmarks" / f"turek_hron_{case}.toml") as f:
         text = f.read()
     out, section = [], ""
     for line in text.splitlines():
@@ -103,11 +105,11 @@ def time_ratio(scene):
     return math.ceil(dt_lb / stable * (1 + 1e-12))
 
 
-def run_case(n, seconds, out):
-    folder = out / f"fsi2_n{n}"
+def run_case(case, n, seconds, out):
+    folder = out / f"{case}_n{n}"
     folder.mkdir(parents=True, exist_ok=True)
     scene = folder / "scene.toml"
-    scene.write_text(scene_text(n, seconds))
+    scene.write_text(scene_text(n, seconds, case))
     a_t = time_ratio(scene)
     scene.write_text(re.sub(r"(?m)^time_ratio = .*$", f"time_ratio = {a_t}", scene.read_text()))
     run = folder / "run"
@@ -227,6 +229,7 @@ def plot(path, series):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--case", choices=sorted(REFERENCES), default="fsi2")
     ap.add_argument("--out", default=str(ROOT / "out" / "turek_hron_fsi"))
     ap.add_argument("--resolutions", default="10")
     ap.add_argument("--seconds", type=float, default=15.0)
@@ -235,8 +238,10 @@ def main():
     ap.add_argument("--run-dir", help="measure this one run folder")
     ap.add_argument("--print-scene", type=int, metavar="N", help="print the scene at N cells per diameter and exit")
     a = ap.parse_args()
+    global REFERENCE
+    REFERENCE = REFERENCES[a.case]
     if a.print_scene:
-        sys.stdout.write(scene_text(a.print_scene, a.seconds))
+        sys.stdout.write(scene_text(a.print_scene, a.seconds, a.case))
         return
     if a.run_dir:
         run = Path(a.run_dir)
@@ -247,14 +252,14 @@ def main():
     rows = []
     for n in (int(v) for v in a.resolutions.split(",")):
         if not a.table_only:
-            run_case(n, a.seconds, out)
-        folder = out / f"fsi2_n{n}"
+            run_case(a.case, n, a.seconds, out)
+        folder = out / f"{a.case}_n{n}"
         wall = float((folder / "wall_s").read_text()) if (folder / "wall_s").exists() else None
         m = measure(folder / "run", a.window)
         rows.append((n, m, wall))
-        plot(out / f"turek_hron_fsi2_n{n}.png", m[1])
+        plot(out / f"turek_hron_{a.case}_n{n}.png", m[1])
     text = table(rows)
-    (out / "turek_hron_fsi2.md").write_text(text)
+    (out / f"turek_hron_{a.case}.md").write_text(text)
     print(text, end="")
 
 
