@@ -14,6 +14,17 @@ void require_positive(double v, const char* name) {
 }
 }  // namespace
 
+UnitInputs scene_unit_inputs(double dx_m, const std::optional<Medium>& medium, int time_ratio) {
+  UnitInputs in;
+  in.dx_m = dx_m;
+  in.time_ratio = time_ratio;
+  if (medium) {
+    in.sound_speed_m_s = medium->sound_speed_m_s;
+    in.number_density_per_m3 = medium->density_kg_m3 / in.molecule_mass_kg;  // rho = n m
+  }
+  return in;
+}
+
 UnitConverter::UnitConverter(const UnitInputs& in) : in_(in) {
   require_positive(in.dx_m, "dx_m");
   require_positive(in.sound_speed_m_s, "sound_speed_m_s");

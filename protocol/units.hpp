@@ -3,6 +3,8 @@
 // physical constants; nothing downstream types a converted value.
 #pragma once
 
+#include <optional>
+
 namespace cosim::protocol {
 
 /// CODATA 2018 atomic units and the paper's air properties (Table 1).
@@ -25,6 +27,21 @@ struct UnitInputs {
   double molecule_mass_kg = PhysicalConstants::air_molecule_kg;
   int time_ratio = 150;  ///< A_T = dt_LB / dt_CG (Eq. 16)
 };
+
+/// A medium other than the paper's air (Table 1), e.g. Turek and Hron's water-like fluid:
+/// its density and the lattice's sound speed c_s (dt = dx / (sqrt(3) c_s): the weakly
+/// compressible model's artificial one, which sets the Mach number, not the liquid's).
+/// [fluid] density_kg_m3 and sound_speed_m_s of a scene, read by both processes
+/// (protocol/config/shared_sections.hpp read_medium).
+struct Medium {
+  double density_kg_m3 = 0.0;
+  double sound_speed_m_s = 0.0;
+};
+
+/// The conversion's inputs of a scene, the one rule both processes apply: dx from [grid],
+/// the medium (the paper's air when absent; rho = n m: the number density that gives its
+/// density with Table 1's molecule mass) and A_T.
+UnitInputs scene_unit_inputs(double dx_m, const std::optional<Medium>& medium, int time_ratio);
 
 /// Validated converter: the constructor throws std::invalid_argument naming the input
 /// that is not positive.

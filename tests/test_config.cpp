@@ -12,12 +12,14 @@
 #include <sstream>
 #include <string>
 #include <utility>
+#include <tuple>
 #include <vector>
 
 #include "support/run_command.hpp"
 #include "fluid/config/scene_config.hpp"
 #include "protocol/config/scene_sections.hpp"
 #include "protocol/lcm_url.hpp"
+#include "protocol/units.hpp"
 #include "solid/config/solid_scene.hpp"
 
 namespace {
@@ -297,6 +299,49 @@ TEST(SceneConfig, ExampleSolidKeepsTheUrlRule) {
     EXPECT_EQ(r.status, 2) << u << " accepted: " << r.err;
     EXPECT_NE(r.err.find("LCM URL \"" + u + "\""), std::string::npos) << u << ": " << r.err;
   }
+}
+
+// [fluid] density_kg_m3 and sound_speed_m_s are read by both processes alike
+// (protocol/config/shared_sections.hpp read_medium, protocol::scene_unit_inputs): a coupled
+// scene in another fluid than the paper's air gives both the same units, the ones the
+// handshake compares (dx, dt_LB, c_s, density) and the ones each side converts forces,
+// velocities and momenta with.
+TEST(SceneConfig, MediumGivesBothProcessesTheSameUnits) {
+  using cosim::protocol::UnitConverter;
+  const Scratch s("medium");
+  const std::string medium = "density_kg_m3 = 1000.0\nsound_speed_m_s = 23.094010767585033\n";
+  std::string text = coupled_scene("model = \"rigid\"\n", "time_ratio = 40\n");
+  text.replace(text.find("[fluid]\ntau = 0.8\n"), 18, "[fluid]\ntau = 0.8\n" + medium);
+  const fs::path water = s.file("water.toml", text);
+  const cosim::fluid::FluidScene f = cosim::fluid::load_scene(water.string());
+  const cosim::solid::SolidScene so = cosim::solid::load_solid_scene(water.string());
+  ASSERT_TRUE(so.medium.has_value());
+  const UnitConverter uf(cosim::fluid::unit_inputs(f)), us(so.unit_inputs());
+  EXPECT_DOUBLE_EQ(uf.air_density_kg_m3(), 1000.0);
+  EXPECT_DOUBLE_EQ(uf.lattice_speed_m_s(), 40.0);
+  const std::tuple<const char*, double, double> rows[] = {{"dx_m", uf.dx_m(), us.dx_m()},
+                                   {"dt_lb_s", uf.dt_lb_s(), us.dt_lb_s()},
+                                   {"dt_cg_s", uf.dt_cg_s(), us.dt_cg_s()},
+                                   {"density", uf.air_density_kg_m3(), us.air_density_kg_m3()},
+                                   {"force_lb_N", uf.force_lb_N(), us.force_lb_N()},
+                                   {"velocity_ratio", uf.velocity_ratio(), us.velocity_ratio()},
+                                   {"force_ratio", uf.force_ratio(), us.force_ratio()},
+                                   {"momentum", uf.momentum_lb_from_au(1.0), us.momentum_lb_from_au(1.0)}};
+  for (const auto& [name, a, b] : rows) EXPECT_EQ(a, b) << name;
+  EXPECT_EQ(uf.inputs().time_ratio, 40);
+  EXPECT_EQ(us.inputs().time_ratio, 40);
+  EXPECT_DOUBLE_EQ(so.dt_s, us.dt_cg_s());
+  // Without the medium both are the paper's air, whose forces convert otherwise.
+  const fs::path air = s.file("air.toml", coupled_scene("model = \"rigid\"\n", "time_ratio = 40\n"));
+  const UnitConverter af(cosim::fluid::unit_inputs(cosim::fluid::load_scene(air.string())));
+  const UnitConverter as(cosim::solid::load_solid_scene(air.string()).unit_inputs());
+  EXPECT_EQ(af.force_ratio(), as.force_ratio());
+  EXPECT_NE(af.force_ratio(), uf.force_ratio());
+  // One half of the medium: both refuse it with the same line.
+  text.replace(text.find("sound_speed_m_s"), 15, "# sound_speed_m_s");
+  const fs::path half = s.file("half.toml", text);
+  for (const std::string& m : {fluid_refusal(half), solid_refusal(half)})
+    EXPECT_NE(m.find("fluid.density_kg_m3 = 1000: needs fluid.sound_speed_m_s too"), std::string::npos) << m;
 }
 
 }  // namespace

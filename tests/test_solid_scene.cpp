@@ -169,7 +169,7 @@ const std::vector<BadCase>& bad_cases() {
       {"coupling_grid_dx_zero.toml", {":4: grid.dx_um = 0: must be > 0"}},
       {"coupling_unknown_section.toml",
        {":2: [fluids]: unknown section; allowed: [scene], [solid], [contact], [material], [[sheet]], "
-        "[perturbation], [output], [grid], [coupling], [watchdog], [reaction]; the fluid's [fluid],",
+        "[perturbation], [output], [grid], [fluid], [coupling], [watchdog], [reaction]; the fluid's [inlet],",
         "did you mean \"fluid\""}},
       {"coupling_output_unknown_key.toml",
        {":8: output.fields_evry = 10: unknown key in [output]; allowed: directory, "

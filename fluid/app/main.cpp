@@ -198,11 +198,7 @@ int run(const FluidScene& s, bool quiet, FluidDomain& domain) {
 
   domain.initialize(s);
   // The inlet's start-up ramp (inlet.ramp_us) and the held body ([held_body]).
-  const auto ramp = [&](std::int64_t step) {
-    if (s.inlet_ramp_steps > 0.0 && double(step) <= s.inlet_ramp_steps + 1.0)
-      domain.set_inlet_scale(inlet_ramp(double(step), s.inlet_ramp_steps));
-  };
-  ramp(0);
+  ramp_inlet(domain, s, 0);
   std::optional<HeldBody> body;
   if (s.held_body) body.emplace(s.held_body->shape, ImmersedBoundary(s.params));
 
@@ -244,7 +240,7 @@ int run(const FluidScene& s, bool quiet, FluidDomain& domain) {
     log->append(*first);
     if (body)
       body_log.emplace((std::filesystem::path(s.output_dir) / "held_body.csv").string(), units.dt_lb_s(),
-                       units.force_lb_N() / units.dx_m() / double(s.params.shape.nz));
+                       held_body_newtons_per_m(units, s.params.shape.nz));
     std::printf("%s\n", format_summary(*first, dt_us, mass0).c_str());
     std::fflush(stdout);
   }
@@ -261,7 +257,7 @@ int run(const FluidScene& s, bool quiet, FluidDomain& domain) {
       if (leads) body_log->add(body->force());
     }
     domain.step();
-    ramp(step);
+    ramp_inlet(domain, s, step);
     if (body && leads && (step % s.held_body->record_every == 0 || step == s.steps)) body_log->record(step);
     // The watchdog's cadence: the state the step read (step - 1), from the kernel's extrema.
     if ((step - 1) % s.watchdog.health_every == 0)
@@ -346,6 +342,13 @@ int run_coupled_scene(const FluidScene& scene, const CoupledFluidOptions& co) {
       grid = std::make_unique<mpi::DistributedFluid>(scene, g_world->comm());
     } catch (const std::invalid_argument& e) {
       if (g_world->rank() == 0) std::fprintf(stderr, "%s: %s\n", scene.path.c_str(), one_line(e.what()).c_str());
+      return exit_code::bad_input;
+    }
+    // The leading process's loop (mpi::LedDomain) neither ramps an inlet nor holds a body.
+    if (scene.inlet_ramp_steps > 0.0 || scene.held_body) {
+      if (g_world->rank() == 0)
+        std::fprintf(stderr, "%s: %s in a coupled run over %d MPI ranks: not supported; run it on one process\n",
+                     scene.path.c_str(), scene.held_body ? "[held_body]" : "inlet.ramp_us", mpi_ranks());
       return exit_code::bad_input;
     }
     MPI_Comm orders = MPI_COMM_NULL;

@@ -63,7 +63,7 @@ const std::vector<SectionSchema>& schema() {
   static const std::vector<SectionSchema> s = {
       {"scene"},
       {"grid"},
-      {"fluid", {"tau", "reynolds", "reference_length_um", "viscosity_m2_s", "density_kg_m3", "sound_speed_m_s"}},
+      {"fluid"},  // shared: its medium keys are the solid's too (protocol/config/scene_sections.cpp)
       {"inlet", {"u_max", "u_max_m_s", "profile", "boundary_layer_um", "density", "ramp_us"}},
       {"held_body",
        {"center_um", "radius_um", "bar_tip_x_um", "bar_thickness_um", "retraction", "spacing", "iterations",
@@ -147,24 +147,12 @@ void check_memory(const SceneReader& r, const FluidScene& s) {
 /// The scene's lattice units (dx from [grid], dt = dx / c): for the keys given in physical units.
 protocol::UnitConverter lattice_units(const FluidScene& s) { return protocol::UnitConverter(unit_inputs(s)); }
 
-/// [fluid] density_kg_m3 and sound_speed_m_s (FluidMedium): both or neither; before [run]
-/// and [inlet], whose physical keys convert with them.
+/// [fluid] density_kg_m3 and sound_speed_m_s (protocol::config::read_medium, shared with the
+/// solid): before [run] and [inlet], whose physical keys convert with them.
 void load_medium(const SceneReader& r, FluidScene& s) {
-  const Table fl = r.section("fluid");
-  const bool rho = fl.has("density_kg_m3"), cs = fl.has("sound_speed_m_s");
-  if (!rho && !cs) return;
-  if (rho != cs)
-    fl.bad(rho ? "density_kg_m3" : "sound_speed_m_s",
-           "needs fluid." + std::string(rho ? "sound_speed_m_s" : "density_kg_m3") +
-               " too: a medium other than the paper's air gives its density and the lattice's sound speed");
-  if (r.coupled())
-    fl.bad("density_kg_m3",
-           "is for a fluid-only scene: a coupled run's units are the paper's air (Table 1) on both sides; match "
-           "another fluid by similarity (Re, density and stiffness ratios) instead");
-  FluidMedium m;
-  m.density_kg_m3 = *fl.positive("density_kg_m3", "the fluid's density, kg/m^3");
-  m.sound_speed_m_s = *fl.positive("sound_speed_m_s", "the lattice's sound speed c_s, m/s: dt = dx / (sqrt(3) c_s)");
-  s.medium = m;
+  s.medium = protocol::config::read_medium(r);
+  if (!s.medium) return;
+  const FluidMedium& m = *s.medium;
   const protocol::UnitConverter u = lattice_units(s);
   s.unit_conversions.push_back("fluid.sound_speed_m_s = " + protocol::fmt("%.6g", m.sound_speed_m_s) +
                                " m/s -> dt = dx / (sqrt(3) c_s) = " + protocol::fmt("%.6g", u.dt_lb_s()) +
@@ -358,8 +346,6 @@ void load_inlet(const SceneReader& r, FluidScene& s) {
     density = *rho;
   }
   if (in.has("ramp_us")) {  // Turek and Hron's start-up, (1 - cos(pi t / T)) / 2 for t < T
-    if (r.coupled())
-      in.bad("ramp_us", "is for a fluid-only scene (the coupled run's inlet is steady from its first step)");
     const double us = *in.number("ramp_us");
     if (!(us >= 0.0)) in.bad("ramp_us", "must be >= 0 (the inlet's start-up time in microseconds; 0: none)");
     const double dt_us = lattice_units(s).dt_lb_s() * 1e6;
@@ -465,8 +451,6 @@ void load_fluid(const SceneReader& r, FluidScene& s) {
 void load_held_body(const SceneReader& r, FluidScene& s) {
   const Table h = r.section("held_body");
   if (!h.present()) return;
-  if (r.coupled())
-    h.fail("[held_body]: is for a fluid-only scene (a coupled run's bodies are the solid's sheets)");
   if (s.params.faces[ZMin].kind != FaceKind::Periodic)
     h.fail("[held_body]: needs boundaries.z_min and z_max = \"periodic\": the body spans the periodic z axis");
   const double dx = s.dx_um;
@@ -583,14 +567,8 @@ FluidScene read_scene(const std::string& path) {
 }  // namespace
 
 protocol::UnitInputs unit_inputs(const FluidScene& s) {
-  protocol::UnitInputs in;
-  in.dx_m = s.dx_um * 1e-6;
-  if (s.medium) {
-    in.sound_speed_m_s = s.medium->sound_speed_m_s;
-    // rho = n m (UnitConverter::air_density_kg_m3): the number density that gives it.
-    in.number_density_per_m3 = s.medium->density_kg_m3 / in.molecule_mass_kg;
-  }
-  return in;
+  return protocol::scene_unit_inputs(s.dx_um * 1e-6, s.medium,
+                                     s.coupling ? s.coupling->time_ratio : protocol::UnitInputs{}.time_ratio);
 }
 
 std::size_t population_bytes(const GridShape& shape, Precision precision, Propagation propagation) {

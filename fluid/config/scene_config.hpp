@@ -53,13 +53,9 @@ struct SceneLimits {
 using CouplingSettings = protocol::config::CouplingSettings;
 
 /// [fluid] density_kg_m3 and sound_speed_m_s: the medium of a scene in another fluid than
-/// the paper's air (Table 1), e.g. Turek and Hron's benchmark (1000 kg/m^3). The sound speed
-/// is the lattice's (c_s = c / sqrt(3), dt = dx / c): the weakly compressible model's
-/// artificial one, which sets the Mach number of the flow, not the liquid's.
-struct FluidMedium {
-  double density_kg_m3 = 0.0;
-  double sound_speed_m_s = 0.0;
-};
+/// the paper's air (Table 1), e.g. Turek and Hron's benchmark (1000 kg/m^3); shared with the
+/// solid of a coupled scene (protocol/units.hpp Medium).
+using FluidMedium = protocol::Medium;
 
 /// [held_body] (fluid/ib/held_body.hpp): a rigid body the fluid holds at rest itself.
 struct HeldBodySettings {
@@ -136,7 +132,8 @@ struct SceneOverrides {
 void apply_overrides(FluidScene& scene, const SceneOverrides& overrides);
 
 /// The scene's lattice units: dx from [grid], the medium's density and sound speed (the
-/// paper's air unless [fluid] gives them).
+/// paper's air unless [fluid] gives them) and, in a coupled scene, [coupling] time_ratio:
+/// protocol::scene_unit_inputs, the rule the solid applies too.
 protocol::UnitInputs unit_inputs(const FluidScene& scene);
 
 /// Initial state of a scene's run: rho = 1 with u = 0 (run.initial = "rest"), or the inlet

@@ -49,10 +49,7 @@ Coordinator::Coordinator(const FluidScene& scene, const CoupledFluidOptions& opt
       inbox_(0, [this](const cosimlcm::solid_state_t& m) { return scheme_.key_of(m); }, ms(c_.peer_timeout_s),
              ms(c_.resend_after_s)),
       outbox_(link_, ch_.fluid_state) {
-  protocol::UnitInputs in;
-  in.dx_m = scene.dx_um * 1e-6;
-  in.time_ratio = c_.time_ratio;
-  units_ = protocol::UnitConverter(in);
+  units_ = protocol::UnitConverter(unit_inputs(scene));  // with the scene's medium and A_T
 }
 
 // ---- the states ----

@@ -85,6 +85,7 @@ FluidRun::FluidRun(const FluidScene& scene, const CoupledFluidOptions& options, 
       audit_(scene.coupling->rigid_steps, scene.reaction_law == protocol::config::ReactionLaw::MomentumExchange ||
                                               scene.reaction_law == protocol::config::ReactionLaw::PerSubstepOverTimeRatio) {
   domain_.initialize(s_);
+  if (s_.held_body) body_.emplace(s_.held_body->shape, ImmersedBoundary(s_.params));
   coord_.on_end([this](std::ostream& out) {
     if (markers_.has_reference()) out << "fluid: watchdog margins: " << markers_.margins() << "\n";
   });
@@ -125,11 +126,28 @@ std::int64_t FluidRun::start(std::optional<int>& failed) {
     failed = coord_.stop_and_end({exit_code::system, protocol::one_line(x.what()), true}, first_step);
     return first_step;
   }
+  if (body_)
+    try {
+      body_log_.emplace((std::filesystem::path(s_.output_dir) / "held_body.csv").string(), coord_.units().dt_lb_s(),
+                        held_body_newtons_per_m(coord_.units(), s_.params.shape.nz), true);
+    } catch (const std::exception& x) {
+      failed = coord_.stop_and_end({exit_code::system, protocol::one_line(x.what()), true}, first_step);
+      return first_step;
+    }
+  ramp_inlet(domain_, s_, first_step);
   coord_.set_first_step(first_step);
   start_ = Clock::now();
   clock_.restart(first_step);
   released_ = first_step >= rigid_steps();
   return first_step;
+}
+
+void FluidRun::hold_body(const std::vector<Vec3>& sheet_impulses) {
+  if (!body_) return;
+  body_force_ = body_->hold(domain_);
+  sheet_force_ = {0.0, 0.0, 0.0};
+  for (const Vec3& j : sheet_impulses)
+    for (int c = 0; c < 3; ++c) sheet_force_[c] -= j[c];
 }
 
 // ---- the stability watchdog (DESIGN 6; common/watchdog/watchdog.hpp) ----
@@ -241,6 +259,11 @@ std::optional<int> FluidRun::step_outputs(std::int64_t now, bool last, bool peri
     }
   }
   if (snapshot) snapshots_.write(*domain_.whole(), last);
+  if (body_log_) {
+    body_log_->add(body_force_, sheet_force_);
+    if (now % s_.held_body->record_every == 0 || last) body_log_->record(now);
+  }
+  ramp_inlet(domain_, s_, now);
   return std::nullopt;
 }
 

@@ -14,7 +14,9 @@
 #include "fluid/coupled/coupled_fluid.hpp"
 #include "fluid/observables/flow_monitor.hpp"
 #include "fluid/domain/fluid_domain.hpp"
+#include "fluid/ib/held_body.hpp"
 #include "fluid/ib/immersed_boundary.hpp"
+#include "fluid/io/held_body_log.hpp"
 #include "fluid/io/monitor_log.hpp"
 #include "fluid/config/scene_config.hpp"
 #include "fluid/io/snapshots.hpp"
@@ -67,6 +69,13 @@ class FluidRun {
   std::int64_t rigid_steps() const { return s_.coupling->rigid_steps; }
   std::int64_t checkpoint_every() const { return s_.coupling->checkpoint_every; }
 
+  /// [held_body] of a coupled scene (fluid/ib/held_body.hpp; Turek and Hron's cylinder, the
+  /// sheets its elastic bar): the body's impulses of this step from the fluid at the state
+  /// the step reads, spread before the sheets' `sheet_impulses` J_l are; the forces on both
+  /// (- sum J each) kept for the step's row of held_body.csv, which step_outputs() adds
+  /// (an implicit scheme's last iteration counts). Nothing without [held_body].
+  void hold_body(const std::vector<Vec3>& sheet_impulses);
+
   // ---- the watchdog (DESIGN 6; common/watchdog/watchdog.hpp) ----
   /// How far each marker moved, how far apart they are (before the fluid at `step` is
   /// touched: it is kept, if healthy, as the checkpoint of a trip); the markers X_l and
@@ -81,7 +90,8 @@ class FluidRun {
   /// published; the exit code of a trip.
   std::optional<int> sample_markers(std::int64_t now, const std::vector<Vec3>& x, std::vector<MarkerSample>& samples);
   /// The whole-grid health check before every write (monitor row, snapshot, checkpoint),
-  /// then the monitor row and the snapshot of step `now`; the exit code of a trip.
+  /// then the monitor row and the snapshot of step `now`, the held body's row, and the
+  /// inlet's ramp for the next step (ramp_inlet); the exit code of a trip.
   std::optional<int> step_outputs(std::int64_t now, bool last, bool periodic);
 
   // ---- checkpoints (DESIGN 2.4; protocol/README.md section 10) ----
@@ -138,6 +148,9 @@ class FluidRun {
   double bulk_u_ = 0.0;            ///< U_b of the latest health check (Eq. 34), lattice units
   double mass0_ = 0.0;             ///< the fluid's mass at step 0 (for the drift)
   std::vector<FlowSummary> rows_;  ///< monitor.h5's rows so far (for checkpoints)
+  std::optional<HeldBody> body_;   ///< [held_body]
+  std::optional<HeldBodyLog> body_log_;  ///< held_body.csv (from start(); anew after a restart)
+  Vec3 body_force_{0.0, 0.0, 0.0}, sheet_force_{0.0, 0.0, 0.0};  ///< of the step being taken
   Clock::time_point start_ = Clock::now();
   protocol::ProgressClock clock_{s_.steps};          ///< rate and ETA (common/run/progress.hpp)
   double progress_every_s_ = protocol::progress_every_s(1.0);

@@ -26,6 +26,11 @@ void FluidDomain::set_inlet_scale(double) {
   throw std::logic_error("FluidDomain::set_inlet_scale: this domain cannot ramp its inlet (a coupled run over MPI ranks)");
 }
 
+void ramp_inlet(FluidDomain& domain, const FluidScene& scene, std::int64_t step) {
+  if (scene.inlet_ramp_steps > 0.0 && double(step) <= scene.inlet_ramp_steps + 1.0)
+    domain.set_inlet_scale(inlet_ramp(double(step), scene.inlet_ramp_steps));
+}
+
 StoreView SerialDomain::whole_store(bool kept) {
   if (solver_.precision() == Precision::Double) return store_view(kept ? kept_.field() : solver_.state());
   return store_view(kept ? kept_.field_single() : solver_.state_single());

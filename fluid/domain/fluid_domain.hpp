@@ -110,6 +110,11 @@ class FluidDomain {
   virtual void load_store(const StoreView& from, std::int64_t step) = 0;
 };
 
+/// The inlet's start-up ramp of `scene` (inlet.ramp_us; Turek and Hron) set on `domain` for
+/// the step after `step`: its scale inlet_ramp(step, T) while the ramp lasts; nothing
+/// without one. The fluid-only loop and the coupled run alike.
+void ramp_inlet(FluidDomain& domain, const FluidScene& scene, std::int64_t step);
+
 /// The grid in this process: one FluidSolver.
 class SerialDomain final : public FluidDomain {
  public:

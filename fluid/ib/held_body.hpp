@@ -1,4 +1,5 @@
-// A rigid body held at rest by the fluid itself (no solid process): a circular cylinder,
+// A rigid body held at rest by the fluid itself (no solid process; in a coupled run beside
+// the solid's sheets, fluid/coupled/fluid_run.hpp hold_body): a circular cylinder,
 // optionally with a rectangular bar on its downstream side (Turek and Hron's CFD cases,
 // issue 29), marked by immersed-boundary markers on its surface in every span layer of a
 // span-periodic grid. Each step the markers' impulses are found by multi-direct forcing

@@ -149,6 +149,7 @@ int ImplicitFluidScheme::run(Coordinator& coord, FluidRun& run, std::int64_t fir
     iteration = m.iteration;
     if (auto code = run.check_positions(step, x, j)) return *code;
     fluid.sample(x, start_samples);  // the fluid before the step at X_l
+    run.hold_body(j);  // [held_body]: the body's impulses first (Turek and Hron's cylinder)
     fluid.spread(x, j);                         // Eqs. 21-24 and 25-26
     fluid.step();
     if (auto code = run.check_step_read(step)) return *code;

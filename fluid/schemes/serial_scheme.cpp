@@ -74,6 +74,7 @@ int SerialFluidScheme::run(Coordinator& coord, FluidRun& run, std::int64_t first
     }
     // Eqs. 21-24 and 25-26: spread J_l at X_l, collide the cells that receive them with the
     // forcing (the rest of the step was streamed and collided in the bulk).
+    run.hold_body(j);  // [held_body]: the body's impulses first (Turek and Hron's cylinder)
     fluid.spread(x, j);
     if (!overlap) fluid.begin_step();
     fluid.finish_step();

@@ -6,7 +6,6 @@ const std::vector<SectionOwner>& scene_sections() {
   using enum Owner;
   static const std::vector<SectionOwner> table = {
       // fluid/config/scene_config.cpp
-      {"fluid", Fluid},
       {"inlet", Fluid},
       {"boundaries", Fluid},
       {"wall_velocity", Fluid},
@@ -15,7 +14,17 @@ const std::vector<SectionOwner>& scene_sections() {
       // The fluid's in a coupled scene (the length of the run); a standalone solid scene has
       // a [run] of its own (solid/config/solid_scene.cpp).
       {"run", Fluid},
-      // Both processes.
+      // Both processes. [fluid]'s medium sets the units of both (protocol/units.hpp
+      // scene_unit_inputs); the rest of it is the fluid's.
+      {"fluid",
+       Both,
+       false,
+       {{"tau", Fluid},
+        {"reynolds", Fluid},
+        {"reference_length_um", Fluid},
+        {"viscosity_m2_s", Fluid},
+        {"density_kg_m3", Both},
+        {"sound_speed_m_s", Both}}},
       {"scene", Both, false, {{"name", Both}, {"description", Both}}},
       {"grid", Both, false, {{"nx", Fluid}, {"ny", Fluid}, {"nz", Fluid}, {"dx_um", Both}}},
       {"output",

@@ -50,6 +50,20 @@ void read_scene_header(const SceneReader& scene, std::string& name, std::string&
   if (const auto d = sec.string("description")) description = one_line(*d);
 }
 
+std::optional<Medium> read_medium(const SceneReader& scene) {
+  const Table fl = scene.section("fluid");
+  const bool rho = fl.has("density_kg_m3"), cs = fl.has("sound_speed_m_s");
+  if (!rho && !cs) return std::nullopt;
+  if (rho != cs)
+    fl.bad(rho ? "density_kg_m3" : "sound_speed_m_s",
+           "needs fluid." + std::string(rho ? "sound_speed_m_s" : "density_kg_m3") +
+               " too: a medium other than the paper's air gives its density and the lattice's sound speed");
+  Medium m;
+  m.density_kg_m3 = *fl.positive("density_kg_m3", "the fluid's density, kg/m^3");
+  m.sound_speed_m_s = *fl.positive("sound_speed_m_s", "the lattice's sound speed c_s, m/s: dt = dx / (sqrt(3) c_s)");
+  return m;
+}
+
 std::string read_output_directory(const SceneReader& scene, const std::string& scene_name) {
   const Table sec = scene.section("output");
   const auto d = sec.string("directory");

@@ -52,8 +52,8 @@ using protocol::config::quoted;
 
 constexpr double kMicrometre = 1e-6;
 
-/// The solid's sections and keys, in the order messages list them; [scene], [output] and
-/// [grid] are shared with the fluid (their keys and who reads them:
+/// The solid's sections and keys, in the order messages list them; [scene], [output],
+/// [grid] and [fluid]'s medium are shared with the fluid (their keys and who reads them:
 /// protocol/config/scene_sections.cpp), and the fluid's sections of a coupled scene are
 /// left to it. [solid] holds "model" and the options of the registered models, which may
 /// bring sections of their own (solid/model/model_registry.hpp).
@@ -72,6 +72,7 @@ std::vector<SectionSchema> schema() {
       {"load", {"pressure_Pa", "damping_ratio"}, false, Use::Standalone},
       {"output"},
       {"grid", {}, false, Use::Coupled},
+      {"fluid", {}, false, Use::Coupled},  // its medium: the units of both (read_medium)
       {"coupling", protocol::config::coupling_keys(), false, Use::Coupled},
       // The stability watchdog (common/watchdog/watchdog.hpp): the same table in both servers,
       // each validating every key.
@@ -335,6 +336,7 @@ SolidScene read_solid_scene(const std::string& path) {
   load_sheets(r, s);
   if (coupled) {
     load_grid(r, s);
+    s.medium = protocol::config::read_medium(r);
     s.coupling = protocol::config::read_coupling(r);
     s.watchdog = protocol::config::read_watchdog(r);
     s.reaction_law = protocol::config::read_reaction_law(r, *s.coupling);
@@ -368,10 +370,8 @@ SolidScene read_solid_scene(const std::string& path) {
 }  // namespace
 
 protocol::UnitInputs SolidScene::unit_inputs() const {
-  protocol::UnitInputs in;  // Table 1's air
-  in.dx_m = dx_m;
-  if (coupling) in.time_ratio = coupling->time_ratio;
-  return in;
+  return protocol::scene_unit_inputs(dx_m, medium,
+                                     coupling ? coupling->time_ratio : protocol::UnitInputs{}.time_ratio);
 }
 
 double cantilever_load_shape(double s) { return (6.0 * s * s - 4.0 * s * s * s + s * s * s * s) / 3.0; }

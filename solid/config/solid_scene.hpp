@@ -98,6 +98,9 @@ struct SolidScene {
   std::optional<CouplingSettings> coupling;
   /// [grid] dx_um (coupled scenes): dx_LB = dx_CG, metres.
   double dx_m = 0.2561e-6;
+  /// [fluid] density_kg_m3 and sound_speed_m_s (coupled scenes): the medium when not the
+  /// paper's air, read as the fluid reads it (protocol/config/shared_sections.hpp).
+  std::optional<protocol::Medium> medium;
   /// [watchdog] (coupled scenes; common/watchdog/watchdog.hpp): the solid uses max_cgp_speed (per
   /// substep) and energy_growth; every key is validated.
   protocol::WatchdogSettings watchdog;
@@ -106,7 +109,8 @@ struct SolidScene {
 
   bool coupled() const { return coupling.has_value(); }
   /// The unit inputs both servers announce in hello_t: dx from [grid] dx_um, A_T from
-  /// [coupling] time_ratio, the air of Table 1. @pre coupled()
+  /// [coupling] time_ratio, the medium of [fluid] (the air of Table 1 when absent): the
+  /// fluid's rule (protocol::scene_unit_inputs). @pre coupled()
   protocol::UnitInputs unit_inputs() const;
 };
 
@@ -116,9 +120,9 @@ struct SolidScene {
 /// SolidSceneError; nothing else escapes.
 ///
 /// A scene with a [coupling] section is coupled: the solid reads [scene], [solid],
-/// [[sheet]], [contact], [output] directory and sheets_every, [grid] dx_um, [coupling] and
-/// [watchdog] (which process owns which section: protocol/config/scene_sections.cpp);
-/// the fluid's sections ([grid] nx/ny/nz, [fluid], [inlet], [boundaries], [wall_velocity],
+/// [[sheet]], [contact], [output] directory and sheets_every, [grid] dx_um, [fluid]
+/// density_kg_m3 and sound_speed_m_s, [coupling] and [watchdog] (which process owns which section: protocol/config/scene_sections.cpp);
+/// the fluid's sections and keys ([grid] nx/ny/nz, [fluid]'s others, [inlet], [boundaries], [wall_velocity],
 /// [body_force], [run], [output] fields_every, planes_every, planes_y) are left to the
 /// fluid, unread; [perturbation] is optional (the sheets start deflected and at rest, held
 /// through the rigid steps, then released); [load] belongs to standalone runs and is refused.
