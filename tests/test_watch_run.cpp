@@ -155,14 +155,14 @@ TEST(WatchRun, CheckFindsTyposOnBothSides) {
   EXPECT_TRUE(contains(r.out, ": fluid: ok")) << r.out;
   EXPECT_TRUE(contains(r.out, "did you mean \"theta_deg\"")) << r.out;
 
-  // A model name cut short (corotation for corotational), and a typo on the fluid's side in
+  // A model name cut short (corotation for corotational), and a typo in a section only the
+  // fluid reads ([run]; [fluid] is read by both since its medium sets both sides' units) in
   // the same file: both reported in one call.
-  const fs::path both = edited_scene(small, dir / "both.toml", {{"model", "\"corotation\""}, {"tau", ""}},
-                                     {{"[fluid]", "tua = 0.8"}});
+  const fs::path both = edited_scene(small, dir / "both.toml", {{"model", "\"corotation\""}}, {{"[run]", "stpes = 100"}});
   r = run_command(env + check + quoted(both.string()), dir);
   EXPECT_EQ(r.status, 2) << r.out;
   EXPECT_TRUE(contains(r.out, "fluid: ")) << r.out;
-  EXPECT_TRUE(contains(r.out, "did you mean \"tau\"")) << r.out;
+  EXPECT_TRUE(contains(r.out, "did you mean \"steps\"")) << r.out;
   EXPECT_TRUE(contains(r.out, "did you mean \"corotational\"")) << r.out;
   // One line per scene and side.
   EXPECT_EQ(cosim::test::lines(r.out), 2u) << r.out;
