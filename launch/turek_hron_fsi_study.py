@@ -49,6 +49,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from build_dir import ROOT, build_dir  # noqa: E402
+import last_period as period  # noqa: E402
 
 D_M = 0.1      # the cylinder's diameter
 L_M = 0.35     # the bar's length
@@ -155,18 +156,8 @@ def force_series(run):
 def last_period(t, v, window):
     """(mean, amplitude, frequency) of v over its last period in the last `window` seconds;
     None where it did not cross the middle of its range upward twice there."""
-    m = t >= t[-1] - window
-    level = 0.5 * (v[m].min() + v[m].max())
-    ups, at = [], []
-    for i in np.nonzero(m)[0][1:]:
-        if v[i - 1] < level <= v[i]:
-            w = (level - v[i - 1]) / (v[i] - v[i - 1])
-            ups.append(t[i - 1] + w * (t[i] - t[i - 1]))
-            at.append(i)
-    if len(ups) < 2:
-        return None
-    s = slice(at[-2], at[-1] + 1)
-    return 0.5 * (v[s].max() + v[s].min()), 0.5 * (v[s].max() - v[s].min()), 1.0 / (ups[-1] - ups[-2])
+    p = period.last_period(t, v, window)
+    return None if p is None else (*period.mean_amplitude(v, p[0]), p[1])
 
 
 def measure(run, window):

@@ -27,7 +27,6 @@ with the reference).
 import argparse
 import math
 import os
-import re
 import subprocess
 import sys
 
@@ -35,6 +34,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from build_dir import ROOT, build_dir  # noqa: E402
+import last_period as period  # noqa: E402
 
 D_M = 0.1  # the cylinder's diameter
 REFERENCE = {
@@ -91,21 +91,11 @@ def last_period(t, drag, lift):
     m = t >= t[-1] - 1.0
     if lift[m].max() - lift[m].min() < 0.01 * abs(drag[m].mean()):
         return None
-    level = 0.5 * (lift[m].min() + lift[m].max())
-    idx = np.nonzero(m)[0]
-    ups, at = [], []
-    for i in idx[1:]:
-        if lift[i - 1] < level <= lift[i]:
-            w = (level - lift[i - 1]) / (lift[i] - lift[i - 1])
-            ups.append(t[i - 1] + w * (t[i] - t[i - 1]))
-            at.append(i)
-    if len(ups) < 2:
+    p = period.last_period(t, lift, 1.0)
+    if p is None:
         return None
-    s = slice(at[-2], at[-1])
-    q = {}
-    for name, v in (("drag", drag), ("lift", lift)):
-        q[name] = (0.5 * (v[s].max() + v[s].min()), 0.5 * (v[s].max() - v[s].min()), 1.0 / (ups[-1] - ups[-2]))
-    return q
+    s, f = p
+    return {name: (*period.mean_amplitude(v, s), f) for name, v in (("drag", drag), ("lift", lift))}
 
 
 def measure(out, case, n):

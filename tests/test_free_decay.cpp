@@ -8,6 +8,7 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <initializer_list>
 #include <string>
 
 #include "support/run_command.hpp"
@@ -17,20 +18,27 @@ namespace {
 namespace fs = std::filesystem;
 const fs::path kSource = COSIM_SOURCE_DIR;
 
-TEST(SheetInAir, FreeDecayMatchesSader) {
-  const fs::path out = fs::path(::testing::TempDir()) / "cosim_free_decay";
+/// Runs launch/free_decay_study.py with `args` into a fresh scratch folder `name`, prints its
+/// lines, and expects exit 0 and a check line "WHERE: KEY" for each of `keys`.
+void expect_study_passes(const std::string& name, const std::string& args, const std::string& where,
+                         std::initializer_list<const char*> keys) {
+  const fs::path out = fs::path(::testing::TempDir()) / name;
   fs::remove_all(out);
-  // The tolerances: docs/validation.md, "The sheet in still air" (the study's table).
   const cosim::test::RunResult r = cosim::test::run_command(
       "/usr/bin/python3 " + cosim::test::quoted((kSource / "launch" / "free_decay_study.py").string()) +
-          " --out " + cosim::test::quoted(out.string()) +
-          " --cases heavy --resolutions 0.2561 --boxes small --t-end-us 1.9"
-          " --tolerance t_cross1=0.05,t_cross2=0.05,freq=0.05,undershoot=0.15,zeta=0.25",
+          " --out " + cosim::test::quoted(out.string()) + " " + args,
       out / "logs");
   std::printf("%s%s", r.out.c_str(), r.err.c_str());
   EXPECT_EQ(r.status, 0) << r.err;
-  for (const char* k : {"t_cross1", "t_cross2", "freq", "undershoot", "zeta"})
-    EXPECT_NE(r.out.find(std::string("0.2561 small: ") + k), std::string::npos) << k << " not checked";
+  for (const char* k : keys) EXPECT_NE(r.out.find(where + ": " + k), std::string::npos) << k << " not checked";
+}
+
+// The tolerances: docs/validation.md, "The sheet in still air" (the study's table).
+TEST(SheetInAir, FreeDecayMatchesSader) {
+  expect_study_passes("cosim_free_decay",
+                      "--cases heavy --resolutions 0.2561 --boxes small --t-end-us 1.9"
+                      " --tolerance t_cross1=0.05,t_cross2=0.05,freq=0.05,undershoot=0.15,zeta=0.25",
+                      "0.2561 small", {"t_cross1", "t_cross2", "freq", "undershoot", "zeta"});
 }
 
 // Sader's own problem (docs/validation.md, "The strip limit"): a rigid strip of the paper's
@@ -40,19 +48,10 @@ TEST(SheetInAir, FreeDecayMatchesSader) {
 // strip theory within 1.2 %; at 0.2561 um within 5 %, at 0.5122 um it misses by 14-32 %.
 // Run to 0.6 us: past the undershoot (at 0.46 us), which is all the checks read.
 TEST(SheetInAir, SlenderSheetFreeDecayMatchesSader) {
-  const fs::path out = fs::path(::testing::TempDir()) / "cosim_slender_free_decay";
-  fs::remove_all(out);
-  const cosim::test::RunResult r = cosim::test::run_command(
-      "/usr/bin/python3 " + cosim::test::quoted((kSource / "launch" / "free_decay_study.py").string()) +
-          " --out " + cosim::test::quoted(out.string()) +
-          " --cases paper --resolutions 0.128 --boxes x2 --aspects strip --sheet-refine 2"
-          " --t-end-us 0.6 --tolerance t_cross1=0.05,undershoot=0.05,zeta=0.10",
-      out / "logs");
-  std::printf("%s%s", r.out.c_str(), r.err.c_str());
-  EXPECT_EQ(r.status, 0) << r.err;
-  for (const char* k : {"t_cross1", "undershoot", "zeta"})
-    EXPECT_NE(r.out.find(std::string("strip (L/b infinite): ") + k), std::string::npos)
-        << k << " not checked";
+  expect_study_passes("cosim_slender_free_decay",
+                      "--cases paper --resolutions 0.128 --boxes x2 --aspects strip --sheet-refine 2"
+                      " --t-end-us 0.6 --tolerance t_cross1=0.05,undershoot=0.05,zeta=0.10",
+                      "strip (L/b infinite)", {"t_cross1", "undershoot", "zeta"});
 }
 
 }  // namespace
