@@ -18,19 +18,10 @@ namespace {
 namespace fs = std::filesystem;
 const fs::path kSource = COSIM_SOURCE_DIR;
 
-/// Runs launch/free_decay_study.py with `args` into a fresh scratch folder `name`, prints its
-/// lines, and expects exit 0 and a check line "WHERE: KEY" for each of `keys`.
+/// launch/free_decay_study.py with `args` passes its checks `keys` of the case `where`.
 void expect_study_passes(const std::string& name, const std::string& args, const std::string& where,
                          std::initializer_list<const char*> keys) {
-  const fs::path out = fs::path(::testing::TempDir()) / name;
-  fs::remove_all(out);
-  const cosim::test::RunResult r = cosim::test::run_command(
-      "/usr/bin/python3 " + cosim::test::quoted((kSource / "launch" / "free_decay_study.py").string()) +
-          " --out " + cosim::test::quoted(out.string()) + " " + args,
-      out / "logs");
-  std::printf("%s%s", r.out.c_str(), r.err.c_str());
-  EXPECT_EQ(r.status, 0) << r.err;
-  for (const char* k : keys) EXPECT_NE(r.out.find(where + ": " + k), std::string::npos) << k << " not checked";
+  cosim::test::expect_study_passes(kSource / "launch" / "free_decay_study.py", name, args, where, keys);
 }
 
 // The tolerances: docs/validation.md, "The sheet in still air" (the study's table).

@@ -10,7 +10,9 @@
 #include <cstdlib>
 #include <system_error>
 #include <filesystem>
+#include <cstdio>
 #include <fstream>
+#include <initializer_list>
 #include <sstream>
 #include <string>
 
@@ -80,6 +82,24 @@ inline RunResult run_command(const std::string& command, const std::filesystem::
   r.out = slurp(out);
   r.err = slurp(err);
   return r;
+}
+
+/// Runs the study script `script` (a launch/*.py that prints "NAME: check WHERE: KEY ...: ok"
+/// per checked quantity and exits non-zero when one fails) with `args` and `--out` a fresh
+/// scratch folder `name`, prints its lines, and expects exit 0 and a check line
+/// "WHERE: KEY" for each of `keys` (a study that measured nothing passes no check).
+inline void expect_study_passes(const std::filesystem::path& script, const std::string& name,
+                                const std::string& args, const std::string& where,
+                                std::initializer_list<const char*> keys) {
+  const std::filesystem::path out = std::filesystem::path(::testing::TempDir()) / name;
+  std::filesystem::remove_all(out);
+  const RunResult r = run_command("/usr/bin/python3 " + quoted(script.string()) + " --out " +
+                                      quoted(out.string()) + " " + args,
+                                  out / "logs");
+  std::printf("%s%s", r.out.c_str(), r.err.c_str());
+  EXPECT_EQ(r.status, 0) << r.err;
+  for (const char* k : keys)
+    EXPECT_TRUE(contains(r.out, where + ": " + k + " ")) << k << " not checked";
 }
 
 }  // namespace cosim::test
