@@ -298,6 +298,7 @@ TEST(SceneConfig, ExampleSolidKeepsTheUrlRule) {
     const cosim::test::RunResult r = plate(u);
     EXPECT_EQ(r.status, 2) << u << " accepted: " << r.err;
     EXPECT_NE(r.err.find("LCM URL \"" + u + "\""), std::string::npos) << u << ": " << r.err;
+    EXPECT_EQ(cosim::test::lines(r.err), 1u) << u << ": a refusal is one line: " << r.err;
   }
 }
 

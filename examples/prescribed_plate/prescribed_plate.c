@@ -602,11 +602,10 @@ static int peer_stopped(Plate *p, const char *output_dir) {
   return code;
 }
 
+/* A refusal: one line naming what and what is allowed (prescribed_plate --help shows the
+   usage), exit status 2, as the servers refuse. */
 static int usage(const char *why) {
-  fprintf(stderr,
-          "prescribed-plate: %s\nusage: prescribed_plate SCENE.toml [--output DIR] [--channel-prefix P] [--token T] "
-          "[--lcm-url U] [--amplitude A_LB] [--period STEPS] [--quiet]\n",
-          why);
+  fprintf(stderr, "prescribed-plate: %s (prescribed_plate --help shows the usage)\n", why);
   return EXIT_BAD_INPUT;
 }
 
@@ -637,7 +636,14 @@ static int run(int argc, char **argv) {
     } else if (strcmp(a, "--period") == 0 && has_value) {
       if (!parse_number(argv[++k], &period) || period <= 0.0) return usage("--period: a number of LB steps > 0 is allowed");
     } else if (a[0] != '-' && !scene_path) scene_path = a;
-    else return usage(a[0] == '-' ? "unknown option or missing value" : "more than one scene file");
+    else {
+      char why[256];
+      snprintf(why, sizeof why,
+               a[0] == '-' ? "option \"%.100s\": unknown, or its value is missing"
+                           : "\"%.100s\": a second scene file (one SCENE.toml is allowed)",
+               a);
+      return usage(why);
+    }
   }
   if (!scene_path) return usage("no scene file");
 
