@@ -685,6 +685,30 @@ TEST(RunData, LongSceneRunsOrIsRefused) {
   if (!HasFailure()) fs::remove_all(dir);
 }
 
+// Liveness while writing: `fluid --check` warns when the largest file the fluid writes between
+// two messages (here a checkpoint of 70^3 cells, about 60 MB, larger than its 19 MB field
+// snapshot) takes more than half of the peer timeout at the assumed 30 MB/s
+// (fluid/io/snapshots.hpp); the small scene gets no warning.
+TEST(RunData, CheckWarnsWhenAWriteOutlastsThePeerTimeout) {
+  const fs::path dir = scratch("slow_write");
+  const fs::path big = small_scene(dir, 60, {{"nx = 40", "nx = 70"}, {"ny = 30", "ny = 70"}, {"nz = 30", "nz = 70"},
+                                             {"peer_timeout_s = 3", "peer_timeout_s = 1"}}, "big");
+  const fs::path small = small_scene(dir, 60);
+  const fs::path fluid = FLUID_EXE;
+  const cosim::test::RunResult warned =
+      cosim::test::run_command(quoted(fluid.string()) + " " + quoted(big.string()) + " --check", dir / "big");
+  EXPECT_EQ(warned.status, 0) << warned.err;
+  const std::string line = line_with(warned.err, "fluid: warning: a checkpoint (one population store) is ");
+  EXPECT_NE(line.find(" MB: at 30 MB/s it takes "), std::string::npos) << warned.err;
+  EXPECT_NE(line.find("coupling.peer_timeout_s = 1 s"), std::string::npos) << warned.err;
+  const cosim::test::RunResult quiet =
+      cosim::test::run_command(quoted(fluid.string()) + " " + quoted(small.string()) + " --check", dir / "small");
+  EXPECT_EQ(quiet.status, 0) << quiet.err;
+  EXPECT_EQ(quiet.err.find("warning"), std::string::npos) << quiet.err;
+  std::printf("%s\n", line.c_str());
+  if (!HasFailure()) fs::remove_all(dir);
+}
+
 // The launcher takes the scene's URL, timeouts and steps from the fluid (`fluid --print`),
 // never from TOML of its own: a literal string URL on another port, numbers with underscores,
 // comments after the values.
