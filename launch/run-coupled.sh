@@ -26,7 +26,10 @@
 # --output, a restart continues the files of the checkpoints' own run folder (solid.h5 and
 # monitor.h5 carry on from the checkpoints' rows; the snapshots up to N are kept and listed
 # in the XDMF files; fluid.log and solid.log are appended to), else it gets a new folder.
-# A restart that is refused leaves that folder's outputs as they were.
+# A restart that is refused leaves that folder's outputs as they were: the servers write
+# nothing into it before both have accepted their checkpoints (the fluid then prints
+# "fluid: restart accepted"), and without that line the launcher takes back what it added
+# (its lines in the logs, the traffic log, its pid and exit files, a new run.id).
 #
 # --time-ratio N runs both servers with A_T = N instead of the scene's [coupling]
 # time_ratio; a restart must keep its checkpoint's A_T. --new-time-ratio N restarts at
