@@ -227,7 +227,9 @@ class CoupledSolid {
     out_ << "solid: coupled run " << (e.code == exit_code::ok ? "done" : "stopped") << " at step "
          << peer_.last_step() << " of " << run_.total_steps() << ", " << substeps << " substeps ("
          << fmt("%.5g", run_.solid_time_s(substeps) * 1e6) << " us) in " << fmt("%.1f", wall) << " s; "
-         << peer_.counters() << "; " << (series_file_ ? series_file_->rows() : 0) << " rows in " << output_path()
+         << peer_.counters() << "; "
+         << (restart_pending_ ? "the restart was not accepted by both sides: nothing written to " + s_.output_dir
+                              : std::to_string(series_file_ ? series_file_->rows() : 0) + " rows in " + output_path())
          << (snapshots ? ", " + std::to_string(snapshots->count()) + " sheet snapshots in " +
                              snapshots->xdmf_path().string()
                        : std::string())
