@@ -66,10 +66,11 @@ if [ -n "${COSIM_EXTRA_CMD:-}" ]; then
   extra_pid=$!
 fi
 
-# A restart appends to the logs of the run it continues.
+# A restart appends to the logs of the run it continues (into a new folder: new logs).
 if [ -n "${COSIM_FLUID_RESTART:-}" ]; then
   for n in fluid solid; do
     [ -s "$output/$n.log" ] && echo "==== run-coupled: $(date -u +%Y-%m-%dT%H:%M:%SZ): restart from $COSIM_FLUID_RESTART" >>"$output/$n.log"
+    : >>"$output/$n.log"
   done
 else
   : >"$output/fluid.log"; : >"$output/solid.log"
@@ -205,4 +206,7 @@ s_first=$(documented "$s_first"); s_other=$(documented "$s_other")
 # peer's own 1, 2 or 3: the peer that published stop_t may end after the one it told.
 if [ $s_first -eq 4 ] && [ $s_other -ge 1 ] && [ $s_other -le 3 ]; then exit $s_other; fi
 if [ $s_first -ne 0 ]; then exit $s_first; fi
-exit $s_other
+if [ $s_other -ne 0 ]; then exit $s_other; fi
+# The run completed but its traffic log (--log) is partial: the recorder ended before it.
+[ "$traffic_log_partial" -eq 1 ] && exit 5
+exit 0

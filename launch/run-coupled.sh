@@ -26,7 +26,10 @@
 # --output, a restart continues the files of the checkpoints' own run folder (solid.h5 and
 # monitor.h5 carry on from the checkpoints' rows; the snapshots up to N are kept and listed
 # in the XDMF files; fluid.log and solid.log are appended to), else it gets a new folder.
-# A restart that is refused leaves that folder's outputs as they were.
+# A restart that is refused leaves that folder's outputs as they were: the servers write
+# nothing into it before both have accepted their checkpoints (the fluid then prints
+# "fluid: restart accepted"), and without that line the launcher takes back what it added
+# (its lines in the logs, the traffic log, its pid and exit files, a new run.id).
 #
 # --time-ratio N runs both servers with A_T = N instead of the scene's [coupling]
 # time_ratio; a restart must keep its checkpoint's A_T. --new-time-ratio N restarts at
@@ -81,7 +84,10 @@
 # next step: both servers write a checkpoint of that step and the reason, exit 1.
 # The exit status is always one of the servers' documented codes 0-4: the first failure's
 # (a 4, "the peer stopped with an error", gives way to that peer's own 1, 2 or 3; a server
-# killed by a signal counts as 1); OUTPUT/fluid.exit and OUTPUT/solid.exit hold each
+# killed by a signal counts as 1); or 5: both servers completed the run (exit 0), but the
+# recorder (--log) ended before it (killed, or stopped from elsewhere), so
+# OUTPUT/traffic.lcmlog is partial (one line says so; OUTPUT/record.pid holds the
+# recorder's process id); OUTPUT/fluid.exit and OUTPUT/solid.exit hold each
 # process's own status, OUTPUT/fluid.log and OUTPUT/solid.log their output.
 set -euo pipefail
 . "$(dirname "${BASH_SOURCE[0]}")/help.sh" && answer_help "${BASH_SOURCE[0]}" "$@"
@@ -218,6 +224,30 @@ if [ -d "$output" ] && holds_run "$output"; then
     refuse "--restart $restart: a checkpoint of another run (run '$run_id'; $output is run '$folder_run') (allowed: a checkpoint of that folder's run, or a new --output folder to continue run '$run_id' in)"
   fi
 fi
+# A restart into a folder that holds a run: what this launch adds to the folder's own files
+# (its logs, pid and exit files, run.id) is taken back unless the fluid says "restart
+# accepted" (both servers accepted their checkpoints; they write nothing into the folder
+# before): a refused restart leaves every file of the folder as it was.
+kept_state=""
+if [ -n "$restart" ] && [ -d "$output" ] && holds_run "$output"; then
+  kept_state=$(mktemp -d "${TMPDIR:-/tmp}/cosim-restart.XXXXXX")
+  for f in fluid.log solid.log record.log traffic.lcmlog extra.log; do
+    [ -f "$output/$f" ] && stat -c %s "$output/$f" >"$kept_state/$f.size"
+  done
+  for f in run.id launcher.pid fluid.pid solid.pid record.pid fluid.exit solid.exit; do
+    [ -f "$output/$f" ] && cp -p "$output/$f" "$kept_state/$f"
+  done
+fi
+# Puts the folder's own files back as kept_state found them.
+take_back_attempt() {
+  local f
+  for f in fluid.log solid.log record.log traffic.lcmlog extra.log; do
+    if [ -f "$kept_state/$f.size" ]; then truncate -s "$(cat "$kept_state/$f.size")" "$output/$f"; else rm -f "$output/$f"; fi
+  done
+  for f in run.id launcher.pid fluid.pid solid.pid record.pid fluid.exit solid.exit; do
+    if [ -f "$kept_state/$f" ]; then cp -p "$kept_state/$f" "$output/$f"; else rm -f "$output/$f"; fi
+  done
+}
 mkdir -p "$output"
 output=$(cd "$output" && pwd)
 if [ -z "$run_id" ]; then
@@ -329,9 +359,21 @@ while :; do
   export COSIM_RUN_TOKEN=$token
   inner=(bash "$root/launch/coupled-inner.sh" "$root" "$scene" "$output" "$prefix" "$log" "$quiet")
 done
-echo "run-coupled: fluid exit $(cat "$output/fluid.exit" 2>/dev/null || echo '?'), solid exit" \
-     "$(cat "$output/solid.exit" 2>/dev/null || echo '?'); outputs in $output" \
-     "(monitor.h5, solid.h5, fluid.log, solid.log$([ "$log" -eq 1 ] && echo ', traffic.lcmlog'))${retried:+; watchdog retries: $retried}${interrupted:+; interrupted by SIG$interrupted}"
-# Always one of the documented codes 0-4 (anything else, e.g. unshare failing, is 1).
-if [ $status -ge 0 ] && [ $status -le 4 ]; then exit $status; fi
+fluid_exit=$(cat "$output/fluid.exit" 2>/dev/null || echo '?')
+solid_exit=$(cat "$output/solid.exit" 2>/dev/null || echo '?')
+if [ -n "$kept_state" ]; then
+  if [ $retries -eq 0 ] && ! tail -n +"$log_from" "$output/fluid.log" 2>/dev/null | grep -q '^fluid: restart accepted'; then
+    take_back_attempt
+    rm -rf "$kept_state"
+    echo "run-coupled: fluid exit $fluid_exit, solid exit $solid_exit: restart not accepted by both sides; every file of $output is as it was${interrupted:+; interrupted by SIG$interrupted}"
+    if [ $status -ge 0 ] && [ $status -le 4 ]; then exit $status; fi
+    exit 1
+  fi
+  rm -rf "$kept_state"
+fi
+echo "run-coupled: fluid exit $fluid_exit, solid exit $solid_exit; outputs in $output" \
+     "(monitor.h5, solid.h5, fluid.log, solid.log$([ "$log" -eq 1 ] && echo ', traffic.lcmlog')$([ $status -eq 5 ] && echo ' (partial: the recorder ended before the run)'))${retried:+; watchdog retries: $retried}${interrupted:+; interrupted by SIG$interrupted}"
+# Always one of the documented codes 0-4, or 5: the run completed, its traffic log (--log)
+# is partial (anything else, e.g. unshare failing, is 1).
+if [ $status -ge 0 ] && [ $status -le 5 ]; then exit $status; fi
 exit 1

@@ -16,6 +16,7 @@ start_traffic_log() {
   setsid "$record_exe" "$output/traffic.lcmlog" --channels "$channels" --lcm-url "$url" \
     >>"$output/record.log" 2>&1 &
   traffic_log_pid=$!
+  echo "$traffic_log_pid" >"$output/record.pid"
   for ((k = 0; k < 200; k++)); do
     if ! kill -0 "$traffic_log_pid" 2>/dev/null; then
       echo "run-coupled: cosim-record did not start: $(tail -1 "$output/record.log")" >&2
@@ -29,10 +30,22 @@ start_traffic_log() {
 }
 
 # stop_traffic_log OUTPUT: once the servers have ended, asks the recorder to stop; it writes
-# what is still on its way first (at most 30 s) and says so on failure.
+# what is still on its way first (at most 30 s) and says so on failure. A recorder that
+# ended before it was asked (killed, or stopped by someone else: its process is a zombie
+# by now) left a partial log: one line says so, and traffic_log_partial is set to 1.
+traffic_log_partial=0
 stop_traffic_log() {
-  local output=$1 s
+  local output=$1 s state
   [ -n "$traffic_log_pid" ] || return 0
+  state=$(sed -E 's/^[0-9]+ \(.*\) ([A-Za-z]).*/\1/' "/proc/$traffic_log_pid/stat" 2>/dev/null || echo gone)
+  if [ "$state" = Z ] || [ "$state" = X ] || [ "$state" = gone ]; then
+    wait "$traffic_log_pid"
+    s=$?
+    traffic_log_partial=1
+    echo "run-coupled: cosim-record ended before the run did ($([ $s -gt 128 ] && echo "killed by signal $((s - 128))" || echo "exit $s")): $output/traffic.lcmlog is partial (launcher exit 5 when the run itself completed)" >&2
+    traffic_log_pid=""
+    return 0
+  fi
   kill -INT "$traffic_log_pid" 2>/dev/null
   # A trapped signal interrupts wait (status > 128) while the recorder still drains: again.
   s=0

@@ -35,7 +35,7 @@ void SolidSeries::write(const std::string& path) const {
   using protocol::H5Id;
   const protocol::H5Quiet quiet;
   const std::string what = "cannot write " + path;
-  H5Id file(H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose, what);
+  H5Id file = protocol::create_output_file(path, what);
   const hsize_t n = steps_.size(), m = static_cast<hsize_t>(n_);
   solid::write_dataset(file.get(), "step", H5T_STD_I64LE, H5T_NATIVE_INT64, {n}, steps_.data());
   solid::write_dataset(file.get(), "time_s", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n}, time_s_.data());

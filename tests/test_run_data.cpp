@@ -62,11 +62,12 @@ fs::path small_scene(const fs::path& dir, int steps, const std::vector<std::pair
   return scene;
 }
 
-/// run-coupled.sh SCENE ARGS --no-build --quiet, its lines into `log`; the exit status.
-int launch(const fs::path& scene, const std::string& args, const fs::path& log, const std::string& env = "") {
+/// run-coupled.sh SCENE ARGS --no-build [--quiet], its lines into `log`; the exit status.
+int launch(const fs::path& scene, const std::string& args, const fs::path& log, const std::string& env = "",
+           bool quiet = true) {
   const std::string cmd = (env.empty() ? "" : "env " + env + " ") + "bash " +
                           quoted((kSource / "launch" / "run-coupled.sh").string()) + " " + quoted(scene.string()) +
-                          " " + args + " --no-build --quiet >" + quoted(log.string()) + " 2>&1";
+                          " " + args + " --no-build" + (quiet ? " --quiet" : "") + " >" + quoted(log.string()) + " 2>&1";
   const int s = std::system(cmd.c_str());
   return WIFEXITED(s) ? WEXITSTATUS(s) : -1;
 }
@@ -529,6 +530,182 @@ TEST(RunData, RestartWithoutRunIdAsksTheCheckpoints) {
   const fs::path scene100 = small_scene(dir, 100, {}, "small");
   EXPECT_EQ(launch(scene100, "--restart " + quoted(a.string()), log), 0) << slurp(log) << logs(a);
   EXPECT_EQ(slurp(a / "run.id"), id_a);
+  if (!HasFailure()) fs::remove_all(dir);
+}
+
+/// Every regular file under `dir` (logs, pid and exit files, the traffic log included), by
+/// relative path, with its bytes.
+std::map<std::string, std::string> every_file(const fs::path& dir) {
+  std::map<std::string, std::string> files;
+  for (const auto& e : fs::recursive_directory_iterator(dir))
+    if (e.is_regular_file()) files[fs::relative(e.path(), dir).string()] = slurp(e.path());
+  return files;
+}
+
+/// The names of the files that differ between two listings (changed, added or gone).
+std::string changed_files(const std::map<std::string, std::string>& before,
+                          const std::map<std::string, std::string>& after) {
+  std::string names;
+  for (const auto& [name, bytes] : before) {
+    const auto it = after.find(name);
+    if (it == after.end()) names += name + " (gone) ";
+    else if (it->second != bytes) names += name + " (" + std::to_string(bytes.size()) + " -> " +
+                                           std::to_string(it->second.size()) + " bytes) ";
+  }
+  for (const auto& [name, bytes] : after)
+    if (!before.count(name)) names += name + " (new) ";
+  return names;
+}
+
+// A restart into the run's own folder that one side refuses (its checkpoint damaged: the
+// other side's is sound and read first) changes no file of the folder, not even the logs:
+// each server writes its series, scene copy and provenance only once the other's first
+// message shows it accepted its checkpoint, and the launcher takes back its own lines.
+TEST(RunData, OneSidedRefusalTouchesNothing) {
+  const fs::path dir = scratch("one_sided");
+  const fs::path scene = small_scene(dir, 60);
+  const fs::path run = dir / "run";
+  ASSERT_EQ(launch(scene, "--output " + quoted(run.string()) + " --log", dir / "first.log"), 0) << slurp(dir / "first.log");
+  for (const auto& [side, dataset] : {std::pair<std::string, std::string>{"solid", "positions_bohr"},
+                                      {"fluid", "populations"}}) {
+    SCOPED_TRACE("the " + side + " refuses");
+    const fs::path file = run / "checkpoints" / (side + "_00000040.h5");
+    fs::copy_file(file, dir / "sound.h5", fs::copy_options::overwrite_existing);
+    flip_bit(file, dataset);
+    const auto before = every_file(run);
+    const fs::path log = dir / ("refused_" + side + ".log");
+    const int status = launch(scene, "--restart " + quoted(run.string()) + " --log", log);
+    const std::string text = slurp(log);
+    EXPECT_EQ(status, 2) << text;
+    // The refusing side's one line, as the launcher repeats it.
+    const std::string reason = line_with(text, "run-coupled: " + side + " exited 2: ");
+    EXPECT_NE(reason.find("--restart " + file.string()), std::string::npos) << text;
+    EXPECT_NE(reason.find("does not match its checksum"), std::string::npos) << text;
+    EXPECT_NE(reason.find(dataset), std::string::npos) << text;
+    EXPECT_NE(text.find("every file of " + run.string() + " is as it was"), std::string::npos) << text;
+    const std::string changed = changed_files(before, every_file(run));
+    EXPECT_EQ(changed, "") << text;
+    std::printf("%s refused: exit %d: %s\n", side.c_str(), status, reason.c_str());
+    fs::copy_file(dir / "sound.h5", file, fs::copy_options::overwrite_existing);
+  }
+  // The sound pair continues the run in its folder.
+  const fs::path scene100 = small_scene(dir, 100, {}, "small");
+  EXPECT_EQ(launch(scene100, "--restart " + quoted(run.string()), dir / "continued.log"), 0) << slurp(dir / "continued.log");
+  EXPECT_EQ(column(run / "monitor.h5", "step").size(), 11u);
+  if (!HasFailure()) fs::remove_all(dir);
+}
+
+// A restart from a checkpoint file into a new folder (--restart FILE --output NEW) shows
+// what a run shows: the progress line and the closing summary, no stray errors or usage text.
+TEST(RunData, RestartIntoANewFolderShowsProgress) {
+  const fs::path dir = scratch("restart_new_folder");
+  const fs::path scene = small_scene(dir, 60);
+  const fs::path a = dir / "a", fresh = dir / "new";
+  ASSERT_EQ(launch(scene, "--output " + quoted(a.string()), dir / "a.log"), 0) << slurp(dir / "a.log");
+  const fs::path log = dir / "restart.log";
+  const int status = launch(scene,
+                            "--restart " + quoted((a / "checkpoints" / "fluid_00000040.h5").string()) + " --output " +
+                                quoted(fresh.string()),
+                            log, "COSIM_PROGRESS_EVERY_S=0.2", false);
+  const std::string text = slurp(log);
+  EXPECT_EQ(status, 0) << text << logs(fresh);
+  EXPECT_EQ(text.find("stat:"), std::string::npos) << text;
+  EXPECT_EQ(text.find("usage:"), std::string::npos) << text;
+  EXPECT_EQ(text.find("error:"), std::string::npos) << text;
+  EXPECT_NE(text.find("step 60/60"), std::string::npos) << "no progress line\n" << text;
+  EXPECT_NE(text.find("fluid: coupled run done, 60 LB steps"), std::string::npos) << "no summary\n" << text;
+  EXPECT_NE(text.find("run-coupled: fluid exit 0, solid exit 0; outputs in " + fresh.string()), std::string::npos) << text;
+  std::printf("%s", text.c_str());
+  if (!HasFailure()) fs::remove_all(dir);
+}
+
+// The recorder (--log) killed mid-run: the run completes, the launcher says in one line that
+// the traffic log is partial and exits 5 (launch/run-coupled.sh: both servers 0, the log
+// partial).
+TEST(RunData, DeadRecorderIsReported) {
+  const fs::path dir = scratch("dead_recorder");
+  const fs::path scene = small_scene(dir, 200);
+  const fs::path out = dir / "run";
+  int status = -1;
+  std::thread launcher([&] { status = launch(scene, "--output " + quoted(out.string()) + " --log", dir / "run.log"); });
+  const bool reached = wait_for(out / "checkpoints" / "solid_00000060.h5", 120);
+  const std::string pid = slurp(out / "record.pid");
+  if (reached && !pid.empty()) kill(std::stoi(pid), SIGKILL);
+  launcher.join();
+  ASSERT_TRUE(reached) << slurp(dir / "run.log") << logs(out);
+  ASSERT_FALSE(pid.empty()) << slurp(dir / "run.log");
+  const std::string text = slurp(dir / "run.log");
+  EXPECT_EQ(status, 5) << text << logs(out);
+  EXPECT_EQ(slurp(out / "fluid.exit"), "0\n") << logs(out);
+  EXPECT_EQ(slurp(out / "solid.exit"), "0\n") << logs(out);
+  const std::string line = line_with(text, "cosim-record ended before the run did");
+  EXPECT_NE(line.find("killed by signal 9"), std::string::npos) << text;
+  EXPECT_NE(line.find((out / "traffic.lcmlog").string() + " is partial"), std::string::npos) << text;
+  EXPECT_EQ(text.find("cosim-record ended before"), text.rfind("cosim-record ended before")) << text;
+  std::printf("exit %d: %s\n", status, line.c_str());
+  if (!HasFailure()) fs::remove_all(dir);
+}
+
+/// A string attribute of an HDF5 file's root group ("" if it cannot be read).
+std::string root_attribute(const fs::path& file, const char* name) {
+  std::string value;
+  const hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  if (f < 0) return value;
+  if (H5Aexists(f, name) > 0) {
+    const hid_t a = H5Aopen(f, name, H5P_DEFAULT);
+    const hid_t t = H5Aget_type(a);
+    value.resize(H5Tget_size(t));
+    if (H5Aread(a, t, value.data()) < 0) value.clear();
+    while (!value.empty() && value.back() == '\0') value.pop_back();
+    H5Tclose(t);
+    H5Aclose(a);
+  }
+  H5Fclose(f);
+  return value;
+}
+
+// A scene file over 64 KiB (HDF5's limit for an attribute in its default file format): it
+// runs, and every output keeps its text (the scene_toml attribute, common/hdf5/hdf5_handle.hpp).
+TEST(RunData, LongSceneRunsOrIsRefused) {
+  const fs::path dir = scratch("long_scene");
+  const fs::path scene = small_scene(dir, 20);
+  {
+    std::ofstream more(scene, std::ios::app);
+    for (int k = 0; k < 1500; ++k)
+      more << "# a long note, line " << k << ": this scene carries its lab notebook in comments, 80 bytes\n";
+  }
+  const std::string text = slurp(scene);
+  ASSERT_GT(text.size(), 100000u);
+  const fs::path out = dir / "run";
+  const fs::path log = dir / "run.log";
+  ASSERT_EQ(launch(scene, "--output " + quoted(out.string()), log), 0) << slurp(log) << logs(out);
+  for (const char* f : {"monitor.h5", "solid.h5", "fields_000000.h5", "sheets_000000.h5"})
+    EXPECT_TRUE(root_attribute(out / f, "scene_toml") == text) << f << ": the scene text is not stored whole";
+  std::printf("a scene of %zu bytes ran; its text is in every output\n", text.size());
+  if (!HasFailure()) fs::remove_all(dir);
+}
+
+// Liveness while writing: `fluid --check` warns when the largest file the fluid writes between
+// two messages (here a checkpoint of 70^3 cells, about 60 MB, larger than its 19 MB field
+// snapshot) takes more than half of the peer timeout at the assumed 30 MB/s
+// (fluid/io/snapshots.hpp); the small scene gets no warning.
+TEST(RunData, CheckWarnsWhenAWriteOutlastsThePeerTimeout) {
+  const fs::path dir = scratch("slow_write");
+  const fs::path big = small_scene(dir, 60, {{"nx = 40", "nx = 70"}, {"ny = 30", "ny = 70"}, {"nz = 30", "nz = 70"},
+                                             {"peer_timeout_s = 3", "peer_timeout_s = 1"}}, "big");
+  const fs::path small = small_scene(dir, 60);
+  const fs::path fluid = FLUID_EXE;
+  const cosim::test::RunResult warned =
+      cosim::test::run_command(quoted(fluid.string()) + " " + quoted(big.string()) + " --check", dir / "big");
+  EXPECT_EQ(warned.status, 0) << warned.err;
+  const std::string line = line_with(warned.err, "fluid: warning: a checkpoint (one population store) is ");
+  EXPECT_NE(line.find(" MB: at 30 MB/s it takes "), std::string::npos) << warned.err;
+  EXPECT_NE(line.find("coupling.peer_timeout_s = 1 s"), std::string::npos) << warned.err;
+  const cosim::test::RunResult quiet =
+      cosim::test::run_command(quoted(fluid.string()) + " " + quoted(small.string()) + " --check", dir / "small");
+  EXPECT_EQ(quiet.status, 0) << quiet.err;
+  EXPECT_EQ(quiet.err.find("warning"), std::string::npos) << quiet.err;
+  std::printf("%s\n", line.c_str());
   if (!HasFailure()) fs::remove_all(dir);
 }
 

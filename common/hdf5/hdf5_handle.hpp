@@ -92,4 +92,15 @@ class H5Id {
 /// write is closed by its owner (H5Id) before exit.
 inline void hdf5_no_exit_cleanup() { H5dont_atexit(); }
 
+/// Creates (or truncates) an HDF5 output file that carries the run's provenance
+/// (common/run/provenance_h5.hpp). It is written in the HDF5 1.8 file format, whose object
+/// headers keep attributes of any size (dense attribute storage): the `scene_toml`
+/// attribute holds a scene file of any length (the 1.6 format, HDF5's default, refuses an
+/// attribute over 64 KiB). Datasets are stored as before.
+inline H5Id create_output_file(const std::string& path, const std::string& what) {
+  const H5Id fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose, what);
+  h5_check(H5Pset_libver_bounds(fapl.get(), H5F_LIBVER_V18, H5F_LIBVER_V18), what);
+  return H5Id(H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl.get()), H5Fclose, what);
+}
+
 }  // namespace cosim::protocol

@@ -155,6 +155,9 @@ void print_header(const FluidScene& s, const protocol::UnitConverter& units) {
                 b.retraction, b.iterations, static_cast<long long>(s.held_body->record_every));
   }
   std::fflush(stdout);
+  // Liveness while writing (coupled scenes): the solid hears nothing while the fluid writes
+  // its largest file (fluid/io/snapshots.hpp).
+  if (const std::string w = silent_write_warning(s); !w.empty()) std::fprintf(stderr, "%s\n", w.c_str());
 }
 
 /// The fluid-only run's progress line on stderr (common/run/progress.hpp): step, simulated

@@ -107,8 +107,13 @@ std::int64_t FluidRun::start(std::optional<int>& failed) {
       failed = coord_.stop_and_end({exit_code::bad_input, "--restart " + restart_ + ": " + x.what(), false}, 0);
       return 0;
     }
-    coord_.out() << "fluid: restarted from " << restart_ << " at step " << first_step << "\n";
+    coord_.out() << "fluid: restarted from " << restart_ << " at step " << first_step
+                 << " (the folder's files are rewritten once the solid has accepted its checkpoint too)\n";
     if (in_flight) coord_.republish(std::move(*in_flight));
+    // monitor.h5, held_body.csv, the scene copy and provenance wait for the solid's
+    // solid_state_t of the restart (accept_restart()): a restart that either side refuses
+    // writes nothing into the folder.
+    restart_pending_ = true;
   } else {
     const FlowSummary first = *domain_.summary();
     mass0_ = first.mass;
@@ -117,29 +122,51 @@ std::int64_t FluidRun::start(std::optional<int>& failed) {
     log_->append(first);
     rows_.push_back(first);
     if (snapshots_.due(0, false)) snapshots_.write(*domain_.whole(), false);
-  }
-  // OUTPUT/scene.toml, provenance_fluid.toml: once the run is accepted (a refused restart
-  // adds nothing to the folder).
-  try {
-    protocol::write_provenance_files(s_.output_dir);
-  } catch (const std::exception& x) {
-    failed = coord_.stop_and_end({exit_code::system, protocol::one_line(x.what()), true}, first_step);
-    return first_step;
-  }
-  if (body_)
-    try {
-      body_log_.emplace((std::filesystem::path(s_.output_dir) / "held_body.csv").string(), coord_.units().dt_lb_s(),
-                        held_body_newtons_per_m(coord_.units(), s_.params.shape.nz), true);
-    } catch (const std::exception& x) {
-      failed = coord_.stop_and_end({exit_code::system, protocol::one_line(x.what()), true}, first_step);
+    if (const auto code = open_run_files(first_step)) {
+      failed = code;
       return first_step;
     }
+  }
   ramp_inlet(domain_, s_, first_step);
   coord_.set_first_step(first_step);
   start_ = Clock::now();
   clock_.restart(first_step);
   released_ = first_step >= rigid_steps();
   return first_step;
+}
+
+/// OUTPUT/scene.toml, provenance_fluid.toml and held_body.csv: once the run is accepted (a
+/// refused start or restart adds nothing to the folder). The exit code of a failed write.
+std::optional<int> FluidRun::open_run_files(std::int64_t step) {
+  try {
+    protocol::write_provenance_files(s_.output_dir);
+    if (body_)
+      body_log_.emplace((std::filesystem::path(s_.output_dir) / "held_body.csv").string(), coord_.units().dt_lb_s(),
+                        held_body_newtons_per_m(coord_.units(), s_.params.shape.nz), true);
+  } catch (const std::exception& x) {
+    return coord_.stop_and_end({exit_code::system, protocol::one_line(x.what()), true}, step);
+  }
+  return std::nullopt;
+}
+
+/// The first solid_state_t of a restart: the solid has read and accepted its checkpoint
+/// (it publishes nothing before), and so has the fluid; only now monitor.h5 is rewritten
+/// from the checkpoint's rows, and the scene copy, provenance and held_body.csv written.
+/// The line "fluid: restart accepted" tells the launcher (launch/run-coupled.sh) that the
+/// folder now holds the continued run.
+std::optional<int> FluidRun::accept_restart(std::int64_t step) {
+  restart_pending_ = false;
+  try {
+    log_.emplace(monitor_path_, dt_us_);
+    for (const FlowSummary& row : rows_) log_->append(row);
+  } catch (const std::exception& x) {
+    return coord_.stop_and_end({exit_code::system, protocol::one_line(x.what()), true}, step);
+  }
+  if (const auto code = open_run_files(step)) return code;
+  coord_.out() << "fluid: restart accepted at step " << step << ": both checkpoints read; monitor.h5 continues from its "
+               << rows_.size() << " rows\n";
+  coord_.out().flush();
+  return std::nullopt;
 }
 
 void FluidRun::hold_body(const std::vector<Vec3>& sheet_impulses) {
@@ -154,6 +181,8 @@ void FluidRun::hold_body(const std::vector<Vec3>& sheet_impulses) {
 
 std::optional<int> FluidRun::check_positions(std::int64_t step, const std::vector<Vec3>& x,
                                              const std::vector<Vec3>& j) {
+  if (restart_pending_)
+    if (const auto code = accept_restart(step)) return code;
   const Clock::time_point w0 = Clock::now();
   static const std::vector<double> no_rho;
   static const std::vector<Vec3> no_u;
@@ -376,9 +405,7 @@ std::int64_t FluidRun::restore(std::optional<cosimlcm::fluid_state_t>& in_flight
   }
   in_flight = scheme_.read_checkpoint(r, step);
   rows_ = get_rows(r);
-  // monitor.h5 only now that the checkpoint is read: a refused restart leaves it as it was.
-  log_.emplace(monitor_path_, dt_us_);
-  for (const FlowSummary& row : rows_) log_->append(row);
+  // monitor.h5 only once the solid has accepted its checkpoint too (accept_restart()).
   snapshots_.adopt_up_to(step);
   // The in-flight solid_state_t(step) was computed with the checkpoint's A_T (a retry may
   // run another: the fluid's state does not depend on it). The solid republishes it once

@@ -57,7 +57,8 @@ class FluidRun {
   FluidRun& operator=(const FluidRun&) = delete;
 
   /// Step 0's monitor row and snapshot, or the --restart checkpoint (then its in-flight
-  /// fluid_state_t, if the scheme keeps one, is published again). The first LB step; or,
+  /// fluid_state_t, if the scheme keeps one, is published again; the folder's files are
+  /// written once the solid's first solid_state_t shows it accepted its own). The first LB step; or,
   /// in `failed`, the exit code of a checkpoint that cannot be read (stop_t published).
   std::int64_t start(std::optional<int>& failed);
 
@@ -80,7 +81,8 @@ class FluidRun {
   /// How far each marker moved, how far apart they are (before the fluid at `step` is
   /// touched: it is kept, if healthy, as the checkpoint of a trip); the markers X_l and
   /// impulses J_l go to the audit of the solid that a trip's diagnosis consults
-  /// (fluid/watchdog/solid_audit.hpp). The exit code of a trip.
+  /// (fluid/watchdog/solid_audit.hpp). The exit code of a trip. The first one of a restart
+  /// first writes what the restart waited for (the solid has accepted its checkpoint).
   std::optional<int> check_positions(std::int64_t step, const std::vector<Vec3>& x, const std::vector<Vec3>& j);
   protocol::MarkerWatch& markers() { return markers_; }
   /// The flow_health sentinel every watchdog.health_every steps on the state `step` that
@@ -123,6 +125,8 @@ class FluidRun {
   int trip(const protocol::Trip& t, bool checkpoint_state, std::int64_t step);
   protocol::Trip blame(const protocol::Trip& t) const;
   std::int64_t restore(std::optional<cosimlcm::fluid_state_t>& in_flight);
+  std::optional<int> open_run_files(std::int64_t step);
+  std::optional<int> accept_restart(std::int64_t step);
   protocol::CheckpointIdentity identity() const;
 
   const FluidScene& s_;
@@ -136,7 +140,8 @@ class FluidRun {
   HealthLimits limits_;
   double dt_us_;
   std::string monitor_path_;        ///< OUTPUT/monitor.h5
-  std::optional<MonitorLog> log_;  ///< created at step 0, or once a restart's checkpoint is read
+  std::optional<MonitorLog> log_;  ///< created at step 0, or once both sides accepted a restart
+  bool restart_pending_ = false;   ///< a restart's checkpoint read, the solid's not yet known accepted
   Snapshots snapshots_;
   protocol::MarkerWatch markers_;  ///< the watchdog's per-step sentinels (DESIGN 6)
   protocol::SolidAudit audit_;     ///< whether a trip is the solid's fault
@@ -149,7 +154,7 @@ class FluidRun {
   double mass0_ = 0.0;             ///< the fluid's mass at step 0 (for the drift)
   std::vector<FlowSummary> rows_;  ///< monitor.h5's rows so far (for checkpoints)
   std::optional<HeldBody> body_;   ///< [held_body]
-  std::optional<HeldBodyLog> body_log_;  ///< held_body.csv (from start(); anew after a restart)
+  std::optional<HeldBodyLog> body_log_;  ///< held_body.csv (from start(); anew once a restart is accepted)
   Vec3 body_force_{0.0, 0.0, 0.0}, sheet_force_{0.0, 0.0, 0.0};  ///< of the step being taken
   Clock::time_point start_ = Clock::now();
   protocol::ProgressClock clock_{s_.steps};          ///< rate and ETA (common/run/progress.hpp)

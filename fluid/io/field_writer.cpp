@@ -124,8 +124,7 @@ void FieldWriter::write(const FluidSolver& solver) {
 void FieldWriter::write_hdf5(const fs::path& file, std::int64_t step) {
   const H5Quiet quiet;
   const std::string name = file.string();
-  H5Id f(H5Fcreate(name.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose,
-         "cannot create the HDF5 file " + name);
+  H5Id f = protocol::create_output_file(name, "cannot create the HDF5 file " + name);
   write_scalar_attribute(f.get(), "step", H5T_STD_I64LE, H5T_NATIVE_INT64, std::int64_t(step));
   write_scalar_attribute(f.get(), "time_us", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, double(step) * dt_us_);
   write_scalar_attribute(f.get(), "dx_um", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, dx_um_);

@@ -76,8 +76,7 @@ MonitorLog::MonitorLog(const std::string& path, double dt_us) : impl_(std::make_
     if (ec) throw std::runtime_error("cannot create the directory " + parent.string() + ": " + ec.message());
   }
   const H5Quiet quiet;
-  impl_->file = H5Id(H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose,
-                     "cannot create the monitor file " + path);
+  impl_->file = protocol::create_output_file(path, "cannot create the monitor file " + path);
   const hid_t f = impl_->file.get();
   auto& c = impl_->columns;
   c.push_back(make_column(f, "step", H5T_STD_I64LE, H5T_NATIVE_INT64, 1));

@@ -3,6 +3,8 @@
 #include <cmath>
 #include <string>
 
+#include "common/text/text.hpp"
+
 namespace cosim::fluid {
 
 Snapshots::Snapshots(const FluidScene& scene, double dt_us)
@@ -39,6 +41,33 @@ void Snapshots::write(const FluidSolver& solver, bool last) {
   if (fields_ && (step % fields_every_ == 0 || last)) fields_->write(solver);
   if (planes_every_ > 0 && (step % planes_every_ == 0 || last))
     for (FieldWriter& w : planes_) w.write(solver);
+}
+
+SilentWrite largest_silent_write(const FluidScene& scene) {
+  SilentWrite w;
+  if (scene.fields_every > 0) {
+    w.bytes = 7.0 * 8.0 * double(scene.params.shape.cells());
+    w.what = "a field snapshot (rho, u, vorticity)";
+  }
+  if (scene.coupling && scene.coupling->checkpoint_every > 0) {
+    const int grids = scene.params.propagation == Propagation::InPlace ? 1 : 2;
+    const double store =
+        double(population_bytes(scene.params.shape, scene.params.precision, scene.params.propagation)) / grids;
+    if (store > w.bytes) w = {store, "a checkpoint (one population store)"};
+  }
+  return w;
+}
+
+std::string silent_write_warning(const FluidScene& scene) {
+  if (!scene.coupling) return "";
+  const SilentWrite w = largest_silent_write(scene);
+  const double seconds = w.bytes / kAssumedWriteBytesPerS, timeout = scene.coupling->peer_timeout_s;
+  if (!(seconds > 0.5 * timeout)) return "";
+  return "fluid: warning: " + w.what + " is " + protocol::fmt("%.3g", w.bytes * 1e-6) + " MB: at " +
+         protocol::fmt("%.0f", kAssumedWriteBytesPerS * 1e-6) + " MB/s it takes " + protocol::fmt("%.3g", seconds) +
+         " s, more than half of coupling.peer_timeout_s = " + protocol::fmt("%.3g", timeout) +
+         " s, during which the solid hears nothing from the fluid and may declare it lost (exit 4); raise "
+         "peer_timeout_s above " + protocol::fmt("%.3g", 2.0 * seconds) + " s or write less often";
 }
 
 }  // namespace cosim::fluid

@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "fluid/io/field_writer.hpp"
@@ -32,5 +33,25 @@ class Snapshots {
   std::optional<FieldWriter> fields_;
   std::vector<FieldWriter> planes_;
 };
+
+/// The largest file a coupled fluid writes between two of its messages, while the solid
+/// hears nothing from it: a field snapshot (rho, u and vorticity: 7 doubles per cell) when
+/// [output] fields_every > 0, a checkpoint (one population store, 19 values per cell with
+/// ghosts) when [coupling] checkpoint_every > 0; 0 bytes when neither.
+struct SilentWrite {
+  double bytes = 0.0;
+  std::string what;
+};
+SilentWrite largest_silent_write(const FluidScene& scene);
+
+/// The write speed `fluid --check` assumes for that file: 30 MB/s, the slowest seen (the
+/// fault campaign of issue 30: a 380 MB snapshot took more than 10 s; scenes/README.md
+/// "Liveness while writing" has this machine's figure and the command).
+inline constexpr double kAssumedWriteBytesPerS = 30e6;
+
+/// The warning of `fluid --check` for a coupled scene whose largest silent write takes
+/// more than half of coupling.peer_timeout_s at kAssumedWriteBytesPerS (the solid would
+/// declare the fluid lost while it writes); "" when it does not.
+std::string silent_write_warning(const FluidScene& scene);
 
 }  // namespace cosim::fluid

@@ -133,8 +133,7 @@ void write_series(const SolidScene& scene, const Series& s) {
   create_output_directory(scene);
   const std::string path = (std::filesystem::path(scene.output_dir) / "solid.h5").string();
   const protocol::H5Quiet quiet;
-  H5Id file(H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose,
-            "cannot create " + path);
+  H5Id file = protocol::create_output_file(path, "cannot create " + path);
   const hid_t f = file.get();
   const hsize_t n = s.rows(), ns = hsize_t(s.sheets);
   write_dataset(f, "substep", H5T_STD_I64LE, H5T_NATIVE_INT64, {n}, s.substep.data());

@@ -69,21 +69,17 @@ class CoupledSolid {
       } catch (const std::exception& e) {
         return finish(Ending{exit_code::bad_input, "--restart " + o_.restart + ": " + one_line(e.what()), true});
       }
-      out_ << "solid: restarted from " << o_.restart << " at step " << peer_.last_step() << "\n";
-      if (const auto e = open_series()) return finish(*e);
+      out_ << "solid: restarted from " << o_.restart << " at step " << peer_.last_step()
+           << " (the folder's files are rewritten once the fluid has accepted its checkpoint too)\n";
+      // solid.h5, the scene copy and provenance wait for the fluid's first fluid_state_t
+      // (accept_restart()): a restart that either side refuses writes nothing.
+      restart_pending_ = true;
     } else {
       // Step 0: the initial positions, zero impulses (section 5).
       ctx_.publish(0, 0, run_.coupler().positions_lb(), Eigen::Matrix3Xd::Zero(3, run_.num_cgps()));
       run_.start();
-      if (const auto e = open_series()) return finish(*e);
+      if (const auto e = open_run_files()) return finish(*e);
       if (const auto e = run_.snapshot(0)) return finish(*e);
-    }
-    // OUTPUT/scene.toml, provenance_solid.toml: once the run is accepted (a refused start or
-    // restart adds nothing to the folder).
-    try {
-      protocol::write_provenance_files(s_.output_dir);
-    } catch (const std::exception& x) {
-      return finish(Ending{exit_code::system, one_line(x.what()), true});
     }
     first_step_ = peer_.last_step();
     clock_ = protocol::ProgressClock(run_.total_steps() - 1, first_step_);
@@ -93,6 +89,8 @@ class CoupledSolid {
       if (const auto e = peer_.wait([this] { progress(); })) return finish(*e);
       const Clock::time_point t1 = Clock::now();
       const cosimlcm::fluid_state_t m = peer_.awaited();
+      if (restart_pending_)
+        if (const auto e = accept_restart()) return finish(*e);
       if (const auto e = scheme_->on_fluid_state(m, ctx_)) return finish(*e);
       if (const auto e = append_series()) return finish(*e);
       wait_s_ += std::chrono::duration<double>(t1 - t0).count();
@@ -139,10 +137,34 @@ class CoupledSolid {
     err_.flush();
   }
 
+  /// solid.h5 from the rows so far, OUTPUT/scene.toml and provenance_solid.toml: once the
+  /// run is accepted (a refused start or restart adds nothing to the folder).
+  std::optional<Ending> open_run_files() {
+    if (auto e = open_series()) return e;
+    try {
+      protocol::write_provenance_files(s_.output_dir);
+    } catch (const std::exception& x) {
+      return Ending{exit_code::system, one_line(x.what()), true};
+    }
+    return std::nullopt;
+  }
+
+  /// The first fluid_state_t of a restart: the fluid has read and accepted its checkpoint
+  /// (it publishes nothing before) and the solid its own: only now is solid.h5 rewritten
+  /// from the checkpoint's rows.
+  std::optional<Ending> accept_restart() {
+    restart_pending_ = false;
+    if (auto e = open_run_files()) return e;
+    out_ << "solid: restart accepted at step " << peer_.last_step() << ": both checkpoints read; solid.h5 continues from its "
+         << run_.series().rows() << " rows\n";
+    out_.flush();
+    return std::nullopt;
+  }
+
   std::string output_path() const { return (std::filesystem::path(s_.output_dir) / "solid.h5").string(); }
 
   /// solid.h5 from the rows so far (after step 0 or a restart), then appended as the run
-  /// goes (CoupledSeriesFile): a failed restart never touches an earlier run's file.
+  /// goes (CoupledSeriesFile): a refused restart never touches an earlier run's file.
   std::optional<Ending> open_series() {
     CoupledSeries::Attributes a;
     a.scene = s_.name;
@@ -205,7 +227,9 @@ class CoupledSolid {
     out_ << "solid: coupled run " << (e.code == exit_code::ok ? "done" : "stopped") << " at step "
          << peer_.last_step() << " of " << run_.total_steps() << ", " << substeps << " substeps ("
          << fmt("%.5g", run_.solid_time_s(substeps) * 1e6) << " us) in " << fmt("%.1f", wall) << " s; "
-         << peer_.counters() << "; " << (series_file_ ? series_file_->rows() : 0) << " rows in " << output_path()
+         << peer_.counters() << "; "
+         << (restart_pending_ ? "the restart was not accepted by both sides: nothing written to " + s_.output_dir
+                              : std::to_string(series_file_ ? series_file_->rows() : 0) + " rows in " + output_path())
          << (snapshots ? ", " + std::to_string(snapshots->count()) + " sheet snapshots in " +
                              snapshots->xdmf_path().string()
                        : std::string())
@@ -238,6 +262,7 @@ class CoupledSolid {
   SolidCheckpoints checkpoints_;
   std::unique_ptr<CoupledSeriesFile> series_file_;  ///< solid.h5, once step 0 or the restart is in
   bool series_failed_ = false;                      ///< an append failed (a full disk)
+  bool restart_pending_ = false;  ///< a restart's checkpoint read, the fluid's not yet known accepted
   SchemeContext ctx_;
 
   std::int64_t first_step_ = 0;  ///< 0, or the step of --restart

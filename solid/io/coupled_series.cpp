@@ -55,8 +55,7 @@ CoupledSeriesFile::CoupledSeriesFile(const std::string& path, const CoupledSerie
   const protocol::H5Quiet quiet;
   Impl& m = *impl_;
   m.path = path;
-  m.file = protocol::H5Id(H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose,
-                          "cannot create " + path);
+  m.file = protocol::create_output_file(path, "cannot create " + path);
   const hsize_t ns = static_cast<hsize_t>(s.sheets);
   const auto column = [&](const char* name, hid_t file_type, hid_t mem_type, std::vector<hsize_t> row_dims) {
     const std::string what = path + ": cannot create the dataset " + std::string(name);

@@ -133,8 +133,7 @@ void SheetSnapshotWriter::write_hdf5(const fs::path& file, std::int64_t step, do
 
   const protocol::H5Quiet quiet;
   const std::string name = file.string();
-  H5Id f(H5Fcreate(name.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose,
-         "cannot create " + name);
+  H5Id f = protocol::create_output_file(name, "cannot create " + name);
   const hid_t h = f.get();
   const hsize_t n = static_cast<hsize_t>(n_), q = quads_.size() / 4, ns = grid_.size() / 2;
   try {

@@ -2,11 +2,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <limits>
 #include <numbers>
 #include <stdexcept>
 #include <string>
+#include <unordered_map>
+#include <vector>
 
 #include <Eigen/Dense>
 
@@ -58,6 +61,53 @@ Eigen::VectorXd sheet_omegas(const SheetBlock& s, const SheetSpec& spec, bool no
 }
 
 
+/// sheet_omegas() of every sheet, solved once per distinct eigenproblem: sheets with the
+/// same stiffness (local axes: where a sheet stands and how it is turned do not enter), CGP
+/// mass and clamped CGPs share their frequencies: a scene of many equal sheets solves one.
+class SheetOmegas {
+ public:
+  const Eigen::VectorXd& of(const SheetBlock& s, const SheetSpec& spec) {
+    const std::uint64_t key = fingerprint(s, spec);
+    const auto [first, last] = seen_.equal_range(key);
+    for (auto it = first; it != last; ++it)
+      if (same(*it->second.block, *it->second.spec, s, spec)) return it->second.omegas;
+    return seen_.emplace(key, Entry{&s, &spec, sheet_omegas(s, spec)})->second.omegas;
+  }
+
+ private:
+  struct Entry {
+    const SheetBlock* block;
+    const SheetSpec* spec;
+    Eigen::VectorXd omegas;
+  };
+  static void mix(std::uint64_t& h, const void* data, std::size_t bytes) {
+    const auto* p = static_cast<const unsigned char*>(data);
+    for (std::size_t k = 0; k < bytes; ++k) h = (h ^ p[k]) * 1099511628211ull;  // FNV-1a
+  }
+  static std::uint64_t fingerprint(const SheetBlock& s, const SheetSpec& spec) {
+    std::uint64_t h = 14695981039346656037ull;
+    const Eigen::Index clamped = Eigen::Index{spec.clamped_rows} * spec.nx_cg;
+    mix(h, &s.count, sizeof s.count);
+    mix(h, &clamped, sizeof clamped);
+    mix(h, &spec.cgp_mass_me, sizeof spec.cgp_mass_me);
+    const auto nnz = static_cast<std::size_t>(s.stiffness.nonZeros());
+    mix(h, s.stiffness.valuePtr(), nnz * sizeof(double));
+    return h;
+  }
+  static bool same(const SheetBlock& a, const SheetSpec& as, const SheetBlock& b, const SheetSpec& bs) {
+    if (a.count != b.count || Eigen::Index{as.clamped_rows} * as.nx_cg != Eigen::Index{bs.clamped_rows} * bs.nx_cg ||
+        as.cgp_mass_me != bs.cgp_mass_me || a.stiffness.rows() != b.stiffness.rows() ||
+        a.stiffness.cols() != b.stiffness.cols() || a.stiffness.nonZeros() != b.stiffness.nonZeros())
+      return false;
+    const auto nnz = static_cast<std::size_t>(a.stiffness.nonZeros());
+    const auto outer = static_cast<std::size_t>(a.stiffness.outerSize()) + 1;
+    return std::equal(a.stiffness.valuePtr(), a.stiffness.valuePtr() + nnz, b.stiffness.valuePtr()) &&
+           std::equal(a.stiffness.innerIndexPtr(), a.stiffness.innerIndexPtr() + nnz, b.stiffness.innerIndexPtr()) &&
+           std::equal(a.stiffness.outerIndexPtr(), a.stiffness.outerIndexPtr() + outer, b.stiffness.outerIndexPtr());
+  }
+  std::unordered_multimap<std::uint64_t, Entry> seen_;
+};
+
 }  // namespace
 
 ElasticSheetModel::ElasticSheetModel(const SolidConfig& config, SheetKinematics kinematics)
@@ -84,6 +134,9 @@ ElasticSheetModel::ElasticSheetModel(const SolidConfig& config, SheetKinematics 
   mass_.resize(n);
   inv_mass_.resize(n);
   std::vector<int> sheet_of;
+  // Reserved: a SheetBlock is copied, not moved, when the vector grows (Eigen's sparse
+  // matrix has no noexcept move), and each copy allocates every term again.
+  sheets_.reserve(config_.sheets.size());
   for (std::size_t s = 0; s < config_.sheets.size(); ++s) {
     const SheetSpec& spec = config_.sheets[s];
     SheetBlock b;
@@ -120,13 +173,16 @@ ElasticSheetModel::ElasticSheetModel(const SolidConfig& config, SheetKinematics 
   // Vacuum eigenfrequencies and the stable step 2 / omega_max (velocity Verlet).
   std::vector<double> omegas;
   double omega_max = 0.0;
+  SheetOmegas solved;
   for (std::size_t s = 0; s < sheets_.size(); ++s) {
-    const Eigen::VectorXd w = sheet_omegas(sheets_[s], config_.sheets[s]);
+    const Eigen::VectorXd& w = solved.of(sheets_[s], config_.sheets[s]);
     omega_max = std::max(omega_max, w.maxCoeff());
     for (Eigen::Index k = 0; k < w.size(); ++k) omegas.push_back(w[k]);
   }
-  std::sort(omegas.begin(), omegas.end());
-  for (std::size_t k = 0; k < std::min(kReportedModes, omegas.size()); ++k)
+  // The lowest kReportedModes only.
+  const std::size_t reported = std::min(kReportedModes, omegas.size());
+  std::partial_sort(omegas.begin(), omegas.begin() + static_cast<std::ptrdiff_t>(reported), omegas.end());
+  for (std::size_t k = 0; k < reported; ++k)
     frequencies_hz_.push_back(omegas[k] / (2.0 * std::numbers::pi * PhysicalConstants::time_au_s));
   // The first flexural mode of the first sheet: on a slender sheet (L/b of 30) the in-plane
   // bending mode comes first, and a strip theory such as Sader's is about the flexural one.
