@@ -8,7 +8,10 @@
 // environment variable COSIM_FAULTS):
 //
 //   drop=P, duplicate=P, reorder=P, delay=P   probabilities in [0, 0.5], default 0, with a
-//                                             sum of at most 1 (one draw per message)
+//                                             sum of at most 1 (one draw per message);
+//                                             drop = 0.5 on both sides, the documented
+//                                             maximum, cannot end a healthy run
+//                                             (docs/reliability.md computes it)
 //   delay_ms=T                                how long a delayed message is held, (0, 10000]
 //   seed=S                                    the random stream (unsigned integer), default 1
 //

@@ -103,6 +103,17 @@ void PeerLink::publish_stop(std::int64_t step, int code, const std::string& reas
     net_->publish(channels_.stop, m);
   }
   net_->flush();
+  last_stop_ = std::move(m);
+}
+
+void PeerLink::republish_stop() {
+  if (!net_ || !last_stop_) return;
+  net_->publish(channels_.stop, *last_stop_);
+  net_->flush();
+}
+
+void PeerLink::publish_request(const cosimlcm::resend_t& r) {
+  for (int k = 0; k < kResendCopies; ++k) publish(channels_.resend, r);
 }
 
 void PeerLink::pump(std::chrono::milliseconds wait) {

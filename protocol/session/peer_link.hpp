@@ -11,7 +11,10 @@
 //     three-copies rule of the awaited step), another run's token counted and dropped, and
 //     the values checked against what this peer expects now (refusals counted and logged
 //     once per category). Handlers see only messages of this run that passed.
-//   - stop_t out, three copies 20 ms apart, naming this peer as its sender.
+//   - stop_t out, three copies 20 ms apart, naming this peer as its sender; the last one
+//     kept to be published again (the coordinator's closing linger, README section 8);
+//   - resend_t out, kResendCopies copies per request (docs/reliability.md: how many rounds
+//     the documented fault level needs).
 //
 // Protocol state (which step is awaited, resends, timeouts) is not here: state_inbox.hpp.
 #pragma once
@@ -28,6 +31,8 @@
 
 #include <lcm/lcm-cpp.hpp>
 
+#include "cosimlcm/resend_t.hpp"
+#include "cosimlcm/stop_t.hpp"
 #include "protocol/channels.hpp"
 #include "protocol/fault_injection.hpp"
 #include "protocol/message_checks.hpp"
@@ -47,6 +52,10 @@ struct MessageHeader {
 /// The header of an encoded state message (8-byte fingerprint, then token, seq and step in
 /// LCM's big-endian encoding), whatever follows; nothing if the bytes do not hold one.
 std::optional<MessageHeader> peek_state_header(const void* data, std::size_t size);
+
+/// Copies of each resend_t: every copy that arrives is answered, so one request round fails
+/// only when every copy or its answer is lost (docs/reliability.md).
+inline constexpr int kResendCopies = 8;
 
 class PeerLink {
  public:
@@ -102,6 +111,10 @@ class PeerLink {
   /// stop_t(step, code, reason) from this peer, three copies 20 ms apart (best effort: the
   /// run ends either way), then whatever the fault injector still holds.
   void publish_stop(std::int64_t step, int code, const std::string& reason);
+  /// The last stop_t of publish_stop once more (one copy), if there was one.
+  void republish_stop();
+  /// resend_t `r` on the RESEND channel, kResendCopies copies (one request round).
+  void publish_request(const cosimlcm::resend_t& r);
 
   /// Sends what the fault injector holds that is due, and dispatches what arrives within
   /// `wait` (never longer). An LCM failure sets fatal() (exit code 1).
@@ -146,6 +159,7 @@ class PeerLink {
   std::function<Expectation()> expectation_;
   UndecodableHook undecodable_hook_;
   std::optional<Ending> fatal_;
+  std::optional<cosimlcm::stop_t> last_stop_;
 };
 
 template <class M>
