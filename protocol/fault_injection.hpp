@@ -134,6 +134,13 @@ class FaultyTransport {
     return inject(channel, std::move(bytes));
   }
 
+  /// Publishes encoded bytes on `channel` (or drops, duplicates, holds them).
+  /// @return 0, or LCM's error code of an immediate publish.
+  int publish_encoded(const std::string& channel, std::vector<std::uint8_t> bytes) {
+    if (!s_.any()) return send(channel, bytes);
+    return inject(channel, std::move(bytes));
+  }
+
   /// Sends the held messages whose time has come. Call it while waiting.
   void pump() {
     const Clock::time_point now = Clock::now();

@@ -37,6 +37,7 @@ protocol::PeerLink::Settings link_settings(const CouplingSettings& c, const Coup
   s.lcm_url = o.lcm_url.empty() ? c.lcm_url : o.lcm_url;
   s.bus = o.bus;
   s.faults = o.faults;
+  s.key = o.key;
   return s;
 }
 

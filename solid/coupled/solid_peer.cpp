@@ -64,6 +64,7 @@ std::optional<Ending> SolidPeer::open(Eigen::Index num_cgps) {
   ls.lcm_url = c_.lcm_url;
   ls.bus = o_.bus;
   ls.faults = o_.faults;
+  ls.key = o_.key;
   link_.emplace(ls, out_);
   if (auto e = link_->open()) return e;
   outbox_.emplace(*link_, ch_.solid_state);
