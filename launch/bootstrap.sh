@@ -9,7 +9,7 @@ set -euo pipefail
 packages=(
   build-essential cmake pkg-config
   liblcm-dev liblcm-bin libglib2.0-dev
-  libeigen3-dev libhdf5-dev libtomlplusplus-dev libcli11-dev
+  libeigen3-dev libhdf5-dev libtomlplusplus-dev libcli11-dev libssl-dev
   libgtest-dev libbenchmark-dev
   python3 python3-dev python3-h5py python3-matplotlib python3-numpy python3-scipy pybind11-dev
   python3-paraview

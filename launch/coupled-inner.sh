@@ -62,7 +62,7 @@ fi
 
 extra_pid=""
 if [ -n "${COSIM_EXTRA_CMD:-}" ]; then
-  bash -c "$COSIM_EXTRA_CMD" >"$output/extra.log" 2>&1 &
+  env -u COSIM_RUN_KEY_FILE bash -c "$COSIM_EXTRA_CMD" >"$output/extra.log" 2>&1 &  # never the key
   extra_pid=$!
 fi
 

@@ -63,9 +63,15 @@
 #
 # --solid-cmd replaces the solid server with another solid process that speaks the
 # protocol (it gets the same arguments: SCENE --output DIR --channel-prefix P [--quiet],
-# and the token in COSIM_RUN_TOKEN). --extra starts one more process in the same network
-# namespace for the run's duration (tests use it for a foreign publisher); it sees
-# COSIM_CHANNEL_PREFIX and COSIM_LCM_URL and is stopped at the end.
+# and the token in COSIM_RUN_TOKEN, the run's key file in COSIM_RUN_KEY_FILE). --extra starts
+# one more process in the same network namespace for the run's duration (tests use it for a
+# foreign publisher); it sees COSIM_CHANNEL_PREFIX, COSIM_LCM_URL and the token, never the
+# key, and is stopped at the end.
+#
+# Each launch makes a secret key for the run's message MACs (protocol/README.md section 8b):
+# 32 random bytes as 64 hexadecimal digits in OUTPUT/run.key, mode 0600 (readable by this
+# user only), named to both servers by COSIM_RUN_KEY_FILE; it never travels on the bus. The
+# replay tool and cosim-log verify a traffic log with it (--key-file OUTPUT/run.key).
 #
 # As root, both processes run in a private network namespace (unshare -n; lo up with
 # multicast, 224.0.0.0/4 routed to lo), so no packet leaves this machine; otherwise they
@@ -265,6 +271,10 @@ echo $$ >"$output/launcher.pid"
 token=$(od -An -N8 -tx1 /dev/urandom | tr -d ' \n')
 prefix="COSIM_${token:0:8}_"
 export COSIM_RUN_TOKEN=$token
+# The run's key: written under umask 077 beside, then renamed over any older one.
+(umask 077 && od -An -N32 -tx1 /dev/urandom | tr -d ' \n' >"$output/run.key.new" && echo >>"$output/run.key.new" &&
+  mv -f "$output/run.key.new" "$output/run.key") || refuse "--output $output: cannot write the run's key file run.key"
+export COSIM_RUN_KEY_FILE=$output/run.key
 
 export COSIM_SOLID_CMD=${solid_cmd:-$solid_exe}
 export COSIM_EXTRA_CMD=$extra

@@ -8,7 +8,10 @@
 // environment variable COSIM_FAULTS):
 //
 //   drop=P, duplicate=P, reorder=P, delay=P   probabilities in [0, 0.5], default 0, with a
-//                                             sum of at most 1 (one draw per message)
+//                                             sum of at most 1 (one draw per message);
+//                                             drop = 0.5 on both sides, the documented
+//                                             maximum, cannot end a healthy run
+//                                             (docs/reliability.md computes it)
 //   delay_ms=T                                how long a delayed message is held, (0, 10000]
 //   seed=S                                    the random stream (unsigned integer), default 1
 //
@@ -128,6 +131,13 @@ class FaultyTransport {
     const int size = m.getEncodedSize();
     std::vector<std::uint8_t> bytes(static_cast<std::size_t>(size > 0 ? size : 0));
     if (size < 0 || m.encode(bytes.data(), 0, size) < 0) return -1;
+    return inject(channel, std::move(bytes));
+  }
+
+  /// Publishes encoded bytes on `channel` (or drops, duplicates, holds them).
+  /// @return 0, or LCM's error code of an immediate publish.
+  int publish_encoded(const std::string& channel, std::vector<std::uint8_t> bytes) {
+    if (!s_.any()) return send(channel, bytes);
     return inject(channel, std::move(bytes));
   }
 

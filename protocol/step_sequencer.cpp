@@ -98,6 +98,16 @@ bool ForeignCounter::admit(const std::string& channel, const std::string& token)
   return false;
 }
 
+void ForeignCounter::unauthenticated(const std::string& channel) {
+  ++counts_[channel];
+  ++total_;
+  ++unauthenticated_;
+  if (unauthenticated_by_channel_[channel]++ == 0 && log_)
+    log_("ignoring messages on channel '" + channel +
+         "' whose MAC does not verify under this run's key (a forger's, or a peer started without the run's "
+         "key: $COSIM_RUN_KEY_FILE); they are counted as foreign, never applied");
+}
+
 std::int64_t ForeignCounter::count(const std::string& channel) const {
   const auto it = counts_.find(channel);
   return it == counts_.end() ? 0 : it->second;

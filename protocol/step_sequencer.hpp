@@ -188,15 +188,22 @@ class ForeignCounter {
   ///         once per channel, on its first foreign message.
   bool admit(const std::string& channel, const std::string& token);
 
+  /// A message whose MAC does not verify under the run's key (message_auth.hpp): counted
+  /// as foreign; the log hook is called once per channel, on the first such message.
+  void unauthenticated(const std::string& channel);
+
   std::int64_t count(const std::string& channel) const;
   std::int64_t total() const { return total_; }
+  /// Of total(): the messages refused for their MAC.
+  std::int64_t unauthenticated_total() const { return unauthenticated_; }
   const std::map<std::string, std::int64_t>& by_channel() const { return counts_; }
 
  private:
   std::string run_token_;
   LogHook log_;
   std::map<std::string, std::int64_t> counts_;
-  std::int64_t total_ = 0;
+  std::map<std::string, std::int64_t> unauthenticated_by_channel_;
+  std::int64_t total_ = 0, unauthenticated_ = 0;
 };
 
 }  // namespace cosim::protocol

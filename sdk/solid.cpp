@@ -484,8 +484,8 @@ int run_impl(Solid& solid, std::vector<std::string> args) {
     return bad("a coupled run needs the run's token: --token TOKEN or COSIM_RUN_TOKEN (the launcher draws one per run)");
   options.quiet = quiet;
   options.restart = restart;
-  options.read_environment();  // the launcher's run id and --new-time-ratio
   try {
+    options.read_environment();  // the launcher's run id, --new-time-ratio and the run's key
     options.faults = protocol::fault_settings_from(o_faults->count() ? &faults : nullptr);
   } catch (const std::invalid_argument& e) {
     return bad(e.what());

@@ -10,6 +10,9 @@
  *                    [--amplitude A_LB] [--period STEPS] [--quiet]
  *
  * The token comes from --token or the environment variable COSIM_RUN_TOKEN (the launcher's).
+ * The run's key (protocol/README.md section 8b) from the file named by COSIM_RUN_KEY_FILE:
+ * with it every message out carries HMAC-SHA-256 over its channel, a NUL and its bytes,
+ * appended, and a message in whose MAC does not verify is counted as foreign and dropped.
  * From the scene it reads only: the first [[sheet]] (nx_cg, ny_cg, spacing_um, base_um,
  * theta_deg), [grid] dx_um, [output] directory and [coupling] (time_ratio,
  * handshake_timeout_s, peer_timeout_s, resend_after_s, lcm_url, channel_prefix, scheme: "serial"
@@ -34,6 +37,9 @@
 #include <time.h>
 
 #include <lcm/lcm.h>
+#include <openssl/crypto.h>
+#include <openssl/evp.h>
+#include <openssl/hmac.h>
 
 #include "cosimlcm_fluid_state_t.h"
 #include "cosimlcm_hello_t.h"
@@ -305,6 +311,10 @@ typedef struct {
   long foreign[4], duplicate, stale, early, resends_asked, resend_requests, resends_answered, undecodable;
   /* -sum_l J_l of each published step, lattice force */
   double (*drag)[3];
+  /* the run's key (section 8b), when COSIM_RUN_KEY_FILE names one */
+  int keyed;
+  unsigned char key[32];
+  long unauthenticated;
 } Plate;
 
 static double now_s(void) {
@@ -316,6 +326,96 @@ static double now_s(void) {
 static void sleep_s(double s) {
   struct timespec t = {(time_t)s, (long)((s - floor(s)) * 1e9)};
   nanosleep(&t, NULL);
+}
+
+/* ---- message authentication (protocol/README.md section 8b) ---- */
+
+enum { MAC_BYTES = 32 };
+
+/* HMAC-SHA-256 under the run's key of the channel, a NUL byte and the message's bytes. */
+static int message_mac(const Plate *p, const char *channel, const void *data, size_t len, unsigned char out[MAC_BYTES]) {
+  const size_t head = strlen(channel) + 1;
+  unsigned char *text = malloc(head + len);
+  unsigned int out_len = 0;
+  if (!text) return 0;
+  memcpy(text, channel, head); /* the channel and its NUL */
+  if (len) memcpy(text + head, data, len);
+  const int ok = HMAC(EVP_sha256(), p->key, (int)sizeof p->key, text, head + len, out, &out_len) != NULL &&
+                 out_len == MAC_BYTES;
+  free(text);
+  return ok;
+}
+
+/* The message's length before its MAC when the run has a key and the MAC verifies (the
+   whole length without a key); -1 otherwise: counted as foreign, never read. */
+static int verified_length(Plate *p, const lcm_recv_buf_t *rbuf, const char *channel, int index) {
+  if (!p->keyed) return (int)rbuf->data_size;
+  unsigned char mac[MAC_BYTES];
+  if (rbuf->data_size >= MAC_BYTES &&
+      message_mac(p, channel, rbuf->data, rbuf->data_size - MAC_BYTES, mac) &&
+      CRYPTO_memcmp(mac, (const unsigned char *)rbuf->data + rbuf->data_size - MAC_BYTES, MAC_BYTES) == 0)
+    return (int)(rbuf->data_size - MAC_BYTES);
+  ++p->foreign[index];
+  if (p->unauthenticated++ == 0)
+    fprintf(stderr, "prescribed-plate: a message on %s whose MAC does not verify under the run's key (ignored, counted as foreign)\n",
+            channel);
+  return -1;
+}
+
+/* Publishes `len` encoded bytes at `bytes` (with MAC_BYTES spare after them, where the MAC goes). */
+static int publish_signed(Plate *p, const char *channel, unsigned char *bytes, int len) {
+  if (len < 0) return -1;
+  if (p->keyed) {
+    if (!message_mac(p, channel, bytes, (size_t)len, bytes + len)) return -1;
+    len += MAC_BYTES;
+  }
+  return lcm_publish(p->lcm, channel, bytes, (unsigned int)len);
+}
+
+/* publish_T(p, channel, m): encodes a message of type T and publishes it signed. */
+#define DEFINE_PUBLISH(T)                                                                  \
+  static int publish_##T(Plate *p, const char *channel, const T *m) {                      \
+    const int size = T##_encoded_size(m);                                                  \
+    unsigned char *bytes = malloc((size_t)size + MAC_BYTES);                               \
+    const int rc = bytes ? publish_signed(p, channel, bytes, T##_encode(bytes, 0, size, m)) : -1; \
+    free(bytes);                                                                           \
+    return rc;                                                                             \
+  }
+DEFINE_PUBLISH(cosimlcm_hello_t)
+DEFINE_PUBLISH(cosimlcm_stop_t)
+DEFINE_PUBLISH(cosimlcm_resend_t)
+
+/* The key file: 64 hexadecimal digits and a newline, readable by its owner only. */
+static int read_key(Plate *p, const char *path, char *why, size_t why_size) {
+  struct stat st;
+  if (stat(path, &st) != 0 || !S_ISREG(st.st_mode)) {
+    snprintf(why, why_size, "COSIM_RUN_KEY_FILE = \"%s\": not a readable regular file", path);
+    return 0;
+  }
+  if (st.st_mode & 077) {
+    snprintf(why, why_size, "COSIM_RUN_KEY_FILE = \"%s\": mode %04o lets others read it; allowed: readable by its owner only",
+             path, (unsigned)(st.st_mode & 07777));
+    return 0;
+  }
+  FILE *f = fopen(path, "r");
+  char text[80] = {0};
+  const size_t n = f ? fread(text, 1, sizeof text - 1, f) : 0;
+  if (f) fclose(f);
+  size_t len = n;
+  if (len && text[len - 1] == '\n') --len;
+  int ok = len == 2 * sizeof p->key;
+  for (size_t k = 0; ok && k < sizeof p->key; ++k) {
+    unsigned v;
+    ok = isxdigit((unsigned char)text[2 * k]) && isxdigit((unsigned char)text[2 * k + 1]) &&
+         sscanf(text + 2 * k, "%2x", &v) == 1;
+    p->key[k] = (unsigned char)v;
+  }
+  if (!ok) {
+    snprintf(why, why_size, "COSIM_RUN_KEY_FILE = \"%s\": allowed: 64 hexadecimal digits (the 32-byte key) and a newline", path);
+    return 0;
+  }
+  p->keyed = 1;
+  return 1;
 }
 
 static int own_token(Plate *p, const char *token, int channel, const char *name) {
@@ -338,7 +438,9 @@ static void on_welcome(const lcm_recv_buf_t *rbuf, const char *channel, void *us
   Plate *p = user;
   cosimlcm_welcome_t m;
   memset(&m, 0, sizeof m);
-  if (cosimlcm_welcome_t_decode(rbuf->data, 0, (int)rbuf->data_size, &m) < 0) { ++p->undecodable; return; }
+  const int len = verified_length(p, rbuf, channel, 0);
+  if (len < 0) return;
+  if (cosimlcm_welcome_t_decode(rbuf->data, 0, len, &m) < 0) { ++p->undecodable; return; }
   if (own_token(p, m.token, 0, channel) && !p->welcomed) { /* later copies repeat the first */
     p->welcomed = 1;
     p->accepted = m.accepted != 0;
@@ -354,7 +456,9 @@ static void on_fluid_state(const lcm_recv_buf_t *rbuf, const char *channel, void
   Plate *p = user;
   cosimlcm_fluid_state_t m;
   memset(&m, 0, sizeof m);
-  if (cosimlcm_fluid_state_t_decode(rbuf->data, 0, (int)rbuf->data_size, &m) < 0) { ++p->undecodable; return; }
+  const int len = verified_length(p, rbuf, channel, 1);
+  if (len < 0) return;
+  if (cosimlcm_fluid_state_t_decode(rbuf->data, 0, len, &m) < 0) { ++p->undecodable; return; }
   if (!own_token(p, m.token, 1, channel) || !p->accepted) goto done;
   if (m.seq > p->fluid_seq_next) p->gap = 1; /* a lost message */
   if (m.seq >= p->fluid_seq_next) p->fluid_seq_next = m.seq + 1;
@@ -389,7 +493,9 @@ static void on_resend(const lcm_recv_buf_t *rbuf, const char *channel, void *use
   Plate *p = user;
   cosimlcm_resend_t m;
   memset(&m, 0, sizeof m);
-  if (cosimlcm_resend_t_decode(rbuf->data, 0, (int)rbuf->data_size, &m) < 0) { ++p->undecodable; return; }
+  const int len = verified_length(p, rbuf, channel, 2);
+  if (len < 0) return;
+  if (cosimlcm_resend_t_decode(rbuf->data, 0, len, &m) < 0) { ++p->undecodable; return; }
   /* Our own requests (what = "fluid_state") come back on this channel too. */
   if (own_token(p, m.token, 2, channel) && m.what && strcmp(m.what, "solid_state") == 0) {
     ++p->resend_requests;
@@ -407,7 +513,9 @@ static void on_stop(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
   Plate *p = user;
   cosimlcm_stop_t m;
   memset(&m, 0, sizeof m);
-  if (cosimlcm_stop_t_decode(rbuf->data, 0, (int)rbuf->data_size, &m) < 0) { ++p->undecodable; return; }
+  const int len = verified_length(p, rbuf, channel, 3);
+  if (len < 0) return;
+  if (cosimlcm_stop_t_decode(rbuf->data, 0, len, &m) < 0) { ++p->undecodable; return; }
   /* Our own copies come back on the bus; only the coordinator ends a run with success, and
      only at its last step (section 8): anything else with exit code 0 is not applied. */
   const int own = m.sender && strcmp(m.sender, "solid") == 0;
@@ -440,7 +548,7 @@ static int publish_hello(Plate *p, const char *hash, double dx_m, double rho_air
   m.num_cgps = p->n;
   m.light_cgp_mass_kg = 0.0; /* prescribed motion: no inertia for the fluid to move (section 6) */
   m.light_cgp_area_m2 = 0.0;
-  return cosimlcm_hello_t_publish(p->lcm, p->ch_hello, &m) == 0;
+  return publish_cosimlcm_hello_t(p, p->ch_hello, &m) == 0;
 }
 
 /* stop_t three times, 20 ms apart (section 8). */
@@ -448,13 +556,13 @@ static void publish_stop(Plate *p, int32_t code, const char *reason) {
   cosimlcm_stop_t m = {(char *)p->token, "solid", p->awaited > 0 ? p->awaited - 1 : 0, code, (char *)reason};
   for (int k = 0; k < 3; ++k) {
     if (k) sleep_s(0.02);
-    cosimlcm_stop_t_publish(p->lcm, p->ch_stop, &m);
+    publish_cosimlcm_stop_t(p, p->ch_stop, &m);
   }
 }
 
 static void publish_resend(Plate *p) {
   cosimlcm_resend_t m = {(char *)p->token, p->awaited, "fluid_state"};
-  if (cosimlcm_resend_t_publish(p->lcm, p->ch_resend, &m) == 0) ++p->resends_asked;
+  if (publish_cosimlcm_resend_t(p, p->ch_resend, &m) == 0) ++p->resends_asked;
 }
 
 /* Position of the plate's x offset at motion time t (LB steps) and its velocity. */
@@ -503,9 +611,12 @@ static int publish_solid_state(Plate *p, int64_t m) {
   const int size = cosimlcm_solid_state_t_encoded_size(&msg);
   SentMessage *slot = &p->sent[p->solid_seq % 2]; /* keep the last two for resends */
   free(slot->bytes);
-  slot->bytes = malloc((size_t)size);
+  slot->bytes = malloc((size_t)size + MAC_BYTES);
   slot->step = m;
-  const int len = slot->bytes ? cosimlcm_solid_state_t_encode(slot->bytes, 0, size, &msg) : -1;
+  int len = slot->bytes ? cosimlcm_solid_state_t_encode(slot->bytes, 0, size, &msg) : -1;
+  /* signed once, kept signed: a resend republishes the same bytes */
+  if (len >= 0 && p->keyed && !message_mac(p, p->ch_solid, slot->bytes, (size_t)len, slot->bytes + len)) len = -1;
+  if (len >= 0 && p->keyed) len += MAC_BYTES;
   slot->len = len > 0 ? (size_t)len : 0;
   if (len < 0 || lcm_publish(p->lcm, p->ch_solid, slot->bytes, (unsigned int)len) != 0)
     fail(p, EXIT_SYSTEM, "step %" PRId64 ": cannot publish solid_state_t on %s", m, p->ch_solid);
@@ -673,6 +784,10 @@ static int run(int argc, char **argv) {
   Plate p;
   memset(&p, 0, sizeof p);
   p.token = token;
+  if (getenv("COSIM_RUN_KEY_FILE") && *getenv("COSIM_RUN_KEY_FILE")) {
+    char why[TEXT + 160];
+    if (!read_key(&p, getenv("COSIM_RUN_KEY_FILE"), why, sizeof why)) return usage(why);
+  }
   p.amplitude = amplitude;
   p.omega = 2.0 * kPi / period;
   p.time_ratio = s.time_ratio;

@@ -475,8 +475,8 @@ int main_impl(int argc, char** argv) {
     co.lcm_url = lcm_url;
     co.quiet = quiet;
     co.restart = restart;
-    co.read_environment();
     try {
+      co.read_environment();  // the run id, --new-time-ratio, the run's key
       co.faults = protocol::fault_settings_from(o_faults->count() ? &faults : nullptr);
     } catch (const std::invalid_argument& e) {
       std::fprintf(stderr, "fluid: %s\n", e.what());

@@ -37,6 +37,7 @@ protocol::PeerLink::Settings link_settings(const CouplingSettings& c, const Coup
   s.lcm_url = o.lcm_url.empty() ? c.lcm_url : o.lcm_url;
   s.bus = o.bus;
   s.faults = o.faults;
+  s.key = o.key;
   return s;
 }
 
@@ -264,7 +265,7 @@ void Coordinator::request_resend(std::int64_t key) {
     r.token = o_.token;
     r.step = step;
     r.what = "solid_state";
-    link_.publish(ch_.resend, r);
+    link_.publish_request(r);
     ++resends_.asked;
   }
 }
@@ -274,12 +275,37 @@ void Coordinator::on_resend(const cosimlcm::resend_t& m) {
   // (protocol/README.md 7-8): silence counts from the last message applied.
   if (m.what != "fluid_state") return;
   ++resends_.requests;
-  resends_.answered += outbox_.answer_resend(m.step);
+  if (!lingering_) {
+    resends_.answered += outbox_.answer_resend(m.step);
+    return;
+  }
+  // After the success stop_t the solid asks only because it has none: each copy of the
+  // request is answered with one copy of the stop_t (docs/reliability.md).
+  last_request_ = Clock::now();
+  link_.republish_stop();
+  ++resends_.answered;
+  ++stops_again_;
+}
+
+int Coordinator::linger() {
+  lingering_ = true;
+  const Clock::time_point start = Clock::now(), limit = start + ms(c_.peer_timeout_s);
+  last_request_ = start;
+  for (;;) {
+    const Clock::time_point now = Clock::now();
+    if (now - last_request_ >= protocol::kClosingQuiet || now >= limit || link_.fatal()) break;
+    link_.pump(std::chrono::milliseconds(5));
+  }
+  lingering_ = false;
+  return stops_again_;
 }
 
 /// The solid's stop_t, if it fits the run (protocol/session/stop_rules.hpp): the solid never
 /// ends a run with success; an error code ends it with 4.
 void Coordinator::on_stop(const cosimlcm::stop_t& m) {
+  // Our own success stop_t, heard back while lingering after it (linger()).
+  if (lingering_ && m.sender == "fluid" && m.exit_code == exit_code::ok && m.step == s_.steps && m.reason.empty())
+    return;
   const protocol::StopFit fit = protocol::fit_stop(m, {"fluid", s_.steps, false});
   if (fit.verdict == protocol::StopVerdict::Refuse) {
     link_.refuse(ch_.stop, *fit.rejection);

@@ -9,6 +9,7 @@
 // What a scheme sends when is the scheme's (fluid/schemes/); the flow is FluidRun's.
 #pragma once
 
+#include <chrono>
 #include <cstdint>
 #include <functional>
 #include <optional>
@@ -43,6 +44,7 @@ class FluidScheme;
 class Coordinator {
  public:
   using Phase = protocol::RunPhase;
+  using Clock = std::chrono::steady_clock;
 
   /// @pre scene.coupling; options.token not empty (run_coupled_fluid checks both).
   Coordinator(const FluidScene& scene, const CoupledFluidOptions& options, const FluidScheme& scheme,
@@ -89,6 +91,10 @@ class Coordinator {
   /// The message of `step` among the last ones sent, if kept.
   const cosimlcm::fluid_state_t* sent_state(std::int64_t step) const { return outbox_.find(step); }
   void publish_stop(std::int64_t step, int code, const std::string& reason);
+  /// After the success stop_t (the last step): answers each resend_t of the solid with that
+  /// stop_t again, until none came for protocol::kClosingQuiet (the solid has it and ended)
+  /// or for at most peer_timeout_s (protocol/README.md section 8). How many copies it sent.
+  int linger();
   /// Ends the run on the fluid's own error: stop_t to the solid, then end().
   int stop_and_end(const protocol::Ending& e, std::int64_t step);
   /// Ends the run: the counters (after the handshake), the reason kept for the caller.
@@ -161,6 +167,9 @@ class Coordinator {
   std::function<void(std::ostream&)> end_hook_;
   std::string last_reason_;
   std::optional<protocol::AddedMass> added_mass_;
+  bool lingering_ = false;                   ///< in linger(): resend_t are answered with the stop_t
+  Clock::time_point last_request_{};  ///< the solid's last resend_t in linger()
+  int stops_again_ = 0;
 };
 
 }  // namespace cosim::fluid

@@ -459,6 +459,10 @@ int FluidRun::finish() {
   out << "fluid: watchdog margins: " << markers_.margins() << "\n";
   out << "fluid: peak memory " << protocol::fmt("%.1f", protocol::peak_rss_mib()) << " MiB (largest resident set)\n";
   scheme_.summary(out, s_.steps);
+  out.flush();
+  // The solid may have lost every copy of the stop_t: it asks, and is answered, until quiet.
+  if (const int again = coord_.linger(); again > 0)
+    out << "fluid: closing: the stop_t sent again " << again << " times for the solid's resend_t\n";
   coord_.done();
   return exit_code::ok;
 }

@@ -100,9 +100,20 @@ void PeerLink::publish_stop(std::int64_t step, int code, const std::string& reas
   for (int k = 0; k < kStopCopies; ++k) {
     if (k > 0) std::this_thread::sleep_for(kStopSpacing);
     net_->pump();
-    net_->publish(channels_.stop, m);
+    publish(channels_.stop, m);
   }
   net_->flush();
+  last_stop_ = std::move(m);
+}
+
+void PeerLink::republish_stop() {
+  if (!net_ || !last_stop_) return;
+  publish(channels_.stop, *last_stop_);
+  net_->flush();
+}
+
+void PeerLink::publish_request(const cosimlcm::resend_t& r) {
+  for (int k = 0; k < kResendCopies; ++k) publish(channels_.resend, r);
 }
 
 void PeerLink::pump(std::chrono::milliseconds wait) {
@@ -120,6 +131,7 @@ std::int64_t PeerLink::undecodable() const {
 
 std::string PeerLink::counters() const {
   return "undecodable " + std::to_string(undecodable()) + ", " +
+         (s_.key ? "unauthenticated " + std::to_string(foreign_.unauthenticated_total()) + " (of foreign), " : "") +
          rejections_.summary() + (net_ && net_->active() ? "; " + net_->summary() : std::string());
 }
 

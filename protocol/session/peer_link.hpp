@@ -4,14 +4,20 @@
 //   - the LCM bus: opened from the URL under the one URL rule (lcm_url.hpp), or an
 //     in-process bus lent by the caller (memq://: the replay tool, the tests);
 //   - the run's six channels (channels.hpp);
-//   - every publish through the fault injector (fault_injection.hpp; a test setting);
-//   - every receive through one gate: the bytes checked before the generated decode
+//   - every publish through the fault injector (fault_injection.hpp; a test setting), with
+//     the run key's MAC appended when the run has a key (message_auth.hpp);
+//   - every receive through one gate: with a key, the MAC first (a message that does not
+//     verify is counted as foreign and dropped, before anything else is read from it); the
+//     bytes checked before the generated decode
 //     (undecodable copies counted and logged once per channel; a copy whose header names
 //     this run's token is reported with its seq and step, so that it counts toward the
 //     three-copies rule of the awaited step), another run's token counted and dropped, and
 //     the values checked against what this peer expects now (refusals counted and logged
 //     once per category). Handlers see only messages of this run that passed.
-//   - stop_t out, three copies 20 ms apart, naming this peer as its sender.
+//   - stop_t out, three copies 20 ms apart, naming this peer as its sender; the last one
+//     kept to be published again (the coordinator's closing linger, README section 8);
+//   - resend_t out, kResendCopies copies per request (docs/reliability.md: how many rounds
+//     the documented fault level needs).
 //
 // Protocol state (which step is awaited, resends, timeouts) is not here: state_inbox.hpp.
 #pragma once
@@ -28,8 +34,11 @@
 
 #include <lcm/lcm-cpp.hpp>
 
+#include "cosimlcm/resend_t.hpp"
+#include "cosimlcm/stop_t.hpp"
 #include "protocol/channels.hpp"
 #include "protocol/fault_injection.hpp"
+#include "protocol/message_auth.hpp"
 #include "protocol/message_checks.hpp"
 #include "common/run/exit_codes.hpp"
 #include "protocol/step_sequencer.hpp"
@@ -48,6 +57,10 @@ struct MessageHeader {
 /// LCM's big-endian encoding), whatever follows; nothing if the bytes do not hold one.
 std::optional<MessageHeader> peek_state_header(const void* data, std::size_t size);
 
+/// Copies of each resend_t: every copy that arrives is answered, so one request round fails
+/// only when every copy or its answer is lost (docs/reliability.md).
+inline constexpr int kResendCopies = 8;
+
 class PeerLink {
  public:
   struct Settings {
@@ -57,6 +70,9 @@ class PeerLink {
     std::string lcm_url;         ///< opened by open() unless `bus` is lent
     lcm::LCM* bus = nullptr;     ///< an in-process bus to use instead; not owned
     FaultSettings faults;
+    /// The run's key (message_auth.hpp): every message out carries its MAC, every message
+    /// in must; none: no MAC sent, none expected.
+    std::optional<RunKey> key;
   };
   using Clock = std::chrono::steady_clock;
   /// A message of this run whose bytes did not decode: the channel, its header, the reason.
@@ -90,7 +106,11 @@ class PeerLink {
   /// Publishes `m` through the fault injector; on an LCM error, fatal() is set (exit code 1).
   template <class M>
   bool publish(const std::string& channel, const M& m) {
-    if (net_->publish(channel, m) == 0) return true;
+    const int size = m.getEncodedSize();
+    std::vector<std::uint8_t> bytes(static_cast<std::size_t>(size > 0 ? size : 0));
+    const bool encoded = size >= 0 && m.encode(bytes.data(), 0, size) == size;
+    if (encoded && s_.key) append_mac(*s_.key, channel, bytes);
+    if (encoded && net_->publish_encoded(channel, std::move(bytes)) == 0) return true;
     if (!fatal_) fatal_ = Ending{exit_code::system, "cannot publish on " + channel + " (LCM at " + url() + ")", true};
     return false;
   }
@@ -102,6 +122,10 @@ class PeerLink {
   /// stop_t(step, code, reason) from this peer, three copies 20 ms apart (best effort: the
   /// run ends either way), then whatever the fault injector still holds.
   void publish_stop(std::int64_t step, int code, const std::string& reason);
+  /// The last stop_t of publish_stop once more (one copy), if there was one.
+  void republish_stop();
+  /// resend_t `r` on the RESEND channel, kResendCopies copies (one request round).
+  void publish_request(const cosimlcm::resend_t& r);
 
   /// Sends what the fault injector holds that is due, and dispatches what arrives within
   /// `wait` (never longer). An LCM failure sets fatal() (exit code 1).
@@ -146,14 +170,25 @@ class PeerLink {
   std::function<Expectation()> expectation_;
   UndecodableHook undecodable_hook_;
   std::optional<Ending> fatal_;
+  std::optional<cosimlcm::stop_t> last_stop_;
 };
 
 template <class M>
 void PeerLink::dispatch(const lcm::ReceiveBuffer* rbuf, const std::string& channel, Subscriber<M>* s) {
   PeerLink& link = *s->link;
+  std::size_t size = rbuf->data_size;
+  if (link.s_.key) {
+    // Not signed with the run's key: a forger's (or a peer's without the key), never read.
+    const std::optional<std::size_t> n = verified_size(*link.s_.key, channel, rbuf->data, size);
+    if (!n) {
+      link.foreign_.unauthenticated(channel);
+      return;
+    }
+    size = *n;
+  }
   M m{};
-  if (const auto why = decode_checked(rbuf->data, rbuf->data_size, m)) {
-    link.count_undecodable(channel, M::getTypeName(), *why, rbuf->data, rbuf->data_size);
+  if (const auto why = decode_checked(rbuf->data, size, m)) {
+    link.count_undecodable(channel, M::getTypeName(), *why, rbuf->data, size);
     return;
   }
   if (!link.foreign_.admit(channel, m.token)) return;

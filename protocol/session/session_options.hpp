@@ -4,9 +4,11 @@
 #pragma once
 
 #include <cstdlib>
+#include <optional>
 #include <string>
 
 #include "protocol/fault_injection.hpp"
+#include "protocol/message_auth.hpp"
 
 namespace lcm {
 class LCM;
@@ -36,8 +38,14 @@ struct SessionOptions {
   /// launcher's --new-time-ratio and the watchdog's retry); otherwise it is refused.
   bool new_time_ratio = false;
 
-  /// run_id and new_time_ratio from the launcher's environment.
+  /// The run's key (message_auth.hpp; the launcher's $COSIM_RUN_KEY_FILE): every message
+  /// carries its MAC and must. None: no MAC (memq:// tests, peers started by hand).
+  std::optional<RunKey> key;
+
+  /// run_id, new_time_ratio and the key from the launcher's environment.
+  /// @throws std::invalid_argument naming $COSIM_RUN_KEY_FILE and what is wrong with its file.
   void read_environment() {
+    key = key_from_environment();
     if (const char* v = std::getenv("COSIM_RUN_ID")) run_id = v;
     if (const char* v = std::getenv("COSIM_NEW_TIME_RATIO")) new_time_ratio = std::string(v) == "1";
   }

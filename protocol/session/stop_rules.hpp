@@ -5,6 +5,7 @@
 // never applied: it would end both servers with 0 and leave the outputs cut short.
 #pragma once
 
+#include <chrono>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -13,6 +14,14 @@
 #include "protocol/message_checks.hpp"
 
 namespace cosim::protocol {
+
+/// The closing exchange (protocol/README.md section 8; docs/reliability.md): a solid that
+/// has sent its part of the last step and has no stop_t asks for it (resend_t, the awaited
+/// fluid_state_t's step) every kClosingAsk; the coordinator, after its success stop_t,
+/// answers each such round with the stop_t again and leaves once no request came for
+/// kClosingQuiet (8 rounds), or after peer_timeout_s at most.
+inline constexpr std::chrono::milliseconds kClosingAsk{25};
+inline constexpr std::chrono::milliseconds kClosingQuiet = 8 * kClosingAsk;
 
 /// The role that owns the step clock and ends a run with success.
 inline constexpr const char* kCoordinatorRole = "fluid";

@@ -543,8 +543,8 @@ int main_impl(int argc, char** argv) {
     co.quiet = quiet;
     co.check_only = check;
     co.restart = restart;
-    co.read_environment();
     try {
+      co.read_environment();  // the run id, --new-time-ratio, the run's key
       co.faults = protocol::fault_settings_from(o_faults->count() ? &faults : nullptr);
     } catch (const std::invalid_argument& e) {
       std::fflush(stdout);

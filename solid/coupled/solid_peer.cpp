@@ -64,6 +64,7 @@ std::optional<Ending> SolidPeer::open(Eigen::Index num_cgps) {
   ls.lcm_url = c_.lcm_url;
   ls.bus = o_.bus;
   ls.faults = o_.faults;
+  ls.key = o_.key;
   link_.emplace(ls, out_);
   if (auto e = link_->open()) return e;
   outbox_.emplace(*link_, ch_.solid_state);
@@ -156,8 +157,15 @@ std::optional<Ending> SolidPeer::wait(const std::function<void()>& idle) {
     if (protocol::interrupted())
       return Ending{exit_code::system, protocol::interrupt_reason() + " after step " + std::to_string(last_step_),
                     true};
-    pump(kPoll);
+    // Its part of the last step sent, the solid awaits only the coordinator's stop_t: it
+    // asks every kClosingAsk (the coordinator lingers while asked; docs/reliability.md).
+    const bool closing = scheme_.at_end(last_step_, total_steps_);
+    pump(closing ? std::chrono::duration_cast<Clock::duration>(protocol::kClosingAsk / 5) : kPoll);
     if (inbox_.ready() || stop_ || failure()) continue;
+    if (closing && Clock::now() >= next_closing_ask_) {
+      if (next_closing_ask_ != Clock::time_point{}) request_resend();
+      next_closing_ask_ = Clock::now() + protocol::kClosingAsk;
+    }
     switch (inbox_.poll(Clock::now())) {
       case protocol::PeerWatch::Action::Wait:
         break;
@@ -215,7 +223,7 @@ void SolidPeer::request_resend() {
   r.token = o_.token;
   r.step = scheme_.awaited_step(inbox_.awaited(), last_step_);
   r.what = "fluid_state";
-  link_->publish(ch_.resend, r);
+  link_->publish_request(r);
   ++resends_.asked;
 }
 

@@ -139,6 +139,7 @@ class SolidPeer {
   std::int64_t last_step_ = 0;
   std::int64_t hellos_ = 0;
   protocol::ResendCounts resends_;
+  Clock::time_point next_closing_ask_{};  ///< the closing exchange's next resend_t (wait())
 };
 
 }  // namespace cosim::solid

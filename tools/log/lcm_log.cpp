@@ -119,8 +119,39 @@ bool LogReader::next(LogEvent& event) {
       truncated_ = "the log ends inside event at byte " + std::to_string(start);
       return false;
     }
+    if (!strip_mac(event)) continue;  // not signed with the run's key: left out, counted
     return true;
   }
+}
+
+// ---------------------------------------------------------------------------------------
+// The servers' MAC trailers
+
+namespace {
+std::optional<protocol::RunKey> g_key;
+std::int64_t g_unauthenticated = 0;
+}  // namespace
+
+void set_log_key(std::optional<protocol::RunKey> key) { g_key = key; }
+std::int64_t unauthenticated_events() { return g_unauthenticated; }
+
+bool LogReader::strip_mac(LogEvent& event) {
+  const MsgType t = type_by_channel(event.channel);
+  if (t == MsgType::unknown) return true;  // not a run's channel: as logged
+  if (g_key) {
+    const auto n = protocol::verified_size(*g_key, event.channel, event.data.data(), event.data.size());
+    if (!n) {
+      ++g_unauthenticated;
+      return false;
+    }
+    event.data.resize(*n);
+    return true;
+  }
+  const std::size_t n = event.data.size();
+  if (n >= protocol::kMacBytes && !whole_message(t, event.data.data(), n) &&
+      whole_message(t, event.data.data(), n - protocol::kMacBytes))
+    event.data.resize(n - protocol::kMacBytes);
+  return true;
 }
 
 // ---------------------------------------------------------------------------------------
@@ -232,6 +263,20 @@ std::string check_layout(MsgType t, const std::vector<std::uint8_t>& data) {
   }
   return protocol::check_encoding(static_cast<const T*>(nullptr), data.data(), data.size())
       .value_or("");
+}
+
+bool whole_message(MsgType t, const std::uint8_t* data, std::size_t size) {
+  const auto ok = [&](const auto* type) { return !protocol::check_encoding(type, data, size).has_value(); };
+  switch (t) {
+    case MsgType::hello: return ok(static_cast<const cosimlcm::hello_t*>(nullptr));
+    case MsgType::welcome: return ok(static_cast<const cosimlcm::welcome_t*>(nullptr));
+    case MsgType::solid_state: return ok(static_cast<const cosimlcm::solid_state_t*>(nullptr));
+    case MsgType::fluid_state: return ok(static_cast<const cosimlcm::fluid_state_t*>(nullptr));
+    case MsgType::resend: return ok(static_cast<const cosimlcm::resend_t*>(nullptr));
+    case MsgType::stop: return ok(static_cast<const cosimlcm::stop_t*>(nullptr));
+    case MsgType::unknown: break;
+  }
+  return false;
 }
 
 template <class T>

@@ -5,12 +5,23 @@
 
 #include <cstdint>
 #include <cstdio>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <string_view>
 #include <vector>
 
+#include "protocol/message_auth.hpp"
+
 namespace cosim::logtool {
+
+/// The run's key for the servers' MAC trailers (protocol/message_auth.hpp; cosim-log
+/// --key-file): with it, every logged message of a run's channel must verify (those that do
+/// not are left out and counted, unauthenticated_events()); without it, a trailer is removed
+/// unverified wherever the bytes are a whole message only without it.
+void set_log_key(std::optional<protocol::RunKey> key);
+/// Logged messages left out because their MAC did not verify under the key.
+std::int64_t unauthenticated_events();
 
 /// Input the tool refuses (a missing file, not an LCM log, a bad option, a step not in the
 /// log): one line naming it; the command line tool exits 2.
@@ -55,6 +66,8 @@ class LogReader {
 
  private:
   bool read_exact(void* buf, std::size_t n);
+  /// The event's MAC trailer verified and removed (see set_log_key); false: leave it out.
+  bool strip_mac(LogEvent& event);
   bool resync(std::uint64_t from);
 
   std::string path_;
@@ -75,6 +88,9 @@ const char* type_suffix(MsgType t);
 /// The type a run's channel carries (protocol::classify_channel: a valid prefix, then the
 /// message's name), and the prefix; MsgType::unknown (prefix empty) for any other channel.
 MsgType type_by_channel(std::string_view channel, std::string* prefix = nullptr);
+/// Whether the `size` bytes at `data` are exactly one message of type `t` (fingerprint,
+/// lengths, counts, nothing after the last field).
+bool whole_message(MsgType t, const std::uint8_t* data, std::size_t size);
 /// The type whose LCM fingerprint the message starts with; unknown when it has no
 /// fingerprint of the project's types.
 MsgType type_by_fingerprint(const std::vector<std::uint8_t>& data);

@@ -30,6 +30,10 @@ int main_impl(int argc, char** argv) {
       "Exit status: 0 done, 1 output/system error, 2 bad input (file, option, step).",
       "cosim-log"};
   app.require_subcommand(1);
+  std::string key_file;
+  app.add_option("--key-file", key_file,
+                 "the run's key (OUTPUT/run.key): verify every message's MAC and leave out those that do not "
+                 "verify (default: MACs removed unverified)");
   std::string log_path, out_path, run, channel;
   std::int64_t step = 0, max_cgps = -1;
 
@@ -69,6 +73,13 @@ int main_impl(int argc, char** argv) {
   if (const auto code = cosim::protocol::parse_command_line(app, argc, argv, "cosim-log")) return *code;
 
   try {
+    if (!key_file.empty()) {
+      try {
+        lt::set_log_key(cosim::protocol::read_key_file(key_file));
+      } catch (const std::invalid_argument& e) {
+        throw lt::LogInputError(std::string("--key-file: ") + e.what());
+      }
+    }
     if (summary->parsed()) {
       std::fputs(lt::format_summary(lt::summarize_log(log_path)).c_str(), stdout);
     } else if (show->parsed()) {
@@ -94,6 +105,9 @@ int main_impl(int argc, char** argv) {
     std::fprintf(stderr, "cosim-log: %s\n", one_line(e.what()).c_str());
     return kExitSystem;
   }
+  if (lt::unauthenticated_events() > 0)
+    std::fprintf(stderr, "cosim-log: %lld logged messages whose MAC does not verify under --key-file were left out\n",
+                 static_cast<long long>(lt::unauthenticated_events()));
   if (std::fflush(stdout) != 0) {
     std::fprintf(stderr, "cosim-log: cannot write to stdout\n");
     return kExitSystem;

@@ -45,6 +45,10 @@ int main_impl(int argc, char** argv) {
   app.add_option("--channel-prefix", prefix, "the run's channel prefix, when the log holds several");
   app.add_option("--token", token, "the run's token, when the log holds several runs");
   app.add_flag("--quiet", quiet, "no progress lines on stderr");
+  std::string key_file;
+  app.add_option("--key-file", key_file,
+                 "the run's key (OUTPUT/run.key): verify every logged message's MAC, leave out those that do "
+                 "not verify (default: MACs removed unverified)");
   if (const auto code = cosim::protocol::parse_command_line(app, argc, argv, "cosim-replay")) return *code;
   ReplayOptions o;
   if (side == "fluid") {
@@ -63,6 +67,14 @@ int main_impl(int argc, char** argv) {
   o.channel_prefix = prefix;
   o.token = token;
   o.quiet = quiet;
+  if (!key_file.empty()) {
+    try {
+      o.key = cosim::protocol::read_key_file(key_file);
+    } catch (const std::invalid_argument& e) {
+      std::fprintf(stderr, "cosim-replay: --key-file: %s\n", cosim::protocol::one_line(e.what()).c_str());
+      return exit_code::bad_input;
+    }
+  }
   return run_replay(o, std::cout, std::cerr);
 }
 

@@ -100,10 +100,28 @@ class LogReader {
   lcm::LogFile file_;
 };
 
+/// The key of the replayed run's MACs (ReplayOptions::key), for the whole replay.
+std::optional<protocol::RunKey> g_log_key;
+
+/// The bytes of a logged message before the servers' MAC trailer (protocol/message_auth.hpp):
+/// verified with the key; without one, removed where the message decodes to exactly the
+/// bytes before it. None: the MAC does not verify (a forger's message), or no decode.
+template <class Message>
+std::optional<std::size_t> message_bytes(const lcm::LogEvent& e) {
+  const auto size = static_cast<std::size_t>(e.datalen);
+  if (g_log_key) return protocol::verified_size(*g_log_key, e.channel, e.data, size);
+  Message m{};
+  const int used = m.decode(e.data, 0, e.datalen);
+  if (used < 0) return std::nullopt;
+  return static_cast<std::size_t>(used) + protocol::kMacBytes == size ? static_cast<std::size_t>(used) : size;
+}
+
 template <class Message>
 std::optional<Message> decode(const lcm::LogEvent& e) {
+  const std::optional<std::size_t> size = message_bytes<Message>(e);
+  if (!size) return std::nullopt;
   Message m{};
-  if (m.decode(e.data, 0, e.datalen) < 0) return std::nullopt;
+  if (m.decode(e.data, 0, static_cast<int>(*size)) < 0) return std::nullopt;
   return m;
 }
 
@@ -455,6 +473,8 @@ const char* compared_fields(Side side) {
 /// taken to wait for a message the log does not give: about 3 resend_after of waiting. A
 /// server given everything the log holds for it asks at most once before it is fed again.
 constexpr int kResendsBeforeGap = 3;
+/// Copies of a resend_t this close together are one request round (kResendCopies at once).
+constexpr auto kSameRound = std::chrono::milliseconds(5);
 
 /// Plays the peer of the replayed server from the log, on the server's bus. Its handlers
 /// run inside the server thread's handle calls (memq:// has one queue per lcm_t), so
@@ -601,6 +621,11 @@ class Peer {
     if (m->token != token_ || done_) return;
     const bool fluid = side_ == Side::Fluid;
     if (m->what != (fluid ? "solid_state" : "fluid_state")) return;
+    // A request round is kResendCopies copies sent at once (protocol/README.md 7): one ask.
+    const Clock::time_point now = Clock::now();
+    const bool same_round = now - last_request_ < kSameRound;
+    last_request_ = now;
+    if (same_round) return;
     bool answered = false;
     for (std::size_t i = 0; i < next_; ++i)
       if (feed_[i]->step == m->step) {
@@ -748,7 +773,10 @@ class Peer {
 
   void publish_logged(const std::string& channel, long offset) {
     const lcm::LogEvent& e = log_.at(offset);
-    link_.publish_bytes(channel, e.data, static_cast<std::size_t>(e.datalen));  // bit for bit as logged
+    // Bit for bit as logged, without the servers' MAC (the replayed server has no key).
+    const std::optional<std::size_t> size =
+        side_ == Side::Fluid ? message_bytes<cosimlcm::solid_state_t>(e) : message_bytes<cosimlcm::fluid_state_t>(e);
+    link_.publish_bytes(channel, e.data, size.value_or(static_cast<std::size_t>(e.datalen)));
   }
 
   /// Runs `f`; an exception (the log cannot be read again) ends the server with stop_t(1):
@@ -801,7 +829,8 @@ class Peer {
   std::optional<LoggedStop> stop_, error_stop_;  ///< the peer's first stop_t, first with an error
   std::size_t stop_after_ = 0;    ///< stop_ goes out after feed_[0 .. stop_after_ - 1]
   std::int64_t published_up_to_ = -1;  ///< the server's highest seq published
-  int resends_since_feed_ = 0;      ///< resend requests since the last message fed
+  int resends_since_feed_ = 0;      ///< resend request rounds since the last message fed
+  Clock::time_point last_request_{};  ///< the last resend_t's arrival (a round's copies: one)
   bool seen_welcome_ = false, handshake_done_ = false, stopped_ = false, done_ = false;
   Clock::time_point last_progress_ = Clock::now();
 };
@@ -1082,6 +1111,7 @@ class Replay {
 
 int run_replay(const ReplayOptions& options, std::ostream& out, std::ostream& err) {
   try {
+    g_log_key = options.key;
     Replay r(options, out, err);
     return r.run();
   } catch (const ReplayError& e) {

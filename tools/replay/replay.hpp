@@ -15,6 +15,10 @@
 #include <stdexcept>
 #include <string>
 
+#include <optional>
+
+#include "protocol/message_auth.hpp"
+
 namespace cosim::replay {
 
 /// Exit codes of cosim-replay (docs/replay.md).
@@ -43,6 +47,9 @@ struct ReplayOptions {
   std::string channel_prefix;  ///< empty: the log's only prefix
   std::string token;           ///< empty: the log's only run (a token with both hello_t)
   bool quiet = false;          ///< no progress lines on `err`
+  /// The run's key (OUTPUT/run.key, protocol/message_auth.hpp): every logged message's MAC
+  /// is verified, those that do not verify are left out. None: MACs removed unverified.
+  std::optional<protocol::RunKey> key;
 };
 
 /// Runs the replay and prints its report on `out` (and progress and one-line errors on
