@@ -64,7 +64,7 @@ fi
 # The reference build: a worktree of REV with its own build/ (kept for the next call).
 ref=/tmp/cosim-speed-against/$commit
 if [ ! -x "$ref/build/fluid/fluid" ] || [ ! -x "$ref/build/solid/solid" ]; then
-  [ -d "$ref" ] || git -C "$root" worktree add --force --detach "$ref" "$commit" >/dev/null
+  [ -d "$ref" ] || git -C "$root" worktree add --quiet --force --detach "$ref" "$commit"
   COSIM_BUILD_DIR=$ref/build bash "$ref/launch/build.sh" -- --target fluid solid >/dev/null
 fi
 
