@@ -11,7 +11,7 @@
 # --repeat N (default 3) runs each scene N times: each time the serial scheme, each side alone
 # and the parallel scheme back to back; a row per repetition, then per scene the range of
 # each ratio and in how many repetitions it held its goal (whether the goals hold run after run).
-# --propagation sets the scenes' [run] propagation (default: theirs, two-grid). Each call
+# --propagation sets the scenes' [run] propagation (default: theirs, in place unless a scene says two-grid). Each call
 # writes its runs to a folder of its own, out/bench/DATE-TIME/SCENE/REP/ (launch/folders.sh; with
 # --propagation: SCENE_PROPAGATION/REP/), printed on the first line; earlier calls' folders are kept.
 # The fluid runs with OpenMP's default threads unless OMP_NUM_THREADS is set; set

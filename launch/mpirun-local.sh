@@ -8,7 +8,12 @@
 # root, mpirun runs in a private network namespace (unshare -n, lo up), so that its own
 # start-up traffic stays on this machine too, and with OpenMPI's consent to run as root.
 # More ranks than cores are allowed (--oversubscribe). Each rank gets OMP_NUM_THREADS =
-# the cores divided among the ranks (at least 1) unless OMP_NUM_THREADS is set. The exit
+# the cores divided among the ranks (at least 1) unless OMP_NUM_THREADS is set. Binding: where
+# ranks x threads fit the cores, each rank is bound to its own set of `threads` cores
+# (--map-by slot:PE=threads --bind-to core), so no two threads of a rank share a core; where
+# they do not fit, no binding (--bind-to none: the kernel spreads them). OpenMPI's own default
+# would bind a rank to one core, all its threads on it. COSIM_MPI_BIND=none|cores asks for one
+# of the two whatever the counts (cores: one core per rank, OpenMPI's default). The exit
 # status is mpirun's: 0 when every rank ended with 0, else a rank's non-zero status (one
 # rank killed: mpirun ends the others and says which rank died and how). Every COSIM_*
 # variable set here goes to the ranks (the run's token, id, faults, kernel level).
@@ -25,6 +30,14 @@ command -v mpirun >/dev/null 2>&1 || die "mpirun not found: install OpenMPI (bas
 threads=${OMP_NUM_THREADS:-$(( $(nproc) / ranks ))}
 [ "$threads" -ge 1 ] 2>/dev/null || threads=1
 cmd=(mpirun -np "$ranks" --oversubscribe --mca btl self,vader -x "OMP_NUM_THREADS=$threads")
+cores=$(nproc)
+case "${COSIM_MPI_BIND:-}" in
+  none) cmd+=(--bind-to none) ;;
+  cores) cmd+=(--map-by core --bind-to core) ;;
+  "") if [ $((ranks * threads)) -le "$cores" ]; then cmd+=(--map-by "slot:PE=$threads" --bind-to core)
+      else cmd+=(--bind-to none); fi ;;
+  *) die "COSIM_MPI_BIND = ${COSIM_MPI_BIND}: must be none or cores (or unset: bound per rank to its threads' cores where they fit)" ;;
+esac
 for v in OMP_WAIT_POLICY $(compgen -e | grep '^COSIM_' || true); do
   [ -n "${!v:-}" ] && cmd+=(-x "$v")
 done

@@ -9,7 +9,7 @@
 #   bash launch/paper-end-to-end.sh [--no-build] [--schemes "serial parallel"]
 #                                   [--precisions "double single"]
 #                                   [--propagations "two-grid in-place"] [--scene FILE]
-# Defaults: the serial scheme (the paper's) in both stores, the scene's propagation (two-grid),
+# Defaults: the serial scheme (the paper's) in both stores, the scene's propagation (in place, the default),
 # about 7 minutes here. Outputs in out/paper-end-to-end/DATE-TIME/SCHEME_PRECISION/, a folder of
 # each call's own (launch/folders.sh; earlier calls' are kept; with --propagations:
 # SCHEME_PRECISION_PROPAGATION/). OMP_WAIT_POLICY=passive is set unless given.

@@ -89,9 +89,9 @@ TEST(Mpi, MpiFluidMatchesSerialBitForBit) {
   }
   {
     // Copy-type x and y faces (periodic) driven by a body force, the single store's compact
-    // rows (nx = 32): a block's step sends its edge planes with their x and y ghosts while it
-    // collides its interior planes (fluid/solver/overlapped_step.cpp).
-    SCOPED_TRACE("periodic x and y, single store, compact rows");
+    // rows (nx = 32), two grids: a block's step sends its edge planes with their x and y ghosts
+    // while it collides its interior planes (fluid/solver/overlapped_step.cpp).
+    SCOPED_TRACE("periodic x and y, single store, compact rows, two-grid");
     fs::create_directories(dir / "periodic_xy");
     const fs::path xy = variant(channel, dir / "periodic_xy",
                                 {{"nx = 24", "nx = 32"},
@@ -102,23 +102,25 @@ TEST(Mpi, MpiFluidMatchesSerialBitForBit) {
                                  {"x_max = \"outflow\"", "x_max = \"periodic\""},
                                  {"y_min = \"wall\"", "y_min = \"periodic\""},
                                  {"y_max = \"free_slip\"", "y_max = \"periodic\""},
-                                 {"threads = 1", "threads = 1\nprecision = \"single\""}});
+                                 {"threads = 1", "threads = 1\nprecision = \"single\"\npropagation = \"two-grid\""}});
     expect_ranks_match_serial(xy, dir / "periodic_xy");
   }
   {
-    // The in-place propagation: each block's one grid, its halo planes exchanged in the
-    // state's arrangement of the step (Canonical or Swapped, fill_swapped_ghosts).
-    SCOPED_TRACE("in place, periodic span, double store");
-    fs::create_directories(dir / "in_place");
-    const fs::path in_place = variant(channel, dir / "in_place", {{"threads = 1", "threads = 1\npropagation = \"in-place\""}});
-    expect_ranks_match_serial(in_place, dir / "in_place");
+    // The two-grid propagation (the cases above step in place, the default: each block's one
+    // grid, its halo planes exchanged in the state's arrangement of the step, Canonical or
+    // Swapped, fill_swapped_ghosts): a block with two grids sends its edge planes while it
+    // collides its interior planes (fluid/solver/overlapped_step.cpp).
+    SCOPED_TRACE("two-grid, periodic span, double store");
+    fs::create_directories(dir / "two_grid");
+    const fs::path two_grid = variant(channel, dir / "two_grid", {{"threads = 1", "threads = 1\npropagation = \"two-grid\""}});
+    expect_ranks_match_serial(two_grid, dir / "two_grid");
   }
   {
-    SCOPED_TRACE("in place, walls across the span, single store");
-    fs::create_directories(dir / "in_place_walls");
-    const fs::path walls = variant(dir / "walls" / "mpi_channel.toml", dir / "in_place_walls",
-                                   {{"precision = \"single\"", "precision = \"single\"\npropagation = \"in-place\""}});
-    expect_ranks_match_serial(walls, dir / "in_place_walls");
+    SCOPED_TRACE("two-grid, walls across the span, single store");
+    fs::create_directories(dir / "two_grid_walls");
+    const fs::path walls = variant(dir / "walls" / "mpi_channel.toml", dir / "two_grid_walls",
+                                   {{"precision = \"single\"", "precision = \"single\"\npropagation = \"two-grid\""}});
+    expect_ranks_match_serial(walls, dir / "two_grid_walls");
   }
 }
 

@@ -107,14 +107,15 @@ TEST(MpiCoupled, MpiCoupledMatchesSerialBitForBit) {
     for (int ranks = 1; ranks <= 4; ++ranks)
       expect_matches(scene, ranks, "ranks" + std::to_string(ranks),
                      ranks > 1 ? "slabs along z over " + std::to_string(ranks) + " MPI ranks" : "");
-    // The in-place propagation over 2 and 3 ranks (each block's one grid, its halo planes
-    // exchanged in the arrangement of the step's state) against the same two-grid run.
+    // The runs above step in place (the default: each block's one grid, its halo planes
+    // exchanged in the arrangement of the step's state); the two-grid propagation over 2 and 3
+    // ranks (edge planes sent while the interior collides) against the same serial run.
     std::string text = slurp(scene);
-    replace_in(text, "steps = 60", "steps = 60\npropagation = \"in-place\"");
-    const fs::path in_place = dir / scheme / ("in_place_" + scene.filename().string());
-    std::ofstream(in_place) << text;
+    replace_in(text, "steps = 60", "steps = 60\npropagation = \"two-grid\"");
+    const fs::path two_grid = dir / scheme / ("two_grid_" + scene.filename().string());
+    std::ofstream(two_grid) << text;
     for (int ranks = 2; ranks <= 3; ++ranks)
-      expect_matches(in_place, ranks, "in_place_ranks" + std::to_string(ranks), "in-place propagation");
+      expect_matches(two_grid, ranks, "two_grid_ranks" + std::to_string(ranks), "two-grid propagation");
   }
   if (!HasFailure()) fs::remove_all(dir);
 }

@@ -207,6 +207,9 @@ TEST(Output, KernelExtremaCheckTheStateTheStepRead) {
       FluidParams p = periodic_box(nx, 6, 5);
       p.body_force = {1e-5, 0, -2e-5};
       p.precision = precision;
+      // The two-grid propagation keeps the state the step read (previous_state()); in place
+      // (the default) kernel_state_problem() looks at the state now.
+      p.propagation = Propagation::TwoGrid;
       FluidSolver s(p);
       random_flow(s, 23);
       s.step();
@@ -228,13 +231,24 @@ TEST(Output, KernelExtremaCheckTheStateTheStepRead) {
       const std::string dense = kernel_state_problem(s, HealthLimits{0.3, 0.0, 0.5, before.rho_max - 1e-6});
       EXPECT_NE(dense.find("above watchdog.rho_max"), std::string::npos) << dense;
     }
-  // A NaN the step reads: pulled by (3, 2, 1) through q = 5 (c = +z).
-  FluidSolver s(periodic_box(6, 5, 4));
+  // A NaN the step reads: pulled by (3, 2, 1) through q = 5 (c = +z); two grids, as above.
+  FluidParams two_grid = periodic_box(6, 5, 4);
+  two_grid.propagation = Propagation::TwoGrid;
+  FluidSolver s(two_grid);
   s.initialize_uniform(1.0, {0.0, 0.02, 0.0});
   s.mutable_state().at(5, 3, 2, 0) = std::numeric_limits<double>::quiet_NaN();
   s.step();
   EXPECT_FALSE(s.last_step_extrema().finite);
   EXPECT_EQ(kernel_state_problem(s, HealthLimits{}), "step 0: cell (3, 2, 1): rho is NaN");
+  // In place (the default) the state the step read is gone: the pass reads the state now.
+  FluidSolver one(periodic_box(6, 5, 4));
+  one.initialize_uniform(1.0, {0.0, 0.02, 0.0});
+  one.mutable_state().at(5, 3, 2, 0) = std::numeric_limits<double>::quiet_NaN();
+  one.step();
+  EXPECT_FALSE(one.last_step_extrema().finite);
+  const std::string now = kernel_state_problem(one, HealthLimits{});
+  EXPECT_EQ(now.rfind("step 1: cell (", 0), 0u) << now;
+  EXPECT_NE(now.find("is NaN"), std::string::npos) << now;
 }
 
 TEST(Output, HealthProblemNamesStepCellAndQuantity) {

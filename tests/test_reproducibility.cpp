@@ -403,7 +403,7 @@ std::string compare_checkpoints(const fs::path& a, const fs::path& b, cosim::flu
   return r;
 }
 
-/// The in-place (AA-pattern) propagation in a coupled run (`[run] propagation = "in-place"`;
+/// The in-place (AA-pattern) propagation in a coupled run (the default, `[run] propagation`;
 /// the schemes then run the whole LB step after the solid's message,
 /// FluidDomain::bulk_before_impulses): for each scheme, every HDF5 output of fluid and solid
 /// bit for bit the two-grid run's, in both stores; their checkpoints (every 40 steps) too, as
@@ -420,14 +420,16 @@ TEST(Reproducibility, InPlaceCoupledRunWritesTheTwoGridBits) {
       std::string text = slurp(two_grid_scene);
       if (scheme != "implicit") replace_in(text, "peer_timeout_s = 10", "peer_timeout_s = 10\ncheckpoint_every = 40");
       replace_in(text, "steps = 120", "precision = \"" + precision + "\"\nsteps = 120");
-      std::ofstream(two_grid_scene) << text;
-      replace_in(text, "steps = 120", "propagation = \"in-place\"\nsteps = 120");
+      // In place: the default (no propagation key).
       const fs::path in_place_scene = sub / "in_place.toml";
       std::ofstream(in_place_scene) << text;
+      replace_in(text, "steps = 120", "propagation = \"two-grid\"\nsteps = 120");
+      std::ofstream(two_grid_scene) << text;
       const fs::path two_grid = sub / "two_grid", in_place = sub / "in_place";
       expect_done(two_grid, run_launcher(kSource, two_grid_scene, two_grid));
       expect_done(in_place, run_launcher(kSource, in_place_scene, in_place));
       EXPECT_NE(slurp(in_place / "fluid.log").find("in-place propagation"), std::string::npos) << logs(in_place);
+      EXPECT_NE(slurp(two_grid / "fluid.log").find("two-grid propagation"), std::string::npos) << logs(two_grid);
       std::size_t files = 0, checkpoints = 0;
       EXPECT_EQ(compare_outputs(two_grid, in_place, &files), "") << name << "\n" << logs(in_place);
       const auto grid = [&text](const char* key) {

@@ -66,7 +66,7 @@ const std::vector<BadCase> kBadCases = {
     {"float_for_integer.toml", {"grid.nx = 16.5: must be an integer"}},
     {"grid_too_small.toml", {"grid.ny = 4: must be an integer number of cells from 8 to 65536"}},
     {"grid_too_large.toml",
-     {"grid = 60000 x 60000 x 60000: the two population grids need", "more than 75 % of this machine's memory",
+     {"grid = 60000 x 60000 x 60000: the population grid (in-place propagation) needs", "more than 75 % of this machine's memory",
       "the rest is left to the solid server and the system"}},
     {"inlet_mach.toml",
      {"inlet.u_max = 0.2: Mach 0.346", "exceeds run.mach_limit = 0.3", "largest allowed speed is 0.1732"}},
@@ -318,6 +318,45 @@ TEST(FluidExecutable, InPlacePropagationWritesTheTwoGridBits) {
   }
   EXPECT_EQ(lines_of[0], lines_of[1]);
   EXPECT_NE(lines_of[1].find("step 17"), std::string::npos) << lines_of[1];
+  fs::remove_all(scratch);
+}
+
+// In place is the default propagation (issue 35): every shipped scene with a fluid names no
+// [run] propagation and loads in place; the fluid says so (`--print run.propagation`, the
+// header's memory line); and the reduced paper channel without the key writes the bits of its
+// run with propagation = "two-grid" (an odd number of steps: the in-place state ends Swapped).
+TEST(FluidExecutable, InPlaceIsTheDefaultPropagation) {
+  int n = 0;
+  for (const auto& e : fs::recursive_directory_iterator(kSource / "scenes")) {
+    if (e.path().extension() != ".toml") continue;
+    const std::string text = slurp(e.path());
+    if (text.find("\n[grid]") == std::string::npos) continue;  // solid-only (test_solid_scene)
+    EXPECT_EQ(text.find("propagation"), std::string::npos) << e.path() << " names its propagation";
+    // The stability matrix's scenes that the fluid refuses on purpose (scenes/stability/) load nothing.
+    if (!rejection(e.path()).empty()) continue;
+    ++n;
+    EXPECT_EQ(load_scene(e.path().string()).params.propagation, cosim::fluid::Propagation::InPlace) << e.path();
+  }
+  EXPECT_GE(n, 30);
+  const fs::path scratch = scratch_dir("default_propagation");
+  const fs::path channel = kSource / "scenes" / "channel_reduced.toml";
+  const RunResult printed = run_fluid(quote(channel.string()) + " --print run.propagation,run.precision", scratch);
+  ASSERT_EQ(printed.status, 0) << printed.err;
+  EXPECT_EQ(printed.out, "run.propagation=in-place\nrun.precision=double\n");
+  const std::string args = " --steps 51 --monitor-every 5 --fields-every 25 --quiet --output ";
+  const RunResult by_default = run_fluid(quote(channel.string()) + args + quote((scratch / "default").string()), scratch);
+  ASSERT_EQ(by_default.status, 0) << by_default.err;
+  EXPECT_NE(by_default.out.find("1 x 19 doubles per cell, with ghosts; in-place propagation"), std::string::npos)
+      << by_default.out;
+  const RunResult two_grid = run_fluid(
+      quote(with_propagation(channel, "two-grid", scratch).string()) + args + quote((scratch / "two-grid").string()),
+      scratch);
+  ASSERT_EQ(two_grid.status, 0) << two_grid.err;
+  EXPECT_NE(two_grid.out.find("2 x 19 doubles per cell, with ghosts; two-grid propagation"), std::string::npos)
+      << two_grid.out;
+  std::size_t files = 0;
+  EXPECT_EQ(cosim::test::compare_outputs(scratch / "two-grid", scratch / "default", &files), "");
+  EXPECT_EQ(files, 5u);  // fields at 0, 25, 50, 51 and the monitor
   fs::remove_all(scratch);
 }
 

@@ -1,7 +1,8 @@
 // Fluid throughput benchmark (DESIGN 7): million lattice updates per second (MLUPS) of
-// FluidSolver::step() on a periodic box and on the paper's channel grid, beside the STREAM
-// copy bandwidth measured in the same run, and the fraction of the memory-bandwidth
-// roofline reached; the immersed boundary of the paper's sheet (200 markers: interpolation,
+// FluidSolver::step() on a periodic box and on the paper's channel grid, against one
+// memory-bandwidth roofline per run (the best STREAM copy of every kernel level this CPU runs,
+// measured once before the rows, the same for every row: Roofline), and the fraction of it
+// reached; the immersed boundary of the paper's sheet (200 markers: interpolation,
 // spreading and a step with the spread forces) timed on its own; double or single precision
 // store; optionally the peer pattern (--peer-pattern: a minimal in-place AA-pattern D3Q19 BGK
 // kernel, fluid/app/bench_kernels.hpp; with the single store also in float arithmetic) on the same
@@ -43,12 +44,15 @@ COSIM_FOR_EACH_ISA_LEVEL(COSIM_DECLARE_BENCH_TABLE)
 
 namespace cosim::fluid {
 
-const BenchKernels& bench_kernels() {
+/// The yardsticks of level `level` (an index into kernel_levels()).
+const BenchKernels& bench_kernels_of(int level) {
 #define COSIM_BENCH_TABLE_ADDRESS(ns, name) &isa_##ns::bench_kernel_table,
   static const BenchKernels* const tables[] = {COSIM_FOR_EACH_ISA_LEVEL(COSIM_BENCH_TABLE_ADDRESS)};
 #undef COSIM_BENCH_TABLE_ADDRESS
-  return *tables[active_kernel_index()];
+  return *tables[level];
 }
+
+const BenchKernels& bench_kernels() { return bench_kernels_of(active_kernel_index()); }
 
 namespace {
 
@@ -106,9 +110,9 @@ std::vector<Vec3> paper_sheet_markers(const GridShape& g) {
   return X;
 }
 
-/// STREAM "copy" b[i] = a[i] with the loads and stores of the kernel's level
-/// (fluid/app/bench_kernels.hpp), OpenMP static schedule like the kernel. Returns bytes/s counted
-/// as STREAM does (16 B per element, write-allocate traffic not counted).
+/// STREAM "copy" b[i] = a[i] with the loads and stores of a level (fluid/app/bench_kernels.hpp),
+/// OpenMP static schedule like the kernel. Returns bytes/s counted as STREAM does (16 B per
+/// element, write-allocate traffic not counted).
 class CopyBench {
  public:
   explicit CopyBench(std::size_t n) : n_((n + 7) / 8 * 8), a_(alloc(n_)), b_(alloc(n_)) {
@@ -120,9 +124,9 @@ class CopyBench {
   }
   std::size_t bytes_per_array() const { return n_ * sizeof(double); }
 
-  double run(bool streaming) {
+  double run(bool streaming, const BenchKernels& level) {
     const auto t0 = Clock::now();
-    bench_kernels().copy(a_.get(), b_.get(), std::ptrdiff_t(n_), streaming);
+    level.copy(a_.get(), b_.get(), std::ptrdiff_t(n_), streaming);
     return 2.0 * double(bytes_per_array()) / seconds_since(t0);
   }
 
@@ -139,6 +143,51 @@ class CopyBench {
   std::size_t n_;
   Array a_, b_;
 };
+
+/// The bench run's one roofline (issue 35): the best STREAM copy this machine does, measured
+/// once before the rows, the same for every row whatever its kernel level, store or
+/// propagation. Every level this CPU runs copies with ordinary and with non-temporal stores
+/// (each level's widest loads and stores), `rounds` rounds interleaved over them, on two
+/// arrays the size of the largest population field of the run, with the most threads of the run.
+struct Roofline {
+  struct Copy {
+    std::string level;
+    double plain_gbs = 0, nt_gbs = 0;  ///< best of the rounds
+  };
+  std::vector<Copy> copies;
+  double gbs = 0;    ///< the best of them all: the roofline's bandwidth
+  std::string best;  ///< which: "x86-64-v4 NT"
+  int threads = 0;
+  double array_mib = 0;
+  /// Roofline MLUPS of a store: bandwidth / bytes per update.
+  double mlups(Precision p) const { return gbs * 1e3 / bytes_per_update(p); }
+};
+
+Roofline measure_roofline(std::size_t doubles, int threads, int rounds) {
+  omp_set_num_threads(threads);
+  Roofline r;
+  r.threads = threads;
+  CopyBench copy(doubles);
+  r.array_mib = double(copy.bytes_per_array()) / double(1 << 20);
+  std::vector<int> levels;
+  const std::vector<std::string> names = kernel_levels();
+  for (int i = 0; i < int(names.size()); ++i)
+    if (cpu_runs_level(names[std::size_t(i)])) {
+      levels.push_back(i);
+      r.copies.push_back({names[std::size_t(i)]});
+    }
+  for (const int l : levels) copy.run(false, bench_kernels_of(l)), copy.run(true, bench_kernels_of(l));  // warm-up
+  for (int k = 0; k < rounds; ++k)
+    for (std::size_t i = 0; i < levels.size(); ++i) {
+      Roofline::Copy& c = r.copies[i];
+      c.plain_gbs = std::max(c.plain_gbs, copy.run(false, bench_kernels_of(levels[i])) * 1e-9);
+      c.nt_gbs = std::max(c.nt_gbs, copy.run(true, bench_kernels_of(levels[i])) * 1e-9);
+    }
+  for (const Roofline::Copy& c : r.copies)
+    for (const auto& [gbs, kind] : {std::pair{c.plain_gbs, "plain"}, std::pair{c.nt_gbs, "NT"}})
+      if (gbs > r.gbs) r.gbs = gbs, r.best = c.level + " " + kind;
+  return r;
+}
 
 struct Options {
   int box = 128;
@@ -159,8 +208,8 @@ struct Row {
   int threads = 0;
   Precision precision = Precision::Double;
   Propagation propagation = Propagation::TwoGrid;
-  bool streaming = false;  ///< the kernel's stores (and so the roofline's copy)
-  double step_mlups = 0, kernel_mlups = 0, copy_gbs = 0, copy_nt_gbs = 0;
+  bool streaming = false;  ///< the kernel's stores
+  double step_mlups = 0, kernel_mlups = 0;
   double ib_interp_us = 0, ib_spread_us = 0, step_ib_mlups = 0;  ///< 0: not measured
   double peer_mlups = 0;                                          ///< 0: not measured
   double peer_f32_mlups = 0;  ///< the single store's peer in float arithmetic; 0: not measured
@@ -205,7 +254,6 @@ Row measure(const Case& base, int threads, Precision precision, Propagation prop
   solver.initialize_uniform(1.0, {in.kind == FaceKind::Inlet ? in.inlet_speed : 0.01, 0, 0});
   BasicPopulationField<T> scratch(solver.layout());
   solver.boundaries().fill_static_ghosts(scratch);
-  CopyBench copy(field_bytes(c, precision) / sizeof(double));
   // The immersed boundary of the paper's sheet: markers, their samples and impulses.
   const ImmersedBoundary ib(solver);
   const std::vector<Vec3> X = paper_sheet_markers(solver.shape());
@@ -214,8 +262,6 @@ Row measure(const Case& base, int threads, Precision precision, Propagation prop
 
   const double updates = double(solver.shape().cells()) * opt.steps;
   for (int s = 0; s < 2; ++s) solver.step();  // warm-up: page faults, caches
-  copy.run(false);
-  copy.run(true);
   BasicPopulationField<T> peer, peer_f32;
   const int peer_steps = (opt.steps + 1) / 2 * 2;  // whole AA pairs
   constexpr bool single = std::is_same_v<T, float>;
@@ -227,11 +273,9 @@ Row measure(const Case& base, int threads, Precision precision, Propagation prop
       bench_kernels().peer_single_float(peer_f32, solver.tau(), 2);
     }
   }
-  std::vector<double> step, kernel, bw, bw_nt, interp, spread, step_ib, peer_rate, peer_f32_rate;
+  std::vector<double> step, kernel, interp, spread, step_ib, peer_rate, peer_f32_rate;
   // Interleaved, so that noise from other processes touches all of them alike.
   for (int r = 0; r < opt.repeat; ++r) {
-    bw.push_back(std::max(copy.run(false), copy.run(false)));
-    bw_nt.push_back(std::max(copy.run(true), copy.run(true)));
     auto t0 = Clock::now();
     if (opt.stores == Stores::Auto) {
       for (int s = 0; s < opt.steps; ++s) solver.step();
@@ -307,8 +351,6 @@ Row measure(const Case& base, int threads, Precision precision, Propagation prop
   row.streaming = !in_place && uses_streaming_stores(solver.layout(), opt.stores, sizeof(T));
   row.step_mlups = step.empty() ? 0.0 : median(step);
   row.kernel_mlups = median(kernel);
-  row.copy_gbs = median(bw) * 1e-9;
-  row.copy_nt_gbs = median(bw_nt) * 1e-9;
   if (!peer_rate.empty()) row.peer_mlups = median(peer_rate);
   if (!peer_f32_rate.empty()) row.peer_f32_mlups = median(peer_f32_rate);
   if (!interp.empty()) {
@@ -324,7 +366,7 @@ bool peer_f32_columns(const Options& opt) {
   return opt.peer && std::find(opt.precisions.begin(), opt.precisions.end(), Precision::Single) != opt.precisions.end();
 }
 
-void print_header(const Options& opt, const std::vector<Case>& cases) {
+void print_header(const Options& opt, const std::vector<Case>& cases, const Roofline& roof) {
   const KernelTable& k = active_kernel();
   std::printf("CPU: %s; kernel level %s (%s), chosen by %s\n", cpu_model().c_str(), k.level, k.vectors,
               kernel_level_source());
@@ -342,17 +384,21 @@ void print_header(const Options& opt, const std::vector<Case>& cases) {
               bytes_per_update(Precision::Double), bytes_per_update(Precision::Single));
   std::printf("prop = propagation (FluidParams::propagation): 2grid = pull from one grid into the\n"
               "    other, stores plain or NT; AA = in place, one grid (the AA pattern), ordinary stores\n"
-              "    of lines just loaded (no write-allocate: its roofline is the NT copy's)\n");
-  std::printf("copy = STREAM copy b[i] = a[i], two arrays each the size of one population field\n"
-              "    of the grid in the row's precision (");
+              "    of lines just loaded (no write-allocate)\n");
+  std::printf("copy = STREAM copy b[i] = a[i], measured once before the rows: every level this CPU runs,\n"
+              "    ordinary ('plain') and non-temporal ('NT') stores, best of %d rounds, %d threads, two\n"
+              "    arrays of %.0f MiB (the largest population field of the run:",
+              roof.copies.empty() ? 0 : 2 * opt.repeat, roof.threads, roof.array_mib);
   for (std::size_t i = 0; i < cases.size(); ++i)
     for (const Precision p : opt.precisions)
-      std::printf("%s%s %s: %.0f MiB", i || p != opt.precisions[0] ? ", " : "",
-                  cases[i].name.c_str(), precision_name(p),
-                  double(field_bytes(cases[i], p)) / (1 << 20));
-  std::printf("),\n    best of 2 per repeat; 'plain' with ordinary stores, 'NT' with "
-              "non-temporal stores\n");
-  std::printf("roofline MLUPS = copy bandwidth with the kernel's kind of stores / B\n");
+      std::printf("%s%s %s %.0f MiB", i || p != opt.precisions[0] ? ", " : " ", cases[i].name.c_str(),
+                  precision_name(p), double(field_bytes(cases[i], p)) / (1 << 20));
+  std::printf(")\n");
+  for (const Roofline::Copy& c : roof.copies)
+    std::printf("    %-10s plain %6.1f GB/s   NT %6.1f GB/s\n", c.level.c_str(), c.plain_gbs, c.nt_gbs);
+  std::printf("roofline = the best copy, %.1f GB/s (%s), the same for every row: %.1f MLUPS for the\n"
+              "    double store, %.1f for the single one (bandwidth / B)\n",
+              roof.gbs, roof.best.c_str(), roof.mlups(Precision::Double), roof.mlups(Precision::Single));
   std::printf("step = FluidSolver::step() (kernel + ghost fill); kernel = stream_collide only\n"
               "    (with the x-outflow ghosts it writes); AA rows: stream_collide_in_place only, no ghosts\n");
   if (opt.ib && opt.stores == Stores::Auto)
@@ -363,35 +409,33 @@ void print_header(const Options& opt, const std::vector<Case>& cases) {
   if (opt.peer)
     std::printf("peer = the peer pattern: a minimal D3Q19 BGK kernel, in place (AA pattern), no\n"
                 "    forcing or boundaries (fluid/app/bench_kernels.hpp), on the same grid and layout,\n"
-                "    MLUPS; peer/roof against the NT copy's roofline (in place: no write-allocate);\n"
+                "    MLUPS; peer/roof against the roofline;\n"
                 "    step/peer = step MLUPS / peer MLUPS\n");
   if (peer_f32_columns(opt))
     std::printf("peer f32 = the peer pattern on the single store computed in float arithmetic, float\n"
                 "    groups twice as wide (peer and the project's kernel compute in double), MLUPS\n"
-                "    and against the NT copy's roofline; single-store rows only\n");
+                "    and against the roofline; single-store rows only\n");
   std::printf("note: a shared machine; other processes add noise\n\n");
-  const char* const f32[3][2] = {{"peer f32", "peer f32"}, {"MLUPS", "/roof"}, {"", "NT"}};
-  const char* const rows[3][17] = {
-      {"grid", "thr", "store", "prop", "step", "kernel", "copy plain", "copy NT", "roofline",
+  const char* const f32[3][2] = {{"peer f32", "peer f32"}, {"MLUPS", "/roof"}, {"", ""}};
+  const char* const rows[3][15] = {
+      {"grid", "thr", "store", "prop", "step", "kernel", "roofline",
        "step", "kernel", "IB", "IB", "step", "peer", "peer", "step"},
-      {"", "", "", "", "MLUPS", "MLUPS", "GB/s", "GB/s", "MLUPS", "/roof", "/roof", "interp",
+      {"", "", "", "", "MLUPS", "MLUPS", "MLUPS", "/roof", "/roof", "interp",
        "spread", "+IB", "MLUPS", "/roof", "/peer"},
-      {"", "", "", "", "", "", "", "", "", "", "", "us", "us", "MLUPS", "", "NT", ""}};
+      {"", "", "", "", "", "", "", "", "", "us", "us", "MLUPS", "", "", ""}};
   for (int i = 0; i < 3; ++i) {
     const auto& c = rows[i];
-    std::printf("%-20s %3s %6s %6s %6s %7s %10s %10s %9s %6s %6s %8s %8s %7s", c[0], c[1], c[2], c[3],
-                c[4], c[5], c[6], c[7], c[8], c[9], c[10], c[11], c[12], c[13]);
-    if (opt.peer) std::printf(" %7s %6s %6s", c[14], c[15], c[16]);
+    std::printf("%-20s %3s %6s %6s %6s %7s %9s %6s %6s %8s %8s %7s", c[0], c[1], c[2], c[3],
+                c[4], c[5], c[6], c[7], c[8], c[9], c[10], c[11]);
+    if (opt.peer) std::printf(" %7s %6s %6s", c[12], c[13], c[14]);
     if (peer_f32_columns(opt)) std::printf(" %8s %8s", f32[i][0], f32[i][1]);
     std::printf("\n");
   }
 }
 
-void print_row(const Row& r, const Options& opt) {
+void print_row(const Row& r, const Options& opt, const Roofline& roofline) {
   const bool in_place = r.propagation == Propagation::InPlace;
-  const double copy = r.streaming || in_place ? r.copy_nt_gbs : r.copy_gbs;
-  const double roof = copy * 1e9 / bytes_per_update(r.precision) * 1e-6;
-  const double roof_nt = r.copy_nt_gbs * 1e9 / bytes_per_update(r.precision) * 1e-6;
+  const double roof = roofline.mlups(r.precision);
   char step[16] = "-", step_ratio[16] = "-", interp[16] = "-", spread[16] = "-", ib[16] = "-";
   if (r.step_mlups > 0) {
     std::snprintf(step, sizeof step, "%.1f", r.step_mlups);
@@ -402,19 +446,19 @@ void print_row(const Row& r, const Options& opt) {
     std::snprintf(spread, sizeof spread, "%.0f", r.ib_spread_us);
     std::snprintf(ib, sizeof ib, "%.1f", r.step_ib_mlups);
   }
-  std::printf("%-20s %3d %6s %6s %6s %7.1f %10.1f %10.1f %9.1f %6s %5.0f%% %8s %8s %7s",
+  std::printf("%-20s %3d %6s %6s %6s %7.1f %9.1f %6s %5.0f%% %8s %8s %7s",
               r.grid.c_str(), r.threads, precision_name(r.precision),
               in_place ? "AA" : r.streaming ? "2gr NT" : "2grid",
-              step, r.kernel_mlups, r.copy_gbs, r.copy_nt_gbs, roof, step_ratio,
+              step, r.kernel_mlups, roof, step_ratio,
               100.0 * r.kernel_mlups / roof, interp, spread, ib);
   if (r.peer_mlups > 0) {
     char per_peer[16] = "-";
     if (r.step_mlups > 0) std::snprintf(per_peer, sizeof per_peer, "%.0f%%", 100.0 * r.step_mlups / r.peer_mlups);
-    std::printf(" %7.1f %5.0f%% %6s", r.peer_mlups, 100.0 * r.peer_mlups / roof_nt, per_peer);
+    std::printf(" %7.1f %5.0f%% %6s", r.peer_mlups, 100.0 * r.peer_mlups / roof, per_peer);
   }
   if (peer_f32_columns(opt)) {
     if (r.peer_f32_mlups > 0)
-      std::printf(" %8.1f %7.0f%%", r.peer_f32_mlups, 100.0 * r.peer_f32_mlups / roof_nt);
+      std::printf(" %8.1f %7.0f%%", r.peer_f32_mlups, 100.0 * r.peer_f32_mlups / roof);
     else
       std::printf(" %8s %8s", "-", "-");
   }
@@ -487,11 +531,17 @@ int main(int argc, char** argv) {
   std::vector<Case> cases;
   for (const std::string& g : opt.grids)
     cases.push_back(g == "box" ? periodic_box(opt.box) : paper_channel());
-  print_header(opt, cases);
+  std::size_t largest = 0;
+  for (const Case& c : cases)
+    for (const Precision p : opt.precisions) largest = std::max(largest, field_bytes(c, p));
+  const Roofline roof =
+      measure_roofline(largest / sizeof(double), *std::max_element(opt.threads.begin(), opt.threads.end()), 2 * opt.repeat);
+  print_header(opt, cases, roof);
   for (const Case& c : cases)
     for (const Precision p : opt.precisions)
       for (const Propagation g : opt.propagations)
         for (const int t : opt.threads)
-          print_row(p == Precision::Double ? measure<double>(c, t, p, g, opt) : measure<float>(c, t, p, g, opt), opt);
+          print_row(p == Precision::Double ? measure<double>(c, t, p, g, opt) : measure<float>(c, t, p, g, opt), opt,
+                    roof);
   return 0;
 }

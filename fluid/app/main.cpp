@@ -396,7 +396,8 @@ int main_impl(int argc, char** argv) {
   app.add_option("--print", print_keys,
                  "print KEY=VALUE for each of the comma-separated keys as the fluid reads them "
                  "(coupling.lcm_url, coupling.handshake_timeout_s, coupling.peer_timeout_s, "
-                 "coupling.time_ratio, coupling.channel_prefix, output.directory, run.steps) and exit");
+                 "coupling.time_ratio, coupling.channel_prefix, output.directory, run.steps, run.precision, "
+                 "run.propagation) and exit");
   std::string token, channel_prefix, lcm_url;
   app.add_option("--token", token,
                  "coupled scenes: the run's token (default: the environment's COSIM_RUN_TOKEN)");

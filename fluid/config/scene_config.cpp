@@ -139,7 +139,9 @@ void check_memory(const SceneReader& r, const FluidScene& s) {
     r.fail(r.section_line("grid"),
            "grid = " + std::to_string(s.params.shape.nx) + " x " +
                std::to_string(s.params.shape.ny) + " x " + std::to_string(s.params.shape.nz) +
-               ": the two population grids need " + protocol::human_bytes(double(grids)) + " (" +
+               (s.params.propagation == Propagation::InPlace ? ": the population grid (in-place propagation) needs "
+                                                             : ": the two population grids (two-grid propagation) need ") +
+               protocol::human_bytes(double(grids)) + " (" +
                protocol::human_bytes(need) + " with the copy of one that a restart reads), " + beyond +
                "; reduce nx, ny, nz");
 }

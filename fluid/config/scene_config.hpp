@@ -143,7 +143,7 @@ void initialize_flow(FluidSolver& solver, const FluidScene& scene);
 /// Bytes of the population grids (19 values per cell, with ghosts and padding): two, one for
 /// the in-place propagation.
 std::size_t population_bytes(const GridShape& shape, Precision precision = Precision::Double,
-                             Propagation propagation = Propagation::TwoGrid);
+                             Propagation propagation = Propagation::InPlace);
 
 /// Fastest boundary speed in lattice units: the inlet u_max, else the fastest wall.
 double reference_speed(const FluidParams& params);

@@ -23,6 +23,8 @@ std::string scene_values(const FluidScene& s, const std::string& keys) {
       {"coupling.channel_prefix", [&](const std::string& k) { return coupling(k).channel_prefix; }},
       {"output.directory", [&](const std::string&) { return s.output_dir; }},
       {"run.steps", [&](const std::string&) { return std::to_string(s.steps); }},
+      {"run.precision", [&](const std::string&) { return std::string(precision_name(s.params.precision)); }},
+      {"run.propagation", [&](const std::string&) { return std::string(propagation_name(s.params.propagation)); }},
   };
   std::string out, key;
   std::istringstream list(keys);
