@@ -68,9 +68,10 @@
 # foreign publisher); it sees COSIM_CHANNEL_PREFIX, COSIM_LCM_URL and the token, never the
 # key, and is stopped at the end.
 #
-# Each launch makes a secret key for the run's message MACs (protocol/README.md section 8b):
+# Each run has a secret key for its message MACs (protocol/README.md section 8b):
 # 32 random bytes as 64 hexadecimal digits in OUTPUT/run.key, mode 0600 (readable by this
-# user only), named to both servers by COSIM_RUN_KEY_FILE; it never travels on the bus. The
+# user only; a restart into the run's folder keeps it), named to both servers by
+# COSIM_RUN_KEY_FILE; it never travels on the bus. The
 # replay tool and cosim-log verify a traffic log with it (--key-file OUTPUT/run.key).
 #
 # As root, both processes run in a private network namespace (unshare -n; lo up with
@@ -240,7 +241,7 @@ if [ -n "$restart" ] && [ -d "$output" ] && holds_run "$output"; then
   for f in fluid.log solid.log record.log traffic.lcmlog extra.log; do
     [ -f "$output/$f" ] && stat -c %s "$output/$f" >"$kept_state/$f.size"
   done
-  for f in run.id launcher.pid fluid.pid solid.pid record.pid fluid.exit solid.exit; do
+  for f in run.id run.key launcher.pid fluid.pid solid.pid record.pid fluid.exit solid.exit; do
     [ -f "$output/$f" ] && cp -p "$output/$f" "$kept_state/$f"
   done
 fi
@@ -250,7 +251,7 @@ take_back_attempt() {
   for f in fluid.log solid.log record.log traffic.lcmlog extra.log; do
     if [ -f "$kept_state/$f.size" ]; then truncate -s "$(cat "$kept_state/$f.size")" "$output/$f"; else rm -f "$output/$f"; fi
   done
-  for f in run.id launcher.pid fluid.pid solid.pid record.pid fluid.exit solid.exit; do
+  for f in run.id run.key launcher.pid fluid.pid solid.pid record.pid fluid.exit solid.exit; do
     if [ -f "$kept_state/$f" ]; then cp -p "$kept_state/$f" "$output/$f"; else rm -f "$output/$f"; fi
   done
 }
@@ -271,9 +272,13 @@ echo $$ >"$output/launcher.pid"
 token=$(od -An -N8 -tx1 /dev/urandom | tr -d ' \n')
 prefix="COSIM_${token:0:8}_"
 export COSIM_RUN_TOKEN=$token
-# The run's key: written under umask 077 beside, then renamed over any older one.
-(umask 077 && od -An -N32 -tx1 /dev/urandom | tr -d ' \n' >"$output/run.key.new" && echo >>"$output/run.key.new" &&
-  mv -f "$output/run.key.new" "$output/run.key") || refuse "--output $output: cannot write the run's key file run.key"
+# The run's key: one per run, not per launch. A restart into the run's folder keeps its key
+# (the traffic log's earlier messages verify with the key the later ones carry); else it is
+# written under umask 077 beside, then renamed into place.
+if ! { [ -n "$restart" ] && [ -f "$output/run.key" ]; }; then
+  (umask 077 && od -An -N32 -tx1 /dev/urandom | tr -d ' \n' >"$output/run.key.new" && echo >>"$output/run.key.new" &&
+    mv -f "$output/run.key.new" "$output/run.key") || refuse "--output $output: cannot write the run's key file run.key"
+fi
 export COSIM_RUN_KEY_FILE=$output/run.key
 
 export COSIM_SOLID_CMD=${solid_cmd:-$solid_exe}
