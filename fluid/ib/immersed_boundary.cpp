@@ -64,10 +64,18 @@ MarkerSample ImmersedBoundary::sample(const FluidSolver& solver, const Vec3& X) 
 
 MarkerNodes ImmersedBoundary::marker_nodes(std::span<const Vec3> X) const {
   MarkerNodes out;
+  std::vector<std::size_t> listed;
+  marker_nodes(X, out, listed);
+  return out;
+}
+
+void ImmersedBoundary::marker_nodes(std::span<const Vec3> X, MarkerNodes& out, std::vector<std::size_t>& listed) const {
   const std::size_t n = X.size();
   out.stencils.resize(n);
   out.first_visit.assign(n + 1, 0);
-  if (n == 0) return out;
+  out.cells.clear();
+  out.visit.clear();
+  if (n == 0) return;
   // The box of all stencils, in unwrapped node coordinates (a node wrapped across a
   // periodic face may sit in it twice: listed twice, the same value).
   std::array<int, 3> lo{}, hi{};
@@ -84,7 +92,7 @@ MarkerNodes ImmersedBoundary::marker_nodes(std::span<const Vec3> X) const {
   // Markers far apart: the box would be mostly empty; every stencil node listed as visited.
   const bool box = volume <= 8 * kDeltaNodes * kDeltaNodes * kDeltaNodes * std::ptrdiff_t(n);
   constexpr std::size_t kUnlisted = ~std::size_t(0);
-  std::vector<std::size_t> listed(box ? std::size_t(volume) : 0, kUnlisted);
+  listed.assign(box ? std::size_t(volume) : 0, kUnlisted);
   out.visit.reserve(n * kDeltaNodes * kDeltaNodes * kDeltaNodes);
   for (std::size_t l = 0; l < n; ++l) {
     const DeltaStencil& st = out.stencils[l];
@@ -105,7 +113,6 @@ MarkerNodes ImmersedBoundary::marker_nodes(std::span<const Vec3> X) const {
     });
   }
   out.first_visit[n] = out.visit.size();
-  return out;
 }
 
 void ImmersedBoundary::sum_samples(const MarkerNodes& nodes, std::span<const NodeMoments> values,
@@ -139,8 +146,10 @@ void ImmersedBoundary::sample(const FluidSolver& solver, std::span<const Vec3> X
   if (X.empty()) return;
   // The stencils of neighbouring markers overlap: the moments of each node once (OpenMP
   // over the nodes), then summed per marker.
-  const MarkerNodes nodes = marker_nodes(X);
-  std::vector<NodeMoments> value(nodes.cells.size());
+  const MarkerNodes& nodes = scratch_.nodes;
+  marker_nodes(X, scratch_.nodes, scratch_.listed);
+  std::vector<NodeMoments>& value = scratch_.values;
+  value.resize(nodes.cells.size());
   const std::ptrdiff_t m = std::ptrdiff_t(nodes.cells.size());
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t t = 0; t < m; ++t) {

@@ -158,6 +158,9 @@ class ImmersedBoundary {
   /// the markers are close together), and Eq. 17 per marker from the nodes' moments
   /// (values[i] those of nodes.cells[i]). @pre out.size() == X.size() of nodes
   MarkerNodes marker_nodes(std::span<const Vec3> X) const;
+  /// marker_nodes() into `out`, reusing its storage and `listed` (a scratch of the stencils'
+  /// box) from an earlier call: no heap traffic once they have grown to the markers' size.
+  void marker_nodes(std::span<const Vec3> X, MarkerNodes& out, std::vector<std::size_t>& listed) const;
   void sum_samples(const MarkerNodes& nodes, std::span<const NodeMoments> values,
                    std::span<MarkerSample> out) const;
   /// Eq. 17 literally: the 19 populations interpolated at X, f[0..18].
@@ -199,6 +202,15 @@ class ImmersedBoundary {
 
   GridShape shape_;
   std::array<bool, 3> periodic_{};
+  /// The batched sample()'s buffers, kept from one call to the next: allocated and freed
+  /// each LB step they cost more than the sample itself (the heap grown and trimmed back,
+  /// each trim a TLB flush). Not for concurrent sample() calls on one object.
+  struct SampleScratch {
+    MarkerNodes nodes;
+    std::vector<std::size_t> listed;
+    std::vector<NodeMoments> values;
+  };
+  mutable SampleScratch scratch_;
 };
 
 }  // namespace cosim::fluid
