@@ -42,12 +42,27 @@ class EnergyBalance {
   /// The largest unexplained energy over the energy scale seen (how close the run came).
   double max_ratio() const { return watch_.max_ratio(); }
 
- private:
+  /// The answer added last, checked when the next comes.
   struct Step {
     std::int64_t step = 0;
     Eigen::Matrix3Xd x, j;
     double energy = 0.0;
   };
+  /// What a checkpoint keeps, so that a restart continues the balance bit for bit.
+  struct Saved {
+    protocol::EnergyWatch::State watch;
+    Eigen::Matrix3Xd end;
+    std::optional<Step> pending;
+  };
+  Saved saved() const { return {watch_.state(), end_, pending_}; }
+  /// @pre s.end has this balance's marker count
+  void restore(const Saved& s) {
+    watch_.restore(s.watch);
+    end_ = s.end;
+    pending_ = s.pending;
+  }
+
+ private:
   protocol::EnergyWatch watch_;
   Eigen::Matrix3Xd end_;         ///< X_l^end before the pending step
   std::optional<Step> pending_;  ///< the last step added, checked with the next

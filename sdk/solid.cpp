@@ -33,6 +33,7 @@
 #include "protocol/units.hpp"
 #include "common/run/provenance.hpp"
 #include "sdk/energy_balance.hpp"
+#include "sdk/energy_balance_checkpoint.hpp"
 #include "sdk/solid_series.hpp"
 #include "solid/coupled/coupled_solid.hpp"
 #include "solid/coupling/fluid_state_check.hpp"
@@ -183,6 +184,7 @@ class SdkRun {
               << " rigid)\n";
     std::cout.flush();
     peer_.await_from(scheme_->first_key(peer_.rigid_steps()));
+    series_.emplace(units_, solid_.model(), n_);
     if (!o_.restart.empty()) {
       // Continue from a checkpoint of step N: the solid's state after it and the
       // solid_state_t(N) it sent, published again (the in-flight impulses).
@@ -191,22 +193,28 @@ class SdkRun {
       } catch (const std::exception& e) {
         return finish(Ending{exit_code::bad_input, "--restart " + o_.restart + ": " + one_line(e.what()), true});
       }
-      std::cout << "solid: restarted from " << o_.restart << " at step " << peer_.last_step() << "\n";
+      std::cout << "solid: restarted from " << o_.restart << " at step " << peer_.last_step() << " (solid.h5 with its "
+                << series_->rows() << " rows is written once the fluid has accepted its checkpoint too)\n";
+      // A restart that either side refuses writes nothing (write_series).
+      restart_pending_ = true;
     } else {
       // Step 0: the initial positions, zero impulses (section 5).
       peer_.publish_state(0, 0, 0.0, x_, Eigen::Matrix3Xd::Zero(3, n_), 0);
     }
     first_step_ = peer_.last_step();
-    // The energy balance from here (a restart's: from the restored state), when the solid
-    // reports its energy; solid.h5's rows from here.
-    if (const double e0 = solid_.energy_lb(); std::isfinite(e0)) balance_.emplace(e0, x_);
-    series_.emplace(units_, solid_.model(), n_);
+    // The energy balance, when the solid reports its energy: from step 0, a restart's
+    // continued from its checkpoint (an older checkpoint without it: from here).
+    if (const double e0 = solid_.energy_lb(); std::isfinite(e0)) {
+      balance_.emplace(e0, x_);
+      if (saved_balance_) balance_->restore(*saved_balance_);  // a restart's: continued
+    }
     if (o_.restart.empty()) series_->add(0, x_, Eigen::Matrix3Xd::Zero(3, n_), energy(), balance_ ? 0.0 : kNone);
     start_ = Clock::now();
     peer_.heard();
     for (;;) {
       if (const auto e = peer_.wait([] {})) return finish(*e);
       const cosimlcm::fluid_state_t m = peer_.awaited();
+      restart_pending_ = false;  // the fluid publishes nothing before it accepted its checkpoint
       if (const auto e = interval(m)) return finish(*e);
       peer_.advance();
       if (const auto e = peer_.failure()) return finish(*e);
@@ -290,6 +298,8 @@ class SdkRun {
     w.text("model", solid_.model());
     w.put("positions_lb", x_.data(), std::size_t(x_.size()));
     w.put("sdk_state", state);
+    if (series_) series_->save(w);
+    if (balance_) save_balance(w, balance_->saved());
     const cosimlcm::solid_state_t& sent = peer_.last_sent();
     std::vector<std::uint8_t> bytes(static_cast<std::size_t>(sent.getEncodedSize()));
     sent.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
@@ -330,6 +340,10 @@ class SdkRun {
     if (sent.decode(bytes.data(), 0, static_cast<int>(bytes.size())) < 0 || sent.step != step || sent.num_cgps != n_)
       throw std::runtime_error("in_flight_solid_state is not the solid_state_t of step " + std::to_string(step));
     sent.token = o_.token;
+    saved_balance_ = read_balance(r, n_);
+    if (!series_->restore(r))
+      std::cout << "solid: " << path << " holds no solid.h5 rows (an older library's checkpoint): solid.h5 starts at step "
+                << step << "\n";
     total_substeps_ = r.int64_attr("total_substeps");
     peer_.resume(std::move(sent), r.int64_attr("solid_seq"));
     peer_.await_from(step + 1);
@@ -365,7 +379,7 @@ class SdkRun {
   /// OUTPUT/solid.h5 (sdk/solid_series.hpp) and the energy balance's margin; a file that
   /// cannot be written is said on one line, the run's ending stands.
   void write_series() {
-    if (!series_) return;
+    if (!series_ || restart_pending_) return;
     if (balance_)
       std::cout << "solid: energy balance: the largest unexplained energy " << fmt("%.3g", balance_->max_ratio())
                 << " of the energy scale (limit " << fmt("%g", EnergyBalance::kGrowth) << "); the fluid's work "
@@ -411,7 +425,9 @@ class SdkRun {
   Eigen::Matrix3Xd x_;
   Eigen::VectorXd area_;
   std::optional<EnergyBalance> balance_;
+  std::optional<EnergyBalance::Saved> saved_balance_;  ///< a restart's checkpoint's balance
   std::optional<SolidSeries> series_;
+  bool restart_pending_ = false;  ///< a restart the fluid has not yet accepted: solid.h5 stays as it is
   std::int64_t total_substeps_ = 0, computed_ = 0, first_step_ = 0;
   double compute_s_ = 0.0;
   Clock::time_point start_ = Clock::now();

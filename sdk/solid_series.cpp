@@ -7,6 +7,7 @@
 
 #include "common/hdf5/hdf5_handle.hpp"
 #include "common/hdf5/hdf5_quiet.hpp"
+#include "common/run/checkpoint_file.hpp"
 #include "common/run/provenance_h5.hpp"
 #include "solid/io/solid_h5.hpp"
 
@@ -49,6 +50,32 @@ void SolidSeries::write(const std::string& path) const {
   solid::write_attribute(file.get(), "num_markers", static_cast<double>(n_));
   protocol::stamp_file(file.get());
   file.close(what);
+}
+
+void SolidSeries::save(protocol::CheckpointWriter& w) const {
+  w.put("series_step", steps_);
+  w.put("series_marker_position_um", x_um_);
+  w.put("series_marker_force_N", force_N_);
+  w.put("series_total_energy_J", energy_J_);
+  w.put("series_fluid_work_J", work_J_);
+}
+
+bool SolidSeries::restore(const protocol::CheckpointReader& r) {
+  if (!r.has("series_step")) return false;
+  std::vector<std::int64_t> steps = r.int64s("series_step");
+  const std::size_t n = steps.size(), values = n * static_cast<std::size_t>(n_) * 3;
+  std::vector<double> x = r.doubles("series_marker_position_um", values), f = r.doubles("series_marker_force_N", values),
+                      e = r.doubles("series_total_energy_J", n), w = r.doubles("series_fluid_work_J", n);
+  steps_ = std::move(steps);
+  time_s_.clear();
+  for (const std::int64_t s : steps_) time_s_.push_back(static_cast<double>(s) * units_.dt_lb_s());
+  x_um_ = std::move(x);
+  force_N_ = std::move(f);
+  energy_J_ = std::move(e);
+  work_J_ = std::move(w);
+  energy_ = false;
+  for (const double v : energy_J_) energy_ = energy_ || std::isfinite(v);
+  return true;
 }
 
 }  // namespace cosim::sdk

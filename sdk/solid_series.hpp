@@ -10,6 +10,11 @@
 
 #include "protocol/units.hpp"
 
+namespace cosim::protocol {
+class CheckpointWriter;
+class CheckpointReader;
+}  // namespace cosim::protocol
+
 namespace cosim::sdk {
 
 /// Datasets (n rows, N markers): step [n] int64, time_s [n] (the LB step's end, step x
@@ -29,6 +34,14 @@ class SolidSeries {
   /// Writes `path` (replaced). @throws std::runtime_error naming the file
   void write(const std::string& path) const;
   std::size_t rows() const { return steps_.size(); }
+
+  /// The rows so far into a checkpoint (datasets series_*), so that a restart's solid.h5
+  /// holds the whole run, as the solid server's does.
+  void save(protocol::CheckpointWriter& w) const;
+  /// The rows of a checkpoint written by save(), in place of these; a checkpoint without
+  /// them (an older library's) leaves the series empty and returns false.
+  /// @throws std::runtime_error for series datasets that do not fit this solid's markers
+  bool restore(const protocol::CheckpointReader& r);
 
  private:
   const protocol::UnitConverter& units_;

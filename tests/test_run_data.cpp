@@ -25,7 +25,10 @@
 namespace {
 
 namespace fs = std::filesystem;
+using cosim::test::changed_files;
 using cosim::test::compare_h5;
+using cosim::test::every_file;
+using cosim::test::flip_bit;
 using cosim::test::expect_run_done;
 using cosim::test::logs;
 using cosim::test::quoted;
@@ -136,26 +139,6 @@ int run_and_signal(const fs::path& scene, const fs::path& out, const fs::path& m
 }
 
 void expect_done(const fs::path& out, int status) { expect_run_done(out, status); }
-
-/// Flips one bit in the middle of dataset `name` of an HDF5 file (contiguous storage).
-void flip_bit(const fs::path& file, const std::string& name) {
-  const hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
-  ASSERT_GE(f, 0) << file;
-  const hid_t d = H5Dopen2(f, name.c_str(), H5P_DEFAULT);
-  ASSERT_GE(d, 0) << name;
-  const haddr_t offset = H5Dget_offset(d);
-  const hsize_t size = H5Dget_storage_size(d);
-  H5Dclose(d);
-  H5Fclose(f);
-  ASSERT_NE(offset, HADDR_UNDEF);
-  std::fstream io(file, std::ios::in | std::ios::out | std::ios::binary);
-  io.seekg(static_cast<std::streamoff>(offset + size / 2));
-  char c = 0;
-  io.read(&c, 1);
-  c = static_cast<char>(c ^ 0x10);
-  io.seekp(static_cast<std::streamoff>(offset + size / 2));
-  io.write(&c, 1);
-}
 
 TEST(RunData, RerunDoesNotTouchAnotherRun) {
   const fs::path dir = scratch("rerun");
@@ -531,30 +514,6 @@ TEST(RunData, RestartWithoutRunIdAsksTheCheckpoints) {
   EXPECT_EQ(launch(scene100, "--restart " + quoted(a.string()), log), 0) << slurp(log) << logs(a);
   EXPECT_EQ(slurp(a / "run.id"), id_a);
   if (!HasFailure()) fs::remove_all(dir);
-}
-
-/// Every regular file under `dir` (logs, pid and exit files, the traffic log included), by
-/// relative path, with its bytes.
-std::map<std::string, std::string> every_file(const fs::path& dir) {
-  std::map<std::string, std::string> files;
-  for (const auto& e : fs::recursive_directory_iterator(dir))
-    if (e.is_regular_file()) files[fs::relative(e.path(), dir).string()] = slurp(e.path());
-  return files;
-}
-
-/// The names of the files that differ between two listings (changed, added or gone).
-std::string changed_files(const std::map<std::string, std::string>& before,
-                          const std::map<std::string, std::string>& after) {
-  std::string names;
-  for (const auto& [name, bytes] : before) {
-    const auto it = after.find(name);
-    if (it == after.end()) names += name + " (gone) ";
-    else if (it->second != bytes) names += name + " (" + std::to_string(bytes.size()) + " -> " +
-                                           std::to_string(it->second.size()) + " bytes) ";
-  }
-  for (const auto& [name, bytes] : after)
-    if (!before.count(name)) names += name + " (new) ";
-  return names;
 }
 
 // A restart into the run's own folder that one side refuses (its checkpoint damaged: the

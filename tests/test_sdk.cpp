@@ -4,7 +4,9 @@
 // namespace as root); and the C++ example builds against an installed prefix, outside the
 // source tree, and couples too.
 #include <gtest/gtest.h>
+#include <sys/wait.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -51,8 +53,9 @@ TEST(SolidLibrary, PythonSolidCouplesWithFluid) {
 }
 
 // The library's checkpoints: a run with [coupling] checkpoint_every = 20 continued from its
-// step-40 pair (run-coupled.sh --restart) ends with the fluid's monitor.h5 of the full run,
-// bit for bit.
+// step-40 pair (run-coupled.sh --restart) ends with the fluid's monitor.h5 and the
+// library's solid.h5 of the full run, bit for bit; a restart the fluid refuses leaves the
+// run's folder as it was.
 TEST(SolidLibrary, SdkSolidRestartsFromCheckpoint) {
   const fs::path dir = cosim::test::scratch("sdk_restart");
   const fs::path scene = dir / "coupled_spring_sheet_checkpoints.toml";
@@ -75,6 +78,22 @@ TEST(SolidLibrary, SdkSolidRestartsFromCheckpoint) {
   EXPECT_NE(solid_log.find("at step 40"), std::string::npos) << solid_log;
   EXPECT_NE(solid_log.find("coupled run done at step 59 of 60"), std::string::npos) << solid_log;
   EXPECT_EQ(cosim::test::compare_h5(full, restarted, "monitor.h5"), "");
+  // solid.h5 holds the whole run: the rows before step 40 travel in the checkpoint.
+  EXPECT_EQ(cosim::test::compare_h5(full, restarted, "solid.h5"), "");
+  // A restart into the run's own folder that the fluid refuses (its checkpoint damaged; the
+  // library solid has read its own) changes no file there: solid.h5 is not rewritten.
+  const fs::path fluid_checkpoint = full / "checkpoints" / "fluid_00000040.h5";
+  fs::copy_file(fluid_checkpoint, dir / "sound.h5");
+  cosim::test::flip_bit(fluid_checkpoint, "populations");
+  const auto before = cosim::test::every_file(full);
+  const fs::path log = dir / "refused.log";
+  const int s = std::system(("bash " + quoted((kSource / "launch" / "run-coupled.sh").string()) + " " +
+                             quoted(scene.string()) + " --no-build --quiet --restart " + quoted(full.string()) + solid +
+                             " >" + quoted(log.string()) + " 2>&1")
+                                .c_str());
+  EXPECT_EQ(WIFEXITED(s) ? WEXITSTATUS(s) : -1, 2) << slurp(log);
+  EXPECT_NE(slurp(log).find("does not match its checksum"), std::string::npos) << slurp(log);
+  EXPECT_EQ(cosim::test::changed_files(before, cosim::test::every_file(full)), "") << slurp(log);
 }
 
 // Issue 34: a solid's faults that used to end with advice about dt_CG, the inlet or the

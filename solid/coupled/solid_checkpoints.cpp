@@ -10,7 +10,7 @@
 #include "cosimlcm/solid_state_t.hpp"
 #include "common/run/checkpoint_file.hpp"
 #include "protocol/checkpoint_identity.hpp"
-#include "solid/watchdog/energy_watch.hpp"
+#include "solid/watchdog/energy_watch_checkpoint.hpp"
 #include "protocol/handshake.hpp"
 #include "common/text/text.hpp"
 #include "solid/schemes/solid_scheme.hpp"
@@ -33,12 +33,7 @@ std::string SolidCheckpoints::write(const std::string& reason) {
   scheme_.save(w, ctx);
   w.attr("total_substeps", run_.total_substeps());
   w.attr("num_cgps", static_cast<std::int64_t>(run_.num_cgps()));
-  const protocol::EnergyWatch::State ew = run_.energy_watch().state();
-  w.attr("watchdog_energy_started", static_cast<std::int64_t>(ew.started ? 1 : 0));
-  w.attr("watchdog_energy0_J", ew.energy0);
-  w.attr("watchdog_work_J", ew.work);
-  w.attr("watchdog_work_abs_J", ew.work_abs);
-  w.attr("watchdog_energy_max_J", ew.energy_max);
+  protocol::save_energy_watch(w, run_.energy_watch().state(), "watchdog_", "_J");
   protocol::write_identity(w, {s_.path, o_.run_id, run_.coupling().time_ratio, o_.new_time_ratio});
   w.text("reason", reason.empty() ? "every coupling.checkpoint_every steps" : reason);
   const SolidState st = point ? *point->state : run_.model().state();
@@ -121,14 +116,8 @@ void SolidCheckpoints::restore(const std::string& path) {
     }
   }
   run_.set_total_substeps(total_substeps);
-  if (r.has("watchdog_energy_started")) {
-    protocol::EnergyWatch::State ew;
-    ew.started = r.int64_attr("watchdog_energy_started") != 0;
-    ew.energy0 = r.double_attr("watchdog_energy0_J");
-    ew.work = r.double_attr("watchdog_work_J");
-    ew.work_abs = r.double_attr("watchdog_work_abs_J");
-    ew.energy_max = r.double_attr("watchdog_energy_max_J");
-    run_.energy_watch().restore(ew);
+  if (const auto ew = protocol::read_energy_watch(r, "watchdog_", "_J")) {
+    run_.energy_watch().restore(*ew);
   } else {
     run_.reference_energy(step);  // an older checkpoint: E here is E(0)
   }
