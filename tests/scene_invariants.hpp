@@ -1,6 +1,6 @@
 // What an accepted scene must hold beyond the parsers' own rules: every number finite and
 // every unit positive (a conversion of a finite input may overflow or underflow). Shared by
-// the seeded fuzzing of test_message_security and the libFuzzer target fuzz/fuzz_scenes.
+// the seeded fuzzing of test_fuzz_inputs and the libFuzzer target fuzz/fuzz_scenes.
 #pragma once
 
 #include <cmath>
