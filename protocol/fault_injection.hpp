@@ -123,17 +123,6 @@ class FaultyTransport {
   FaultyTransport(lcm::LCM& bus, const FaultSettings& settings, std::string_view stream)
       : bus_(bus), s_(settings), rng_(settings.seed ^ fnv1a(stream)) {}
 
-  /// Encodes and publishes `m` on `channel` (or drops, duplicates, holds it).
-  /// @return 0, or LCM's error code of an immediate publish.
-  template <class Message>
-  int publish(const std::string& channel, const Message& m) {
-    if (!s_.any()) return bus_.publish(channel, &m);
-    const int size = m.getEncodedSize();
-    std::vector<std::uint8_t> bytes(static_cast<std::size_t>(size > 0 ? size : 0));
-    if (size < 0 || m.encode(bytes.data(), 0, size) < 0) return -1;
-    return inject(channel, std::move(bytes));
-  }
-
   /// Publishes encoded bytes on `channel` (or drops, duplicates, holds them).
   /// @return 0, or LCM's error code of an immediate publish.
   int publish_encoded(const std::string& channel, std::vector<std::uint8_t> bytes) {
