@@ -283,6 +283,8 @@ int run(const FluidScene& s, bool quiet, FluidDomain& domain) {
   }
   progress.clear();
   const double wall = progress.elapsed_s();
+  const std::vector<double> peaks = domain.peak_memory_mib();
+  if (leads) std::printf("%s\n", peak_memory_line(peaks).c_str());
   if (leads)
     std::printf("fluid: done, %lld steps (%.4g us) in %.1f s, %.1f MLUPS; output in %s\n",
                 static_cast<long long>(s.steps), double(s.steps) * dt_us, wall,

@@ -13,7 +13,6 @@
 #include "common/run/checkpoint_file.hpp"
 #include "protocol/checkpoint_identity.hpp"
 #include "protocol/handshake.hpp"
-#include "common/run/peak_memory.hpp"
 #include "common/run/progress.hpp"
 #include "common/run/provenance.hpp"
 #include "protocol/session/interrupt.hpp"
@@ -451,7 +450,7 @@ int FluidRun::finish() {
                 static_cast<long long>(s_.watchdog.health_every));
   out << line;
   out << "fluid: watchdog margins: " << markers_.margins() << "\n";
-  out << "fluid: peak memory " << protocol::fmt("%.1f", protocol::peak_rss_mib()) << " MiB (largest resident set)\n";
+  out << peak_memory_line(domain_.peak_memory_mib()) << "\n";
   scheme_.summary(out, s_.steps);
   out.flush();
   // The solid may have lost every copy of the stop_t: it asks, and is answered, until quiet.

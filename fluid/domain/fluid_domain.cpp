@@ -1,10 +1,12 @@
 #include "fluid/domain/fluid_domain.hpp"
 
 #include <algorithm>
+#include <cstdio>
 #include <stdexcept>
 #include <string>
 #include <type_traits>
 
+#include "common/run/peak_memory.hpp"
 #include "fluid/io/store_io.hpp"
 #include "fluid/lattice/d3q19.hpp"
 
@@ -45,5 +47,22 @@ std::string SerialDomain::read_store(const std::string& file, const std::string&
   if (error.empty()) solver_.set_step_count(step);
   return error;
 }
+
+std::string peak_memory_line(const std::vector<double>& peaks) {
+  char v[32];
+  std::snprintf(v, sizeof v, "%.1f", peaks.empty() ? 0.0 : peaks[0]);
+  std::string line = std::string("fluid: peak memory ") + v + " MiB (largest resident set)";
+  if (peaks.size() > 1) {
+    line += "; per rank:";
+    for (const double p : peaks) {
+      std::snprintf(v, sizeof v, " %.1f", p);
+      line += v;
+    }
+    line += " MiB";
+  }
+  return line;
+}
+
+std::vector<double> SerialDomain::peak_memory_mib() { return {protocol::peak_rss_mib()}; }
 
 }  // namespace cosim::fluid

@@ -11,6 +11,7 @@
 #include <optional>
 #include <span>
 #include <string>
+#include <vector>
 
 #include "fluid/observables/flow_monitor.hpp"
 #include "fluid/solver/fluid_solver.hpp"
@@ -35,6 +36,8 @@ class KeptState {
   bool is_double() const { return double_; }
   const PopulationField& field() const { return d_; }
   const PopulationFieldSingle& field_single() const { return s_; }
+  PopulationField& mutable_field() { return d_; }
+  PopulationFieldSingle& mutable_field_single() { return s_; }
 
  private:
   bool double_ = true;
@@ -102,12 +105,21 @@ class FluidDomain {
   /// path; its size checked there: 19 x the whole layout's stride in the run's precision),
   /// each process reading its own share (FluidRun's restart). Returns the first error.
   virtual std::string read_store(const std::string& file, const std::string& name, std::int64_t step) = 0;
+
+  /// Each process's largest resident set so far in MiB (protocol::peak_rss_mib), in rank
+  /// order, on the leading process (nothing on the others).
+  virtual std::vector<double> peak_memory_mib() = 0;
 };
 
 /// The inlet's start-up ramp of `scene` (inlet.ramp_us; Turek and Hron) set on `domain` for
 /// the step after `step`: its scale inlet_ramp(step, T) while the ramp lasts; nothing
 /// without one. The fluid-only loop and the coupled run alike.
 void ramp_inlet(FluidDomain& domain, const FluidScene& scene, std::int64_t step);
+
+/// The servers' end-of-run line for `peaks` (FluidDomain::peak_memory_mib): "fluid: peak
+/// memory X MiB (largest resident set)", X the leading process's, and with several processes
+/// "; per rank: A B C ... MiB" (no rank holds the whole grid, docs/scaling.md).
+std::string peak_memory_line(const std::vector<double>& peaks);
 
 /// The grid in this process: one FluidSolver.
 class SerialDomain final : public FluidDomain {
@@ -133,6 +145,7 @@ class SerialDomain final : public FluidDomain {
   void restore_kept(std::int64_t step) override { kept_.restore(solver_, step); }
   std::string write_store(bool kept, const std::string& file, const std::string& name) override;
   std::string read_store(const std::string& file, const std::string& name, std::int64_t step) override;
+  std::vector<double> peak_memory_mib() override;
 
  private:
   FluidSolver solver_;

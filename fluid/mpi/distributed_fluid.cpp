@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "common/hdf5/hdf5_handle.hpp"
+#include "common/run/peak_memory.hpp"
 #include "fluid/lattice/d3q19.hpp"
 #include "fluid/mpi/mpi_world.hpp"
 
@@ -181,10 +182,22 @@ StoreShare DistributedFluid::share(bool reading) const {
 
 std::string DistributedFluid::write_store(bool kept, const std::string& file, const std::string& name) {
   const std::string path = broadcast(comm_, file), set = broadcast(comm_, name);
-  const FluidSolver& b = *block_;
-  const bool dbl = b.precision() == Precision::Double;
-  const void* store = dbl ? static_cast<const void*>((kept ? kept_.field() : b.state()).q(0))
-                          : static_cast<const void*>((kept ? kept_.field_single() : b.state_single()).q(0));
+  FluidSolver& b = *block_;
+  // The wall ghosts in this block's edge planes that the neighbours' cells fill in the
+  // undivided grid, as they fill them (this block's steps never read them): the file holds
+  // the undivided grid's store.
+  const void* store = nullptr;
+  if (!kept) {
+    b.fill_wall_ghosts_of_halo_cells();
+    store = b.precision() == Precision::Double ? static_cast<const void*>(b.state().q(0))
+                                               : static_cast<const void*>(b.state_single().q(0));
+  } else if (b.precision() == Precision::Double) {
+    b.boundaries().fill_wall_ghosts_of_halo_cells(kept_.mutable_field());
+    store = kept_.field().q(0);
+  } else {
+    b.boundaries().fill_wall_ghosts_of_halo_cells(kept_.mutable_field_single());
+    store = kept_.field_single().q(0);
+  }
   const protocol::WriteGroup group(comm_);
   return write_store_share(path, set, store, share(false), &group);
 }
@@ -197,6 +210,13 @@ std::string DistributedFluid::read_store(const std::string& file, const std::str
   const std::string error = protocol::WriteGroup(comm_).first_error(read_store_share(path, set, store, share(true)));
   if (error.empty()) b.set_step_count(step);
   return error;
+}
+
+std::vector<double> DistributedFluid::peak_memory_mib() {
+  const double mine = protocol::peak_rss_mib();
+  std::vector<double> all(rank_ == 0 ? std::size_t(ranks_) : 0);
+  check(MPI_Gather(&mine, 1, MPI_DOUBLE, all.data(), 1, MPI_DOUBLE, 0, comm_), "MPI_Gather (peak memory)");
+  return all;
 }
 
 std::vector<Vec3> DistributedFluid::from_leader(std::span<const Vec3> values) {

@@ -59,6 +59,7 @@ class DistributedFluid final : public FluidDomain {
   void restore_kept(std::int64_t step) override { kept_.restore(*block_, step); }
   std::string write_store(bool kept, const std::string& file, const std::string& name) override;
   std::string read_store(const std::string& file, const std::string& name, std::int64_t step) override;
+  std::vector<double> peak_memory_mib() override;
 
   const Slab& slab() const { return slab_; }
   const FluidSolver& block() const { return *block_; }

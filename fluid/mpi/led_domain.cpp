@@ -30,6 +30,7 @@ enum class Call : std::int64_t {
   RestoreKept,
   WriteStore,
   ReadStore,
+  PeakMemory,
   End,
 };
 
@@ -155,6 +156,11 @@ std::string LedDomain::read_store(const std::string& file, const std::string& na
   return grid_.read_store(file, name, step);
 }
 
+std::vector<double> LedDomain::peak_memory_mib() {
+  send(orders_, order(Call::PeakMemory));
+  return grid_.peak_memory_mib();
+}
+
 int follow(DistributedFluid& grid, const FluidScene& scene, double dt_us, MPI_Comm orders) {
   std::vector<MarkerSample> no_samples;
   std::optional<Snapshots> snapshots;
@@ -185,6 +191,7 @@ int follow(DistributedFluid& grid, const FluidScene& scene, double dt_us, MPI_Co
       case Call::RestoreKept: grid.restore_kept(o.arg); break;
       case Call::WriteStore: grid.write_store(o.arg != 0, std::string(), std::string()); break;
       case Call::ReadStore: grid.read_store(std::string(), std::string(), o.arg); break;
+      case Call::PeakMemory: grid.peak_memory_mib(); break;
       case Call::End: return static_cast<int>(o.arg);
       default:
         throw std::runtime_error("rank " + std::to_string(grid.slab().index) + ": an unknown order " +

@@ -11,6 +11,7 @@
 #include <optional>
 #include <span>
 #include <string>
+#include <vector>
 
 #include "fluid/domain/fluid_domain.hpp"
 #include "fluid/mpi/distributed_fluid.hpp"
@@ -47,6 +48,7 @@ class LedDomain final : public FluidDomain {
   void restore_kept(std::int64_t step) override;
   std::string write_store(bool kept, const std::string& file, const std::string& name) override;
   std::string read_store(const std::string& file, const std::string& name, std::int64_t step) override;
+  std::vector<double> peak_memory_mib() override;
 
  private:
   DistributedFluid& grid_;

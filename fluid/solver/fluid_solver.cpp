@@ -144,6 +144,14 @@ const PopulationField& FluidSolver::state() const {
   make_canonical("state()");
   return f_;
 }
+void FluidSolver::fill_wall_ghosts_of_halo_cells() {
+  make_canonical("fill_wall_ghosts_of_halo_cells()");
+  if (params_.precision == Precision::Double)
+    bc_.fill_wall_ghosts_of_halo_cells(f_);
+  else
+    bc_.fill_wall_ghosts_of_halo_cells(fs_);
+}
+
 PopulationField& FluidSolver::mutable_state() {
   if (params_.precision != Precision::Double) wrong_precision("mutable_state()", params_.precision);
   make_canonical("mutable_state()");

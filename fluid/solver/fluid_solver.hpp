@@ -157,6 +157,11 @@ class FluidSolver {
   const PopulationFieldSingle& previous_state_single() const;
   /// Call after changing mutable_state() or mutable_state_single() by hand.
   void refresh_ghosts();
+  /// A block's wall ghosts that the neighbour blocks' cells fill in the undivided grid
+  /// (BoundaryConditions::fill_wall_ghosts_of_halo_cells), in the current state, which is
+  /// otherwise unchanged (this block's steps never read them): before its share of a
+  /// checkpoint is written.
+  void fill_wall_ghosts_of_halo_cells();
   /// A restart from a checkpoint (DESIGN 2.4): the step count the restored state is at.
   void set_step_count(std::int64_t steps) { steps_ = steps; }
 
