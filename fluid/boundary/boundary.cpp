@@ -380,13 +380,13 @@ void BoundaryConditions::fill_step_ghosts(BasicPopulationField<T>& f, HaloExchan
 }
 
 template <class T>
-void BoundaryConditions::fill_wall_ghosts_of_halo_cells(BasicPopulationField<T>& f) const {
+void BoundaryConditions::fill_wall_ghosts_of_halo_cells(BasicPopulationField<T>& f, bool below, bool above) const {
   const PopulationSlots<T> slots(f, PopulationLayout::Canonical);
   // The faces in fill_reflect_faces' order (walls after free slip: a wall's ghost is its own).
   for (int face = XMin; face <= YMax; ++face) {
     if (faces_[face].kind != FaceKind::Wall) continue;
-    if (halo_[ZMin]) fill_wall(slots, face, -1, -1, -1);
-    if (halo_[ZMax]) fill_wall(slots, face, layout_.nz(), layout_.nz(), 1);
+    if (below && halo_[ZMin]) fill_wall(slots, face, -1, -1, -1);
+    if (above && halo_[ZMax]) fill_wall(slots, face, layout_.nz(), layout_.nz(), 1);
   }
 }
 
@@ -540,11 +540,11 @@ template void BoundaryConditions::fill_ghosts_but_x(PopulationFieldSingle&, Halo
 template void BoundaryConditions::fill_static_ghosts(PopulationField&) const;
 template void BoundaryConditions::fill_step_ghosts(PopulationField&, HaloExchange*) const;
 template void BoundaryConditions::fill_outflow_ghost(PopulationField&, int, int, int) const;
-template void BoundaryConditions::fill_wall_ghosts_of_halo_cells(PopulationField&) const;
+template void BoundaryConditions::fill_wall_ghosts_of_halo_cells(PopulationField&, bool, bool) const;
 template void BoundaryConditions::fill_ghosts(PopulationFieldSingle&, HaloExchange*) const;
 template void BoundaryConditions::fill_static_ghosts(PopulationFieldSingle&) const;
 template void BoundaryConditions::fill_step_ghosts(PopulationFieldSingle&, HaloExchange*) const;
 template void BoundaryConditions::fill_outflow_ghost(PopulationFieldSingle&, int, int, int) const;
-template void BoundaryConditions::fill_wall_ghosts_of_halo_cells(PopulationFieldSingle&) const;
+template void BoundaryConditions::fill_wall_ghosts_of_halo_cells(PopulationFieldSingle&, bool, bool) const;
 
 }  // namespace cosim::fluid

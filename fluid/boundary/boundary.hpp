@@ -196,14 +196,16 @@ class BoundaryConditions {
   /// kinds (walls, free slip, halo) are Kind::Other, filled by fill_ghosts.
   InPlaceXFaces in_place_x_faces() const;
   /// A block's wall ghosts (Eq. 14) that the neighbour blocks' cells fill in the undivided
-  /// grid: those of the cells of the halo planes z = -1 and nz, which lie in the block's
-  /// planes 0 and nz - 1 (the populations that enter from the wall and leave towards the
-  /// block). The block's own step never reads them (only the neighbours' cells pull them);
-  /// a checkpoint that each block writes its share of then holds the undivided grid's
-  /// values there (fluid/mpi/distributed_fluid.cpp). @pre the halo planes hold the
-  /// neighbours' current cells (after a step's ghost fill)
+  /// grid: those of the cells of the halo plane z = -1 (`below`: a block below, not the
+  /// periodic image of the grid's last plane, whose cells are ghosts of the undivided grid)
+  /// and of the plane nz (`above`), which lie in the block's planes 0 and nz - 1 (the
+  /// populations that enter from the wall and leave towards the block). The block's own
+  /// step never reads them (only the neighbours' cells pull them); a checkpoint that each
+  /// block writes its share of then holds the undivided grid's values there
+  /// (fluid/mpi/distributed_fluid.cpp). @pre the halo planes hold the neighbours' current
+  /// cells (after a step's ghost fill)
   template <class T>
-  void fill_wall_ghosts_of_halo_cells(BasicPopulationField<T>& f) const;
+  void fill_wall_ghosts_of_halo_cells(BasicPopulationField<T>& f, bool below, bool above) const;
   /// The x-outflow ghost of one boundary cell (x = 0 or nx - 1 next to an outflow face;
   /// nothing elsewhere), after the cell's populations were changed (a collision with an
   /// immersed-boundary force).

@@ -183,19 +183,21 @@ StoreShare DistributedFluid::share(bool reading) const {
 std::string DistributedFluid::write_store(bool kept, const std::string& file, const std::string& name) {
   const std::string path = broadcast(comm_, file), set = broadcast(comm_, name);
   FluidSolver& b = *block_;
-  // The wall ghosts in this block's edge planes that the neighbours' cells fill in the
-  // undivided grid, as they fill them (this block's steps never read them): the file holds
-  // the undivided grid's store.
+  // The wall ghosts in this block's edge planes that the neighbour blocks' cells fill in the
+  // undivided grid, as they fill them (this block's steps never read them; not across the
+  // periodic wrap, where the undivided grid's sources are ghosts): the file holds the
+  // undivided grid's store.
+  const bool below = slab_.index > 0, above = slab_.index + 1 < slab_.count;
   const void* store = nullptr;
   if (!kept) {
-    b.fill_wall_ghosts_of_halo_cells();
+    b.fill_wall_ghosts_of_halo_cells(below, above);
     store = b.precision() == Precision::Double ? static_cast<const void*>(b.state().q(0))
                                                : static_cast<const void*>(b.state_single().q(0));
   } else if (b.precision() == Precision::Double) {
-    b.boundaries().fill_wall_ghosts_of_halo_cells(kept_.mutable_field());
+    b.boundaries().fill_wall_ghosts_of_halo_cells(kept_.mutable_field(), below, above);
     store = kept_.field().q(0);
   } else {
-    b.boundaries().fill_wall_ghosts_of_halo_cells(kept_.mutable_field_single());
+    b.boundaries().fill_wall_ghosts_of_halo_cells(kept_.mutable_field_single(), below, above);
     store = kept_.field_single().q(0);
   }
   const protocol::WriteGroup group(comm_);

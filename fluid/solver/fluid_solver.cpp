@@ -144,12 +144,12 @@ const PopulationField& FluidSolver::state() const {
   make_canonical("state()");
   return f_;
 }
-void FluidSolver::fill_wall_ghosts_of_halo_cells() {
+void FluidSolver::fill_wall_ghosts_of_halo_cells(bool below, bool above) {
   make_canonical("fill_wall_ghosts_of_halo_cells()");
   if (params_.precision == Precision::Double)
-    bc_.fill_wall_ghosts_of_halo_cells(f_);
+    bc_.fill_wall_ghosts_of_halo_cells(f_, below, above);
   else
-    bc_.fill_wall_ghosts_of_halo_cells(fs_);
+    bc_.fill_wall_ghosts_of_halo_cells(fs_, below, above);
 }
 
 PopulationField& FluidSolver::mutable_state() {

@@ -161,7 +161,7 @@ class FluidSolver {
   /// (BoundaryConditions::fill_wall_ghosts_of_halo_cells), in the current state, which is
   /// otherwise unchanged (this block's steps never read them): before its share of a
   /// checkpoint is written.
-  void fill_wall_ghosts_of_halo_cells();
+  void fill_wall_ghosts_of_halo_cells(bool below, bool above);
   /// A restart from a checkpoint (DESIGN 2.4): the step count the restored state is at.
   void set_step_count(std::int64_t steps) { steps_ = steps; }
 
