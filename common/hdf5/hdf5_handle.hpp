@@ -159,11 +159,16 @@ class WriteGroup {
 #endif
     return fapl;
   }
-  /// A transfer property list for write_rows: collective MPI-IO, or the default.
+  /// A transfer property list for write_rows: each rank's rows written by itself straight
+  /// from its memory (independent MPI-IO: a rank's rows of a dataset are one contiguous
+  /// range of the file), the open, the close and the metadata collective. Collective
+  /// transfers would have aggregator ranks collect the others' rows in buffers of their own:
+  /// rank 0 then held 60 MB more than the others on a grid of 2.3 million cells
+  /// (NoRankHoldsTheWholeGrid, OpenMPI 4.1's OMPIO).
   H5Id transfer(const std::string& what) const {
     H5Id dxpl(H5Pcreate(H5P_DATASET_XFER), H5Pclose, what);
 #ifdef H5_HAVE_PARALLEL
-    if (size_ > 1) h5_check(H5Pset_dxpl_mpio(dxpl.get(), H5FD_MPIO_COLLECTIVE), what);
+    if (size_ > 1) h5_check(H5Pset_dxpl_mpio(dxpl.get(), H5FD_MPIO_INDEPENDENT), what);
 #endif
     return dxpl;
   }
