@@ -53,19 +53,14 @@ void DistributedFluid::fill_part() {
   // periodic images), whichever rank holds them, the velocity only.
   constexpr int kGhosts = 2;
   const FluidSolver& b = *block_;
-  b.macroscopic(block_fields_);
-  const GridShape& bs = block_fields_.shape;
+  const GridShape& bs = b.shape();
   const int nz_whole = whole_params_.shape.nz;
   const bool periodic_z = whole_params_.faces[ZMin].kind == FaceKind::Periodic;
   FieldPart& p = part_;
   p.m.shape = GridShape{bs.nx, bs.ny, bs.nz + 2 * kGhosts};
   const std::size_t plane = std::size_t(bs.nx) * std::size_t(bs.ny), n = plane * std::size_t(p.m.shape.nz);
   for (std::vector<double>* v : {&p.m.rho, &p.m.ux, &p.m.uy, &p.m.uz}) v->assign(n, 0.0);
-  const std::size_t at = plane * kGhosts, count = plane * std::size_t(bs.nz);
-  std::copy_n(block_fields_.rho.begin(), count, p.m.rho.begin() + std::ptrdiff_t(at));
-  std::copy_n(block_fields_.ux.begin(), count, p.m.ux.begin() + std::ptrdiff_t(at));
-  std::copy_n(block_fields_.uy.begin(), count, p.m.uy.begin() + std::ptrdiff_t(at));
-  std::copy_n(block_fields_.uz.begin(), count, p.m.uz.begin() + std::ptrdiff_t(at));
+  b.macroscopic(p.m, kGhosts);
   for (int a = 0; a < 3; ++a) p.periodic[std::size_t(a)] = whole_params_.faces[std::size_t(2 * a)].kind == FaceKind::Periodic;
   p.ghosts = kGhosts;
   p.z0 = slab_.z0;
@@ -82,10 +77,10 @@ void DistributedFluid::fill_part() {
   };
   const auto pack = [&](int z_local, std::vector<double>& out) {  // a plane of the block's u
     out.resize(3 * plane);
-    const std::size_t from = plane * std::size_t(z_local);
-    std::copy_n(block_fields_.ux.begin() + std::ptrdiff_t(from), plane, out.begin());
-    std::copy_n(block_fields_.uy.begin() + std::ptrdiff_t(from), plane, out.begin() + std::ptrdiff_t(plane));
-    std::copy_n(block_fields_.uz.begin() + std::ptrdiff_t(from), plane, out.begin() + std::ptrdiff_t(2 * plane));
+    const std::ptrdiff_t from = std::ptrdiff_t(plane) * (z_local + kGhosts);
+    std::copy_n(p.m.ux.begin() + from, plane, out.begin());
+    std::copy_n(p.m.uy.begin() + from, plane, out.begin() + std::ptrdiff_t(plane));
+    std::copy_n(p.m.uz.begin() + from, plane, out.begin() + std::ptrdiff_t(2 * plane));
   };
   const auto unpack = [&](int slot, const std::vector<double>& in) {
     const int z = slot < 2 ? slot : kGhosts + bs.nz + (slot - 2);

@@ -86,8 +86,7 @@ class DistributedFluid final : public FluidDomain {
   std::unique_ptr<SlabHalo> halo_;
   std::unique_ptr<FluidSolver> block_;
   FluidParams whole_params_;
-  MacroscopicFields block_fields_;       // kept between snapshots
-  FieldPart part_;
+  FieldPart part_;                      // kept between snapshots
   ImmersedBoundary ib_;                 // of the whole grid
   std::vector<int> owner_;              // per plane z of the whole grid
   KeptState kept_;                      // of this rank's block

@@ -518,12 +518,21 @@ void FluidSolver::macroscopic(MacroscopicFields& out) const {
   out.ux.resize(n);
   out.uy.resize(n);
   out.uz.resize(n);
+  macroscopic(out, 0);
+}
+
+void FluidSolver::macroscopic(MacroscopicFields& out, int z_at) const {
+  const GridShape& s = layout_.shape();
+  const std::size_t n = std::size_t(out.shape.cells());
+  if (out.shape.nx != s.nx || out.shape.ny != s.ny || z_at < 0 || out.shape.nz < z_at + s.nz || out.rho.size() != n ||
+      out.ux.size() != n || out.uy.size() != n || out.uz.size() != n)
+    throw std::invalid_argument("FluidSolver::macroscopic: fields of another shape");
 #pragma omp parallel for collapse(2) schedule(static)
   for (int z = 0; z < s.nz; ++z)
     for (int y = 0; y < s.ny; ++y)
       for (int x = 0; x < s.nx; ++x) {
         const CellState c = cell(x, y, z);
-        const std::size_t i = out.index(x, y, z);
+        const std::size_t i = out.index(x, y, z + z_at);
         out.rho[i] = c.rho;
         out.ux[i] = c.ux;
         out.uy[i] = c.uy;

@@ -118,6 +118,10 @@ class FluidSolver {
   CellState cell(int x, int y, int z) const;
   /// rho and u at every interior cell (OpenMP).
   void macroscopic(MacroscopicFields& out) const;
+  /// The same into planes z_at .. z_at + nz - 1 of `out`, whose shape is this grid's with
+  /// more planes (a block's fields with room for its neighbours' planes); the other planes
+  /// are left as they are. @pre out.shape: nx and ny this grid's, nz >= z_at + this nz
+  void macroscopic(MacroscopicFields& out, int z_at) const;
 
   const GridShape& shape() const { return layout_.shape(); }
   const GridLayout& layout() const { return layout_; }
