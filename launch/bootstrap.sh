@@ -14,7 +14,7 @@ packages=(
   python3 python3-dev python3-h5py python3-matplotlib python3-numpy python3-scipy pybind11-dev
   python3-paraview
   iproute2 util-linux
-  libopenmpi-dev openmpi-bin
+  libopenmpi-dev openmpi-bin libhdf5-openmpi-dev
   time
 )
 

@@ -124,6 +124,59 @@ TEST(Mpi, MpiFluidMatchesSerialBitForBit) {
   }
 }
 
+// Parallel HDF5 (fluid/io/field_writer.cpp, common/hdf5/hdf5_handle.hpp): every rank writes
+// its own planes of each snapshot into the file one process writes. 4 ranks hold slabs of
+// 2 planes between walls (8 planes, the fewest a wall allows: the one-sided differences
+// beside a wall reach the neighbour's second plane) and of 1 or 2 across a periodic span of
+// 5 (the differences reach the periodic images on the ranks two away). Every dataset of
+// the monitor and of each field and plane snapshot written by 1, 2, 3 and 4 ranks is the
+// one-process file's, bit for bit.
+TEST(Mpi, ParallelHdf5SnapshotMatchesSerialFile) {
+  if (!have_mpirun()) GTEST_SKIP() << "mpirun is not installed (launch/bootstrap.sh)";
+  const fs::path dir = scratch("mpi_phdf5");
+  const fs::path channel = kSource / "tests" / "scenes" / "mpi_channel.toml";
+  const std::vector<std::pair<std::string, std::string>> thin{{"steps = 40", "steps = 10"},
+                                                               {"fields_every = 20", "fields_every = 5"},
+                                                               {"planes_every = 10", "planes_every = 5"}};
+  for (const bool walls : {true, false}) {
+    SCOPED_TRACE(walls ? "walls across the span" : "periodic span");
+    const fs::path case_dir = dir / (walls ? "walls" : "periodic");
+    fs::create_directories(case_dir);
+    std::vector<std::pair<std::string, std::string>> replace = thin;
+    replace.push_back({"nz = 13", walls ? "nz = 8" : "nz = 5"});
+    if (walls) {
+      replace.push_back({"z_min = \"periodic\"", "z_min = \"wall\""});
+      replace.push_back({"z_max = \"periodic\"", "z_max = \"free_slip\""});
+    }
+    const fs::path scene = variant(channel, case_dir, replace);
+    const fs::path serial = case_dir / "serial";
+    const RunResult s = run_command(quoted(kFluid) + " " + quoted(scene.string()) + " --quiet --output " +
+                                        quoted(serial.string()),
+                                    case_dir / "serial_log");
+    ASSERT_EQ(s.status, 0) << s.err;
+    for (int ranks = 1; ranks <= 4; ++ranks) {
+      const fs::path out = case_dir / ("ranks" + std::to_string(ranks));
+      const RunResult m = run_command(mpirun(ranks) + quoted(kFluid) + " " + quoted(scene.string()) +
+                                          " --quiet --output " + quoted(out.string()),
+                                      case_dir / ("log" + std::to_string(ranks)));
+      ASSERT_EQ(m.status, 0) << ranks << " ranks:\n" << m.out << m.err;
+      if (ranks > 1) {
+        EXPECT_TRUE(contains(m.out, "each rank writes its own planes of the snapshots and checkpoints (parallel HDF5)"))
+            << m.out;
+        EXPECT_TRUE(contains(m.out, "; per rank:")) << m.out;
+      }
+      std::size_t files = 0;
+      EXPECT_EQ(compare_outputs(serial, out, &files), "") << ranks << " ranks";
+      // monitor.h5, 3 field snapshots, 3 snapshots of each of the 2 y planes.
+      EXPECT_EQ(files, 10u) << ranks << " ranks";
+      // No part file left behind.
+      for (const auto& e : fs::directory_iterator(out))
+        EXPECT_EQ(e.path().string().find(".part"), std::string::npos) << e.path();
+    }
+  }
+  if (!HasFailure()) fs::remove_all(dir);
+}
+
 TEST(Mpi, MpiBlocksThatCannotBeBuiltAreRefusedInOneLine) {
   if (!have_mpirun()) GTEST_SKIP() << "mpirun is not installed (launch/bootstrap.sh)";
   const fs::path dir = scratch("mpi_blocks");

@@ -81,6 +81,29 @@ inline void prune_checkpoints(const std::filesystem::path& dir, const std::strin
   for (std::size_t k = 0; k + keep < own.size(); ++k) std::filesystem::remove(own[k]);
 }
 
+/// The checksum of every byte of dataset `set` as stored (its file type), read in blocks of
+/// at most 1 Mi values: the populations of a large grid are not held twice.
+inline std::uint64_t stored_checksum(hid_t set, const std::string& what) {
+  const H5Id type(H5Dget_type(set), H5Tclose, what);
+  const H5Id space(H5Dget_space(set), H5Sclose, what);
+  const hssize_t n = H5Sget_simple_extent_npoints(space.get());
+  if (n < 0) h5_fail(what);
+  const std::size_t size = H5Tget_size(type.get());
+  const hsize_t block = hsize_t(1) << 20;
+  std::vector<unsigned char> buf(static_cast<std::size_t>(std::min<hsize_t>(hsize_t(n), block)) * size);
+  Checksum sum;
+  for (hsize_t at = 0; at < hsize_t(n); at += block) {
+    const hsize_t count[1] = {std::min<hsize_t>(block, hsize_t(n) - at)};
+    const hsize_t start[1] = {at};
+    const H5Id mem(H5Screate_simple(1, count, nullptr), H5Sclose, what);
+    const H5Id file_space(H5Dget_space(set), H5Sclose, what);
+    h5_check(H5Sselect_hyperslab(file_space.get(), H5S_SELECT_SET, start, nullptr, count, nullptr), what);
+    h5_check(H5Dread(set, type.get(), mem.get(), file_space.get(), H5P_DEFAULT, buf.data()), what);
+    sum.add(buf.data(), static_cast<std::size_t>(count[0]) * size);
+  }
+  return sum.value();
+}
+
 /// Writes a checkpoint file: put() the arrays, attr() the scalars, then commit().
 class CheckpointWriter {
  public:
@@ -119,10 +142,35 @@ class CheckpointWriter {
     put(name, std::vector<std::uint8_t>(value.begin(), value.end()));
   }
 
+  /// An array of `n` values of `file_type` whose values other processes write (each its
+  /// own rows, hdf5_handle.hpp: write_rows) between pause() and commit(), which sums them
+  /// from the file.
+  void reserve(const std::string& name, hid_t file_type, std::size_t n) {
+    const H5Quiet quiet;
+    const std::string what = "checkpoint " + path_.string() + ": cannot write " + name;
+    create_dataset(file_.get(), name, file_type, {static_cast<hsize_t>(n)}, what);
+    reserved_.push_back(name);
+  }
+  /// Closes the file (it stays at part()) for the writers of the reserved arrays.
+  void pause() {
+    const H5Quiet quiet;
+    file_.close("cannot write the checkpoint " + path_.string());
+  }
+  /// The file's name while it is written.
+  const std::string& part() const { return part_; }
+
   /// Closes the file and renames it to its final name. On any failure the .part file is
   /// removed (nothing half written stays behind) and the error names the file.
   void commit() {
     const H5Quiet quiet;
+    if (file_.get() < 0)
+      file_ = H5Id(H5Fopen(part_.c_str(), H5F_ACC_RDWR, H5P_DEFAULT), H5Fclose,
+                   "cannot write the checkpoint " + path_.string());
+    for (const std::string& name : reserved_) {
+      const std::string what = "checkpoint " + path_.string() + ": cannot sum " + name;
+      const H5Id set(H5Dopen2(file_.get(), name.c_str(), H5P_DEFAULT), H5Dclose, what);
+      put_checksum(set.get(), stored_checksum(set.get(), what), what);
+    }
     Checksum sum;
     for (const auto& [name, bytes] : attributes_) sum.add(name).add(bytes);
     const std::uint64_t value = sum.value();
@@ -154,10 +202,11 @@ class CheckpointWriter {
     if (n > 0) h5_check(H5Dwrite(set.get(), mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data), what);
     // The memory types are the file's little-endian ones on every host we build for: the
     // bytes summed are the bytes stored.
-    const std::uint64_t sum = Checksum().add(data, n * H5Tget_size(mem_type)).value();
+    put_checksum(set.get(), Checksum().add(data, n * H5Tget_size(mem_type)).value(), what);
+  }
+  static void put_checksum(hid_t set, std::uint64_t sum, const std::string& what) {
     const H5Id sspace(H5Screate(H5S_SCALAR), H5Sclose, what);
-    const H5Id a(H5Acreate2(set.get(), "checksum", H5T_STD_U64LE, sspace.get(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose,
-                 what);
+    const H5Id a(H5Acreate2(set, "checksum", H5T_STD_U64LE, sspace.get(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose, what);
     h5_check(H5Awrite(a.get(), H5T_NATIVE_UINT64, &sum), what);
   }
   void scalar(const std::string& name, hid_t file_type, hid_t mem_type, const void* value) {
@@ -178,6 +227,7 @@ class CheckpointWriter {
   std::string part_;
   H5Id file_;
   std::map<std::string, std::string> attributes_;  ///< name -> bytes, for attributes_checksum
+  std::vector<std::string> reserved_;              ///< arrays summed from the file at commit()
   bool committed_ = false;
 };
 
@@ -235,6 +285,14 @@ class CheckpointReader {
     double v = 0.0;
     read_attr(name, H5T_NATIVE_DOUBLE, &v);
     return v;
+  }
+  /// Throws unless array `name` holds exactly `n` values (read in shares by the processes
+  /// of a run, store_io.hpp).
+  void check_array(const std::string& name, std::size_t n) const {
+    const std::size_t have = length(name);
+    if (have != n)
+      throw std::runtime_error("checkpoint " + path_ + ": " + name + " has " + std::to_string(have) +
+                               " values, this run needs " + std::to_string(n) + " (a checkpoint of another scene?)");
   }
   /// Whether the file holds an attribute or an array of this name (a key that older
   /// checkpoints lack).
@@ -300,25 +358,7 @@ class CheckpointReader {
       const H5Id a(H5Aopen(set.get(), "checksum", H5P_DEFAULT), H5Aclose, what);
       h5_check(H5Aread(a.get(), H5T_NATIVE_UINT64, &stored), what);
     }
-    const H5Id type(H5Dget_type(set.get()), H5Tclose, what);
-    const H5Id space(H5Dget_space(set.get()), H5Sclose, what);
-    const hssize_t n = H5Sget_simple_extent_npoints(space.get());
-    if (n < 0) h5_fail(what);
-    const std::size_t size = H5Tget_size(type.get());
-    // In blocks of at most 8 Mi values: the populations of a large grid are not held twice.
-    const hsize_t block = hsize_t(1) << 23;
-    std::vector<unsigned char> buf(static_cast<std::size_t>(std::min<hsize_t>(hsize_t(n), block)) * size);
-    Checksum sum;
-    for (hsize_t at = 0; at < hsize_t(n); at += block) {
-      const hsize_t count[1] = {std::min<hsize_t>(block, hsize_t(n) - at)};
-      const hsize_t start[1] = {at};
-      const H5Id mem(H5Screate_simple(1, count, nullptr), H5Sclose, what);
-      const H5Id file_space(H5Dget_space(set.get()), H5Sclose, what);
-      h5_check(H5Sselect_hyperslab(file_space.get(), H5S_SELECT_SET, start, nullptr, count, nullptr), what);
-      h5_check(H5Dread(set.get(), type.get(), mem.get(), file_space.get(), H5P_DEFAULT, buf.data()), what);
-      sum.add(buf.data(), static_cast<std::size_t>(count[0]) * size);
-    }
-    if (sum.value() != stored)
+    if (stored_checksum(set.get(), what) != stored)
       throw std::runtime_error("checkpoint " + path_ + ": " + name +
                                " does not match its checksum: the file is corrupted (refused)");
   }

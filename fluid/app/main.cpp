@@ -239,7 +239,6 @@ int run(const FluidScene& s, bool quiet, FluidDomain& domain) {
     std::filesystem::create_directories(s.output_dir);
     protocol::write_provenance_files(s.output_dir);  // OUTPUT/scene.toml, provenance_fluid.toml
     log.emplace((std::filesystem::path(s.output_dir) / "monitor.h5").string(), dt_us);
-    snapshots.emplace(s, dt_us);
     log->append(*first);
     if (body)
       body_log.emplace((std::filesystem::path(s.output_dir) / "held_body.csv").string(), units.dt_lb_s(),
@@ -247,11 +246,9 @@ int run(const FluidScene& s, bool quiet, FluidDomain& domain) {
     std::printf("%s\n", format_summary(*first, dt_us, mass0).c_str());
     std::fflush(stdout);
   }
-  // The whole grid for the snapshots (gathered on the leading process: collective).
-  const auto write_snapshots = [&](bool last) {
-    const FluidSolver* whole = domain.whole();
-    if (leads) snapshots->write(*whole, last);
-  };
+  // Every process writes its own part of the snapshots (collective; its own Snapshots).
+  snapshots.emplace(s, dt_us);
+  const auto write_snapshots = [&](bool last) { domain.write_snapshots(*snapshots, last); };
   if (Snapshots::due(s, 0, false)) write_snapshots(false);
 
   for (std::int64_t step = 1; step <= s.steps; ++step) {
@@ -286,6 +283,8 @@ int run(const FluidScene& s, bool quiet, FluidDomain& domain) {
   }
   progress.clear();
   const double wall = progress.elapsed_s();
+  const std::vector<double> peaks = domain.peak_memory_mib();
+  if (leads) std::printf("%s\n", peak_memory_line(peaks).c_str());
   if (leads)
     std::printf("fluid: done, %lld steps (%.4g us) in %.1f s, %.1f MLUPS; output in %s\n",
                 static_cast<long long>(s.steps), double(s.steps) * dt_us, wall,
@@ -356,7 +355,8 @@ int run_coupled_scene(const FluidScene& scene, const CoupledFluidOptions& co) {
     }
     MPI_Comm orders = MPI_COMM_NULL;
     mpi::check(MPI_Comm_dup(g_world->comm(), &orders), "MPI_Comm_dup");
-    if (g_world->rank() != 0) return mpi::follow(*grid, scene, orders);
+    if (g_world->rank() != 0)
+      return mpi::follow(*grid, scene, protocol::UnitConverter(unit_inputs(scene)).dt_lb_s() * 1e6, orders);
     std::printf("  blocks   %s\n", grid->describe().c_str());
     std::fflush(stdout);
     mpi::LedDomain led(*grid, orders);

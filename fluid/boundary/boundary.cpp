@@ -380,10 +380,14 @@ void BoundaryConditions::fill_step_ghosts(BasicPopulationField<T>& f, HaloExchan
 }
 
 template <class T>
-void BoundaryConditions::fill_reflect_ghosts(BasicPopulationField<T>& f) const {
+void BoundaryConditions::fill_wall_ghosts_of_halo_cells(BasicPopulationField<T>& f, bool below, bool above) const {
   const PopulationSlots<T> slots(f, PopulationLayout::Canonical);
-#pragma omp parallel
-  fill_reflect_faces(slots, Fill::All);
+  // The faces in fill_reflect_faces' order (walls after free slip: a wall's ghost is its own).
+  for (int face = XMin; face <= YMax; ++face) {
+    if (faces_[face].kind != FaceKind::Wall) continue;
+    if (below && halo_[ZMin]) fill_wall(slots, face, -1, -1, -1);
+    if (above && halo_[ZMax]) fill_wall(slots, face, layout_.nz(), layout_.nz(), 1);
+  }
 }
 
 KernelOutflow BoundaryConditions::kernel_outflow() const {
@@ -458,6 +462,40 @@ void BoundaryConditions::fill_copy_face(const PopulationSlots<T>& f, int face) c
 }
 
 template <class T>
+void BoundaryConditions::fill_wall(const PopulationSlots<T>& f, int face, int z_lo, int z_hi, int cz) const {
+  // For every interior cell next to the wall and every population entering from the
+  // wall: ghost at x - c_q holds f*_opp(x) + 6 E_q rho_w c_q.U_w (Eq. 14), rho_w = 1.
+  const FaceSpec& spec = faces_[face];
+  const int axis = face_axis(face), side = face_side(face);
+  const int n[3] = {layout_.nx(), layout_.ny(), layout_.nz()};
+  const int inward = side == 0 ? 1 : -1;
+  int qs[D3Q19::Q], nq = 0;
+  for (int q = 0; q < D3Q19::Q; ++q)
+    if (D3Q19::c(q, axis) == inward && (cz == 2 || D3Q19::cz[q] == cz)) qs[nq++] = q;
+  PlaneRange r = plane_range(layout_, axis, false);
+  for (int b = 0; b < 3; ++b)
+    if (b != axis) r.lo[b] = 0, r.hi[b] = n[b] - 1;
+  r.lo[axis] = r.hi[axis] = side == 0 ? 0 : n[axis] - 1;
+  if (axis != 2) r.lo[2] = z_lo, r.hi[2] = z_hi;  // the boundary cells of these planes
+  const auto& U = spec.wall_velocity;
+  for (int i = 0; i < nq; ++i) {
+    const int q = qs[i], o = D3Q19::opp[q];
+    const double moving = 6.0 * D3Q19::w[q] *
+                          (D3Q19::cx[q] * U[0] + D3Q19::cy[q] * U[1] + D3Q19::cz[q] * U[2]);
+    const std::ptrdiff_t back = layout_.offset(-D3Q19::cx[q], -D3Q19::cy[q], -D3Q19::cz[q]);
+    T* fq = f.q(q);
+    const T* fo = f.q(o);
+#pragma omp for collapse(2) schedule(static) nowait
+    for (int z = r.lo[2]; z <= r.hi[2]; ++z)
+      for (int y = r.lo[1]; y <= r.hi[1]; ++y)
+        for (int x = r.lo[0]; x <= r.hi[0]; ++x) {
+          const std::ptrdiff_t c = layout_.index(x, y, z);
+          fq[c + back] = static_cast<T>(fo[c] + moving);
+        }
+  }
+}
+
+template <class T>
 void BoundaryConditions::fill_reflect_face(const PopulationSlots<T>& f, int face) const {
   const FaceSpec& spec = faces_[face];
   const int axis = face_axis(face), side = face_side(face);
@@ -469,28 +507,7 @@ void BoundaryConditions::fill_reflect_face(const PopulationSlots<T>& f, int face
     if (D3Q19::c(q, axis) == inward) qs[nq++] = q;
 
   if (spec.kind == FaceKind::Wall) {
-    // For every interior cell next to the wall and every population entering from the
-    // wall: ghost at x - c_q holds f*_opp(x) + 6 E_q rho_w c_q.U_w (Eq. 14), rho_w = 1.
-    PlaneRange r = plane_range(layout_, axis, false);
-    for (int b = 0; b < 3; ++b)
-      if (b != axis) r.lo[b] = 0, r.hi[b] = n[b] - 1;
-    r.lo[axis] = r.hi[axis] = side == 0 ? 0 : n[axis] - 1;
-    const auto& U = spec.wall_velocity;
-    for (int i = 0; i < nq; ++i) {
-      const int q = qs[i], o = D3Q19::opp[q];
-      const double moving = 6.0 * D3Q19::w[q] *
-                            (D3Q19::cx[q] * U[0] + D3Q19::cy[q] * U[1] + D3Q19::cz[q] * U[2]);
-      const std::ptrdiff_t back = layout_.offset(-D3Q19::cx[q], -D3Q19::cy[q], -D3Q19::cz[q]);
-      T* fq = f.q(q);
-      const T* fo = f.q(o);
-#pragma omp for collapse(2) schedule(static) nowait
-      for (int z = r.lo[2]; z <= r.hi[2]; ++z)
-        for (int y = r.lo[1]; y <= r.hi[1]; ++y)
-          for (int x = r.lo[0]; x <= r.hi[0]; ++x) {
-            const std::ptrdiff_t c = layout_.index(x, y, z);
-            fq[c + back] = static_cast<T>(fo[c] + moving);
-          }
-    }
+    fill_wall(f, face, 0, n[2] - 1, 2);
   } else {  // FreeSlip
     PlaneRange r = plane_range(layout_, axis, true);
     r.lo[axis] = r.hi[axis] = side == 0 ? -1 : n[axis];
@@ -523,11 +540,11 @@ template void BoundaryConditions::fill_ghosts_but_x(PopulationFieldSingle&, Halo
 template void BoundaryConditions::fill_static_ghosts(PopulationField&) const;
 template void BoundaryConditions::fill_step_ghosts(PopulationField&, HaloExchange*) const;
 template void BoundaryConditions::fill_outflow_ghost(PopulationField&, int, int, int) const;
-template void BoundaryConditions::fill_reflect_ghosts(PopulationField&) const;
+template void BoundaryConditions::fill_wall_ghosts_of_halo_cells(PopulationField&, bool, bool) const;
 template void BoundaryConditions::fill_ghosts(PopulationFieldSingle&, HaloExchange*) const;
 template void BoundaryConditions::fill_static_ghosts(PopulationFieldSingle&) const;
 template void BoundaryConditions::fill_step_ghosts(PopulationFieldSingle&, HaloExchange*) const;
 template void BoundaryConditions::fill_outflow_ghost(PopulationFieldSingle&, int, int, int) const;
-template void BoundaryConditions::fill_reflect_ghosts(PopulationFieldSingle&) const;
+template void BoundaryConditions::fill_wall_ghosts_of_halo_cells(PopulationFieldSingle&, bool, bool) const;
 
 }  // namespace cosim::fluid

@@ -195,11 +195,17 @@ class BoundaryConditions {
   /// arithmetic of fill_ghosts, outflow_ghost and the inlet equilibria of its fill); the other
   /// kinds (walls, free slip, halo) are Kind::Other, filled by fill_ghosts.
   InPlaceXFaces in_place_x_faces() const;
-  /// The reflecting faces' ghosts only (walls, free slip), from the interior and the other
-  /// ghosts as they are: for a field put together from blocks (fluid/mpi/distributed_fluid),
-  /// where a wall's ghost next to a block's edge plane was filled by the neighbour block.
+  /// A block's wall ghosts (Eq. 14) that the neighbour blocks' cells fill in the undivided
+  /// grid: those of the cells of the halo plane z = -1 (`below`: a block below, not the
+  /// periodic image of the grid's last plane, whose cells are ghosts of the undivided grid)
+  /// and of the plane nz (`above`), which lie in the block's planes 0 and nz - 1 (the
+  /// populations that enter from the wall and leave towards the block). The block's own
+  /// step never reads them (only the neighbours' cells pull them); a checkpoint that each
+  /// block writes its share of then holds the undivided grid's values there
+  /// (fluid/mpi/distributed_fluid.cpp). @pre the halo planes hold the neighbours' current
+  /// cells (after a step's ghost fill)
   template <class T>
-  void fill_reflect_ghosts(BasicPopulationField<T>& f) const;
+  void fill_wall_ghosts_of_halo_cells(BasicPopulationField<T>& f, bool below, bool above) const;
   /// The x-outflow ghost of one boundary cell (x = 0 or nx - 1 next to an outflow face;
   /// nothing elsewhere), after the cell's populations were changed (a collision with an
   /// immersed-boundary force).
@@ -228,6 +234,10 @@ class BoundaryConditions {
   void fill_copy_face(const PopulationSlots<T>& f, int face) const;
   template <class T>
   void fill_reflect_face(const PopulationSlots<T>& f, int face) const;
+  /// The wall `face`'s ghosts of its boundary cells in planes z_lo .. z_hi, of the
+  /// populations entering from the wall whose c_z is `cz` (any with cz = 2).
+  template <class T>
+  void fill_wall(const PopulationSlots<T>& f, int face, int z_lo, int z_hi, int cz) const;
   /// Which faces fill() fills: All (fill_ghosts), Step (fill_step_ghosts), AllButX
   /// (fill_ghosts_but_x).
   enum class Fill { All, Step, AllButX };

@@ -13,7 +13,6 @@
 #include "common/run/checkpoint_file.hpp"
 #include "protocol/checkpoint_identity.hpp"
 #include "protocol/handshake.hpp"
-#include "common/run/peak_memory.hpp"
 #include "common/run/progress.hpp"
 #include "common/run/provenance.hpp"
 #include "protocol/session/interrupt.hpp"
@@ -121,7 +120,7 @@ std::int64_t FluidRun::start(std::optional<int>& failed) {
     log_.emplace(monitor_path_, dt_us_);
     log_->append(first);
     rows_.push_back(first);
-    if (snapshots_.due(0, false)) snapshots_.write(*domain_.whole(), false);
+    if (snapshots_.due(0, false)) domain_.write_snapshots(snapshots_, false);
     if (const auto code = open_run_files(first_step)) {
       failed = code;
       return first_step;
@@ -287,7 +286,7 @@ std::optional<int> FluidRun::step_outputs(std::int64_t now, bool last, bool peri
       coord_.out().flush();
     }
   }
-  if (snapshot) snapshots_.write(*domain_.whole(), last);
+  if (snapshot) domain_.write_snapshots(snapshots_, last);
   if (body_log_) {
     body_log_->add(body_force_, sheet_force_);
     if (now % s_.held_body->record_every == 0 || last) body_log_->record(now);
@@ -312,14 +311,15 @@ int FluidRun::peer_ending(Ending e, std::int64_t step, const std::string& note) 
 
 // ---- coupled checkpoints (DESIGN 2.4; protocol/README.md section 10) ----
 
-/// The populations of either store (precision "double" or "single") of the whole grid
-/// (gathered from the blocks of a run over MPI ranks); a restart reads them back into a run
-/// of the same precision, on any number of ranks.
+/// The populations of either store (precision "double" or "single") of the whole grid, as
+/// one process holds them (each rank of a run over MPI ranks writes its own range: parallel
+/// HDF5); a restart reads them back into a run of the same precision, on any number of ranks.
 std::string FluidRun::checkpoint(std::int64_t step, const std::string& reason, bool kept) {
   namespace fs = std::filesystem;
-  const StoreView f = domain_.whole_store(kept);
   const fs::path dir = fs::path(s_.output_dir) / "checkpoints";
   const fs::path file = dir / protocol::checkpoint_name("fluid", step);
+  const bool dbl = s_.params.precision == Precision::Double;
+  const std::size_t size = std::size_t(D3Q19::Q) * layout_of(s_.params.shape, s_.params.precision).stride();
   try {
     fs::create_directories(dir);
     protocol::CheckpointWriter w(file);
@@ -337,12 +337,13 @@ std::string FluidRun::checkpoint(std::int64_t step, const std::string& reason, b
     }
     protocol::write_identity(w, identity());
     w.text("reason", reason.empty() ? "every coupling.checkpoint_every steps" : reason);
-    if (f.d != nullptr)
-      w.put("populations", f.d, f.size);
-    else
-      w.put("populations", f.s, f.size);
-    w.text("precision", f.d == nullptr ? "single" : "double");
+    w.reserve("populations", dbl ? H5T_IEEE_F64LE : H5T_IEEE_F32LE, size);
+    w.text("precision", dbl ? "double" : "single");
     put_rows(w, rows_);
+    // The file closed, every process writes its share of the store into it.
+    w.pause();
+    if (const std::string error = domain_.write_store(kept, w.part(), "populations"); !error.empty())
+      throw std::runtime_error(error);
     w.commit();
     protocol::prune_checkpoints(dir, "fluid_", 3, run_id_);
   } catch (const std::exception& x) {
@@ -371,25 +372,17 @@ std::int64_t FluidRun::restore(std::optional<cosimlcm::fluid_state_t>& in_flight
     throw std::runtime_error("num_cgps = " + std::to_string(r.int64_attr("num_cgps")) + ", but the solid announced " +
                              std::to_string(coord_.num_cgps()));
   // The populations in the store's precision (its "precision" text): the scene hash above
-  // ties the checkpoint to this scene file, run.precision included.
+  // ties the checkpoint to this scene file, run.precision included. The checkpoint holds
+  // the whole store, ghost planes included, as the step left them: no ghost fill here, the
+  // restarted step reads the very ghosts the run's next step would have read
+  // (SinglePrecisionCoupledRestartIsBitIdentical). A fill from the stored values gives the
+  // same bits (the kernel's x-outflow ghosts are computed from the values as stored,
+  // FusedStepMatchesGhostFillStepSingleStore), but a restart does not depend on that. Each
+  // process reads its own share (its block's store).
   const std::size_t size = std::size_t(D3Q19::Q) * layout_of(s_.params.shape, s_.params.precision).stride();
-  StoreView pop;
-  std::vector<double> d;
-  std::vector<float> f;
-  if (s_.params.precision == Precision::Double) {
-    d = r.doubles("populations", size);
-    pop.d = d.data();
-  } else {
-    f = r.floats("populations", size);
-    pop.s = f.data();
-  }
-  pop.size = size;
-  // The checkpoint holds the whole store, ghost planes included, as the step left them: no
-  // ghost fill here, the restarted step reads the very ghosts the run's next step would have
-  // read (SinglePrecisionCoupledRestartIsBitIdentical). A fill from the stored values gives
-  // the same bits (the kernel's x-outflow ghosts are computed from the values as stored,
-  // FusedStepMatchesGhostFillStepSingleStore), but a restart does not depend on that.
-  domain_.load_store(pop, step);
+  r.check_array("populations", size);
+  if (const std::string error = domain_.read_store(restart_, "populations", step); !error.empty())
+    throw std::runtime_error(error);
   coord_.set_fluid_seq(r.int64_attr("fluid_seq"));
   bulk_u_ = r.double_attr("bulk_velocity_lb");
   mass0_ = r.double_attr("mass0");
@@ -457,7 +450,7 @@ int FluidRun::finish() {
                 static_cast<long long>(s_.watchdog.health_every));
   out << line;
   out << "fluid: watchdog margins: " << markers_.margins() << "\n";
-  out << "fluid: peak memory " << protocol::fmt("%.1f", protocol::peak_rss_mib()) << " MiB (largest resident set)\n";
+  out << peak_memory_line(domain_.peak_memory_mib()) << "\n";
   scheme_.summary(out, s_.steps);
   out.flush();
   // The solid may have lost every copy of the stop_t: it asks, and is answered, until quiet.

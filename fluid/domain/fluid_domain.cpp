@@ -1,26 +1,16 @@
 #include "fluid/domain/fluid_domain.hpp"
 
 #include <algorithm>
+#include <cstdio>
 #include <stdexcept>
 #include <string>
 #include <type_traits>
 
+#include "common/run/peak_memory.hpp"
+#include "fluid/io/store_io.hpp"
 #include "fluid/lattice/d3q19.hpp"
 
 namespace cosim::fluid {
-
-template <class T>
-StoreView store_view(const BasicPopulationField<T>& f) {
-  StoreView v;
-  if constexpr (std::is_same_v<T, double>)
-    v.d = f.q(0);
-  else
-    v.s = f.q(0);
-  v.size = std::size_t(D3Q19::Q) * f.layout().stride();
-  return v;
-}
-template StoreView store_view(const PopulationField&);
-template StoreView store_view(const PopulationFieldSingle&);
 
 void FluidDomain::set_inlet_scale(double) {
   throw std::logic_error("FluidDomain::set_inlet_scale: this domain cannot ramp its inlet (a coupled run over MPI ranks)");
@@ -31,22 +21,48 @@ void ramp_inlet(FluidDomain& domain, const FluidScene& scene, std::int64_t step)
     domain.set_inlet_scale(inlet_ramp(double(step), scene.inlet_ramp_steps));
 }
 
-StoreView SerialDomain::whole_store(bool kept) {
-  if (solver_.precision() == Precision::Double) return store_view(kept ? kept_.field() : solver_.state());
-  return store_view(kept ? kept_.field_single() : solver_.state_single());
+namespace {
+
+StoreShare whole_share(const FluidSolver& solver) {
+  StoreShare share;
+  share.is_double = solver.precision() == Precision::Double;
+  share.whole_stride = share.local_stride = share.count = solver.layout().stride();
+  return share;
 }
 
-void SerialDomain::load_store(const StoreView& from, std::int64_t step) {
-  const std::size_t size = std::size_t(D3Q19::Q) * solver_.layout().stride();
+}  // namespace
+
+std::string SerialDomain::write_store(bool kept, const std::string& file, const std::string& name) {
   const bool dbl = solver_.precision() == Precision::Double;
-  if (from.size != size || (dbl ? from.d == nullptr : from.s == nullptr))
-    throw std::invalid_argument("SerialDomain::load_store: " + std::to_string(from.size) + " values of the other precision or size; " +
-                                std::to_string(size) + " expected");
-  if (from.d != nullptr)
-    std::copy(from.d, from.d + size, solver_.mutable_state().q(0));
-  else
-    std::copy(from.s, from.s + size, solver_.mutable_state_single().q(0));
-  solver_.set_step_count(step);
+  const void* store = dbl ? static_cast<const void*>((kept ? kept_.field() : solver_.state()).q(0))
+                          : static_cast<const void*>((kept ? kept_.field_single() : solver_.state_single()).q(0));
+  return write_store_share(file, name, store, whole_share(solver_), nullptr);
 }
+
+std::string SerialDomain::read_store(const std::string& file, const std::string& name, std::int64_t step) {
+  const bool dbl = solver_.precision() == Precision::Double;
+  void* store = dbl ? static_cast<void*>(solver_.mutable_state().q(0))
+                    : static_cast<void*>(solver_.mutable_state_single().q(0));
+  const std::string error = read_store_share(file, name, store, whole_share(solver_));
+  if (error.empty()) solver_.set_step_count(step);
+  return error;
+}
+
+std::string peak_memory_line(const std::vector<double>& peaks) {
+  char v[32];
+  std::snprintf(v, sizeof v, "%.1f", peaks.empty() ? 0.0 : peaks[0]);
+  std::string line = std::string("fluid: peak memory ") + v + " MiB (largest resident set)";
+  if (peaks.size() > 1) {
+    line += "; per rank:";
+    for (const double p : peaks) {
+      std::snprintf(v, sizeof v, " %.1f", p);
+      line += v;
+    }
+    line += " MiB";
+  }
+  return line;
+}
+
+std::vector<double> SerialDomain::peak_memory_mib() { return {protocol::peak_rss_mib()}; }
 
 }  // namespace cosim::fluid

@@ -1,9 +1,9 @@
 // The grid of a run as the run loops see it: one solver in one process, or blocks over MPI
 // ranks (fluid/mpi/distributed_fluid.hpp). The fluid-only loop (fluid/app/main.cpp) and the
 // coupled run (fluid/coupled/fluid_run.hpp, fluid/schemes/) step it, ask the watchdog's
-// question, sample and spread at the markers, keep and restore states, and take the whole
-// grid for the monitor, the snapshots and the checkpoints: the same calls either way; the
-// leading process prints and writes.
+// question, sample and spread at the markers, keep and restore states, sum the monitor, and
+// write the snapshots and checkpoints: the same calls either way; the leading process prints
+// and writes the small files, every process its own share of the snapshots and checkpoints.
 #pragma once
 
 #include <cstddef>
@@ -11,21 +11,16 @@
 #include <optional>
 #include <span>
 #include <string>
+#include <vector>
 
 #include "fluid/observables/flow_monitor.hpp"
 #include "fluid/solver/fluid_solver.hpp"
 #include "fluid/ib/immersed_boundary.hpp"
 #include "fluid/config/scene_config.hpp"
+#include "fluid/io/snapshots.hpp"
+#include "fluid/io/store_io.hpp"
 
 namespace cosim::fluid {
-
-/// The populations of a whole grid's store as a checkpoint holds them (19 x stride values,
-/// ghosts included, FluidSolver's layout) in the run's precision: `d` or `s` set.
-struct StoreView {
-  const double* d = nullptr;
-  const float* s = nullptr;
-  std::size_t size = 0;
-};
 
 /// The state of a solver kept apart in its precision (the implicit scheme's committed state
 /// while a step is iterated).
@@ -41,16 +36,14 @@ class KeptState {
   bool is_double() const { return double_; }
   const PopulationField& field() const { return d_; }
   const PopulationFieldSingle& field_single() const { return s_; }
+  PopulationField& mutable_field() { return d_; }
+  PopulationFieldSingle& mutable_field_single() { return s_; }
 
  private:
   bool double_ = true;
   PopulationField d_;
   PopulationFieldSingle s_;
 };
-
-/// The view of a field's whole store.
-template <class T>
-StoreView store_view(const BasicPopulationField<T>& f);
 
 /// Every call is collective (all processes of the run make it, in the same order); the
 /// arguments that matter are the leading process's, and what comes back is there.
@@ -82,9 +75,10 @@ class FluidDomain {
   /// summarize() of the whole grid at the current state, on the leading process (nothing on
   /// the others).
   virtual std::optional<FlowSummary> summary() = 0;
-  /// The whole grid at the current state (step count included), on the leading process;
-  /// nullptr on the others: for the snapshots.
-  virtual const FluidSolver* whole() = 0;
+  /// Writes the snapshots due at the current state (Snapshots::write): each process its
+  /// own planes of the grid into the files (parallel HDF5, DESIGN 8), no process the whole
+  /// grid; `s` is each process's own Snapshots of the scene.
+  virtual void write_snapshots(Snapshots& s, bool last) = 0;
   /// The leading process's `text` on every process (a verdict they all act on).
   virtual std::string from_leader(const std::string& text) = 0;
   /// The header line of the decomposition ("" for one process).
@@ -102,18 +96,30 @@ class FluidDomain {
   /// Keeps the current state apart (KeptState); restore_kept() goes back to it at `step`.
   virtual void keep_state() = 0;
   virtual void restore_kept(std::int64_t step) = 0;
-  /// The whole grid's store of the current (or kept) state, on the leading process (an
-  /// empty view on the others): what a checkpoint writes.
-  virtual StoreView whole_store(bool kept) = 0;
-  /// The state at `step` from a checkpoint's store of the whole grid (the leading
-  /// process's `from`; FluidRun's restart). @pre from.size == 19 x the whole layout's stride
-  virtual void load_store(const StoreView& from, std::int64_t step) = 0;
+  /// Writes the current (or kept) state's store into dataset `name` of checkpoint `file`
+  /// (the leading process's path; created there with the whole store's size, closed:
+  /// protocol::CheckpointWriter::reserve and pause), each process its own share
+  /// (store_io.hpp). Returns the first error of any process ("" when none).
+  virtual std::string write_store(bool kept, const std::string& file, const std::string& name) = 0;
+  /// The state at `step` from dataset `name` of checkpoint `file` (the leading process's
+  /// path; its size checked there: 19 x the whole layout's stride in the run's precision),
+  /// each process reading its own share (FluidRun's restart). Returns the first error.
+  virtual std::string read_store(const std::string& file, const std::string& name, std::int64_t step) = 0;
+
+  /// Each process's largest resident set so far in MiB (protocol::peak_rss_mib), in rank
+  /// order, on the leading process (nothing on the others).
+  virtual std::vector<double> peak_memory_mib() = 0;
 };
 
 /// The inlet's start-up ramp of `scene` (inlet.ramp_us; Turek and Hron) set on `domain` for
 /// the step after `step`: its scale inlet_ramp(step, T) while the ramp lasts; nothing
 /// without one. The fluid-only loop and the coupled run alike.
 void ramp_inlet(FluidDomain& domain, const FluidScene& scene, std::int64_t step);
+
+/// The servers' end-of-run line for `peaks` (FluidDomain::peak_memory_mib): "fluid: peak
+/// memory X MiB (largest resident set)", X the leading process's, and with several processes
+/// "; per rank: A B C ... MiB" (no rank holds the whole grid, docs/scaling.md).
+std::string peak_memory_line(const std::vector<double>& peaks);
 
 /// The grid in this process: one FluidSolver.
 class SerialDomain final : public FluidDomain {
@@ -131,14 +137,15 @@ class SerialDomain final : public FluidDomain {
     return kernel_state_problem(solver_, limits);
   }
   std::optional<FlowSummary> summary() override { return summarize(solver_); }
-  const FluidSolver* whole() override { return &solver_; }
+  void write_snapshots(Snapshots& s, bool last) override { s.write(solver_, last); }
   std::string from_leader(const std::string& text) override { return text; }
   void sample(std::span<const Vec3> X, std::span<MarkerSample> out) override { ib_.sample(solver_, X, out); }
   void spread(std::span<const Vec3> X, std::span<const Vec3> J) override { ib_.spread(solver_, X, J); }
   void keep_state() override { kept_.keep(solver_); }
   void restore_kept(std::int64_t step) override { kept_.restore(solver_, step); }
-  StoreView whole_store(bool kept) override;
-  void load_store(const StoreView& from, std::int64_t step) override;
+  std::string write_store(bool kept, const std::string& file, const std::string& name) override;
+  std::string read_store(const std::string& file, const std::string& name, std::int64_t step) override;
+  std::vector<double> peak_memory_mib() override;
 
  private:
   FluidSolver solver_;

@@ -29,19 +29,6 @@ void write_scalar_attribute(hid_t obj, const char* name, hid_t file_type, hid_t 
   h5_check(H5Awrite(attr.get(), mem_type, &value), std::string("cannot write the HDF5 attribute ") + name);
 }
 
-/// A float64 dataset [nz][ny][nx] (components == 1) or [nz][ny][nx][components].
-void write_field(hid_t file, const std::string& file_name, const char* name, const GridShape& s,
-                 int components, const double* data, const char* units) {
-  const hsize_t dims[4] = {hsize_t(s.nz), hsize_t(s.ny), hsize_t(s.nx), hsize_t(components)};
-  const int rank = components == 1 ? 3 : 4;
-  const std::string where = file_name + ":/" + name;
-  const H5Id space(H5Screate_simple(rank, dims, nullptr), H5Sclose, "cannot make the dataspace of " + where);
-  const H5Id dset(H5Dcreate2(file, name, H5T_IEEE_F64LE, space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
-                  H5Dclose, "cannot create " + where);
-  h5_check(H5Dwrite(dset.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, data), "cannot write " + where);
-  protocol::put_string_attribute(dset.get(), "units", units);
-}
-
 }  // namespace
 
 FieldWriter::FieldWriter(std::string dir, double dx_um, double dt_us, std::string prefix,
@@ -64,8 +51,17 @@ std::string FieldWriter::snapshot_name(std::int64_t step) const {
   return prefix_ + buf;
 }
 
+void FieldPart::whole(const FluidSolver& solver, FieldPart& into) {
+  solver.macroscopic(into.m);
+  for (int a = 0; a < 3; ++a) into.periodic[std::size_t(a)] = solver.boundaries().face(2 * a).kind == FaceKind::Periodic;
+  into.ghosts = 0;
+  into.z0 = 0;
+  into.nz_whole = solver.shape().nz;
+  into.step = solver.step_count();
+}
+
 GridShape FieldWriter::written_shape() const {
-  GridShape s = m_.shape;
+  GridShape s = grid_;
   if (y_plane_ >= 0) s.ny = 1;
   return s;
 }
@@ -103,14 +99,51 @@ bool FieldWriter::adopt(std::int64_t step) {
 }
 
 void FieldWriter::write(const FluidSolver& solver) {
-  const std::int64_t step = solver.step_count();
-  solver.macroscopic(m_);
-  vorticity(solver, m_, wx_, wy_, wz_);
-  if (y_plane_ >= m_.shape.ny)
-    throw std::invalid_argument("FieldWriter: plane y = " + std::to_string(y_plane_) +
-                                " outside a grid of ny = " + std::to_string(m_.shape.ny));
+  FieldPart::whole(solver, whole_);
+  write(whole_, nullptr);
+}
 
-  protocol::write_atomically(snapshot_path(step), [&](const fs::path& part) { write_hdf5(part, step); });
+void FieldWriter::write(const FieldPart& part, const protocol::WriteGroup* group) {
+  const protocol::WriteGroup alone;
+  const protocol::WriteGroup& g = group != nullptr ? *group : alone;
+  const std::int64_t step = part.step;
+  grid_ = GridShape{part.m.shape.nx, part.m.shape.ny, part.nz_whole};
+  if (y_plane_ >= grid_.ny)
+    throw std::invalid_argument("FieldWriter: plane y = " + std::to_string(y_plane_) +
+                                " outside a grid of ny = " + std::to_string(grid_.ny));
+  vorticity(part.m, part.periodic, part.ghosts, part.z0, part.nz_whole, wx_, wy_, wz_);
+
+  // Whole or not at all (protocol::write_atomically): the part file, renamed when every
+  // process has written its rows.
+  const fs::path file = snapshot_path(step), part_file = protocol::part_path(file);
+  std::string error;
+  if (g.leads()) {
+    try {
+      create_hdf5(part_file, step);
+    } catch (const std::exception& x) {
+      error = x.what();
+    }
+  }
+  if (error = g.first_error(error); error.empty()) {
+    try {
+      write_rows(part_file, part, g);
+    } catch (const std::exception& x) {
+      error = x.what();
+    }
+    error = g.first_error(error);
+  }
+  if (g.leads()) {
+    try {
+      if (error.empty()) protocol::rename_or_throw(part_file, file);
+    } catch (const std::exception& x) {
+      error = x.what();
+    }
+    if (!error.empty()) {
+      std::error_code ec;
+      fs::remove(part_file, ec);  // a full disk leaves no part file behind
+    }
+  }
+  if (!(error = g.first_error(error)).empty()) throw std::runtime_error(error);
 
   const auto same = [step](const Snapshot& s) { return s.step == step; };
   const auto it = std::find_if(snapshots_.begin(), snapshots_.end(), same);
@@ -118,10 +151,10 @@ void FieldWriter::write(const FluidSolver& solver) {
     it->shape = written_shape();
   else
     snapshots_.push_back({step, written_shape()});
-  write_xdmf();
+  if (g.leads()) write_xdmf();
 }
 
-void FieldWriter::write_hdf5(const fs::path& file, std::int64_t step) {
+void FieldWriter::create_hdf5(const fs::path& file, std::int64_t step) const {
   const H5Quiet quiet;
   const std::string name = file.string();
   H5Id f = protocol::create_output_file(name, "cannot create the HDF5 file " + name);
@@ -134,37 +167,57 @@ void FieldWriter::write_hdf5(const fs::path& file, std::int64_t step) {
     // Node j sits at (j + 1/2) dx in the sheets' frame (plate at y = 0), like the XDMF geometry.
     write_scalar_attribute(f.get(), "y_um", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, (y_plane_ + 0.5) * dx_um_);
     write_scalar_attribute(f.get(), "y_cell", H5T_STD_I64LE, H5T_NATIVE_INT64, std::int64_t(y_plane_));
-    write_scalar_attribute(f.get(), "grid_ny", H5T_STD_I64LE, H5T_NATIVE_INT64, std::int64_t(m_.shape.ny));
+    write_scalar_attribute(f.get(), "grid_ny", H5T_STD_I64LE, H5T_NATIVE_INT64, std::int64_t(grid_.ny));
   }
+  // float64 datasets [nz][ny][nx] (rho) and [nz][ny][nx][3] (u, vorticity in physical units).
   const GridShape s = written_shape();
-  // The cells written, in file order (x fastest): all of them, or the plane's.
+  const std::vector<hsize_t> scalar{hsize_t(s.nz), hsize_t(s.ny), hsize_t(s.nx)};
+  const std::vector<hsize_t> vector{hsize_t(s.nz), hsize_t(s.ny), hsize_t(s.nx), 3};
+  const std::array<std::pair<const char*, const char*>, 3> sets{{{"rho", "1 (rho / rho_0)"}, {"u", "m/s"}, {"vorticity", "1/us"}}};
+  for (const auto& [set, units] : sets) {
+    const H5Id d = protocol::create_dataset(f.get(), set, H5T_IEEE_F64LE, std::string(set) == "rho" ? scalar : vector,
+                                            "cannot create " + name + ":/" + set);
+    protocol::put_string_attribute(d.get(), "units", units);
+  }
+  protocol::stamp_file(f.get());
+  f.close("cannot close the HDF5 file " + name);
+}
+
+void FieldWriter::write_rows(const fs::path& file, const FieldPart& part, const protocol::WriteGroup& g) {
+  const H5Quiet quiet;
+  const std::string name = file.string();
+  H5Id f = protocol::open_for_hyperslabs(name, g, "cannot open the HDF5 file " + name);
+  // This part's cells in file order (x fastest): its planes, whole or their row y_plane.
+  const MacroscopicFields& m = part.m;
+  const int ny = y_plane_ >= 0 ? 1 : m.shape.ny;
   std::vector<std::size_t> cells;
-  cells.reserve(std::size_t(s.nx) * std::size_t(s.ny) * std::size_t(s.nz));
-  for (int z = 0; z < s.nz; ++z)
-    for (int y = 0; y < s.ny; ++y)
-      for (int x = 0; x < s.nx; ++x) cells.push_back(m_.index(x, y_plane_ >= 0 ? y_plane_ : y, z));
+  cells.reserve(std::size_t(m.shape.nx) * std::size_t(ny) * std::size_t(part.nz()));
+  for (int z = part.ghosts; z < part.ghosts + part.nz(); ++z)
+    for (int y = 0; y < ny; ++y)
+      for (int x = 0; x < m.shape.nx; ++x) cells.push_back(m.index(x, y_plane_ >= 0 ? y_plane_ : y, z));
   const std::size_t n = cells.size();
+  const hsize_t first = hsize_t(part.z0), rows = hsize_t(part.nz());
   std::vector<double> rho(n);
-  for (std::size_t i = 0; i < n; ++i) rho[i] = m_.rho[cells[i]];
-  write_field(f.get(), name, "rho", s, 1, rho.data(), "1 (rho / rho_0)");
+  for (std::size_t i = 0; i < n; ++i) rho[i] = m.rho[cells[i]];
+  protocol::write_rows(f.get(), "rho", H5T_NATIVE_DOUBLE, first, rows, rho.data(), g, "cannot write " + name + ":/rho");
 
   // Vectors interleaved per cell, [nz][ny][nx][3], in physical units.
   vec_.resize(3 * n);
   const double u_scale = dx_um_ / dt_us_;  // um/us = m/s
   for (std::size_t i = 0; i < n; ++i) {
-    vec_[3 * i] = u_scale * m_.ux[cells[i]];
-    vec_[3 * i + 1] = u_scale * m_.uy[cells[i]];
-    vec_[3 * i + 2] = u_scale * m_.uz[cells[i]];
+    vec_[3 * i] = u_scale * m.ux[cells[i]];
+    vec_[3 * i + 1] = u_scale * m.uy[cells[i]];
+    vec_[3 * i + 2] = u_scale * m.uz[cells[i]];
   }
-  write_field(f.get(), name, "u", s, 3, vec_.data(), "m/s");
+  protocol::write_rows(f.get(), "u", H5T_NATIVE_DOUBLE, first, rows, vec_.data(), g, "cannot write " + name + ":/u");
   const double w_scale = 1.0 / dt_us_;  // 1/us
   for (std::size_t i = 0; i < n; ++i) {
     vec_[3 * i] = w_scale * wx_[cells[i]];
     vec_[3 * i + 1] = w_scale * wy_[cells[i]];
     vec_[3 * i + 2] = w_scale * wz_[cells[i]];
   }
-  write_field(f.get(), name, "vorticity", s, 3, vec_.data(), "1/us");
-  protocol::stamp_file(f.get());
+  protocol::write_rows(f.get(), "vorticity", H5T_NATIVE_DOUBLE, first, rows, vec_.data(), g,
+                       "cannot write " + name + ":/vorticity");
   f.close("cannot close the HDF5 file " + name);
 }
 

@@ -1,6 +1,7 @@
 // Snapshots of rho, u and vorticity as HDF5 files with an XDMF index for ParaView.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <filesystem>
 #include <string>
@@ -9,7 +10,25 @@
 #include "fluid/solver/fluid_solver.hpp"
 #include "fluid/observables/vorticity.hpp"
 
+namespace cosim::protocol {
+class WriteGroup;
+}
+
 namespace cosim::fluid {
+
+/// What one process writes into a snapshot: planes z0 .. z0 + nz() - 1 of a grid of
+/// nz_whole planes (all of them in one process), their macroscopic fields in `m` from its
+/// plane `ghosts` on, with `ghosts` planes of the grid either side for the vorticity
+/// (vorticity(m, periodic, ghosts, ...)), at step `step`.
+struct FieldPart {
+  MacroscopicFields m;
+  std::array<bool, 3> periodic{};  ///< per axis x, y, z
+  int ghosts = 0, z0 = 0, nz_whole = 0;
+  std::int64_t step = 0;
+  int nz() const { return m.shape.nz - 2 * ghosts; }
+  /// The whole grid of `solver`, in `into` (its arrays reused).
+  static void whole(const FluidSolver& solver, FieldPart& into);
+};
 
 /// Writes into directory `dir` (created if missing):
 ///  - fields_NNNNNN.h5 per snapshot (step number, at least six digits) with datasets
@@ -37,6 +56,11 @@ class FieldWriter {
   /// Snapshot at solver.step_count(); a second snapshot of the same step replaces the first.
   /// Throws std::runtime_error with a one-line message on I/O failure.
   void write(const FluidSolver& solver);
+  /// The same, written by the processes of `group` together (nullptr: this one alone), each
+  /// its own part (parallel HDF5, DESIGN 8): the leading process creates the file and its
+  /// XDMF index, each writes its planes' rows. Collective; the same exception on every
+  /// process.
+  void write(const FieldPart& part, const protocol::WriteGroup* group);
 
   /// Lists the snapshot of `step` that an earlier run wrote into this folder (a restart,
   /// DESIGN 2.4) in the XDMF file from the next write() on, if its file exists; returns
@@ -56,7 +80,10 @@ class FieldWriter {
   std::string snapshot_name(std::int64_t step) const;
   /// The shape written: the grid, or one y plane of it.
   GridShape written_shape() const;
-  void write_hdf5(const std::filesystem::path& file, std::int64_t step);
+  /// The leading process: the file with its attributes and datasets, no values yet.
+  void create_hdf5(const std::filesystem::path& file, std::int64_t step) const;
+  /// Every process: its part's rows of rho, u and vorticity.
+  void write_rows(const std::filesystem::path& file, const FieldPart& part, const protocol::WriteGroup& group);
   void write_xdmf() const;
 
   std::filesystem::path dir_;
@@ -64,8 +91,9 @@ class FieldWriter {
   std::string prefix_;
   int y_plane_;
   std::vector<Snapshot> snapshots_;
+  GridShape grid_{};  // the whole grid's shape, of the latest write
   // Work arrays kept between snapshots.
-  MacroscopicFields m_;
+  FieldPart whole_;
   std::vector<double> wx_, wy_, wz_, vec_;
 };
 

@@ -37,10 +37,16 @@ void Snapshots::adopt_up_to(std::int64_t step) {
 }
 
 void Snapshots::write(const FluidSolver& solver, bool last) {
-  const std::int64_t step = solver.step_count();
-  if (fields_ && (step % fields_every_ == 0 || last)) fields_->write(solver);
+  if (!due(solver.step_count(), last)) return;
+  FieldPart::whole(solver, whole_);
+  write(whole_, nullptr, last);
+}
+
+void Snapshots::write(const FieldPart& part, const protocol::WriteGroup* group, bool last) {
+  const std::int64_t step = part.step;
+  if (fields_ && (step % fields_every_ == 0 || last)) fields_->write(part, group);
   if (planes_every_ > 0 && (step % planes_every_ == 0 || last))
-    for (FieldWriter& w : planes_) w.write(solver);
+    for (FieldWriter& w : planes_) w.write(part, group);
 }
 
 SilentWrite largest_silent_write(const FluidScene& scene) {

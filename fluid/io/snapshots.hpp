@@ -23,6 +23,10 @@ class Snapshots {
   }
   /// Writes the snapshots due at the solver's step. @pre the state is healthy
   void write(const FluidSolver& solver, bool last);
+  /// The same from each process's part of the grid, written by the processes of `group`
+  /// together (FieldWriter::write; collective): a run over MPI ranks, each rank with its
+  /// own Snapshots of the scene.
+  void write(const FieldPart& part, const protocol::WriteGroup* group, bool last);
   /// A restart at `step`: lists the snapshots an earlier run wrote up to `step` (included)
   /// in the XDMF files (FieldWriter::adopt).
   void adopt_up_to(std::int64_t step);
@@ -32,6 +36,7 @@ class Snapshots {
   std::int64_t fields_every_, planes_every_;
   std::optional<FieldWriter> fields_;
   std::vector<FieldWriter> planes_;
+  FieldPart whole_;  // the serial write's fields, kept between snapshots
 };
 
 /// The largest file a coupled fluid writes between two of its messages, while the solid

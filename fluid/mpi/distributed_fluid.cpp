@@ -6,6 +6,8 @@
 #include <type_traits>
 #include <vector>
 
+#include "common/hdf5/hdf5_handle.hpp"
+#include "common/run/peak_memory.hpp"
 #include "fluid/lattice/d3q19.hpp"
 #include "fluid/mpi/mpi_world.hpp"
 
@@ -22,8 +24,6 @@ DistributedFluid::DistributedFluid(const FluidScene& scene, MPI_Comm comm) : com
   const FluidParams params = slab_params(scene.params, slab_, halo);
   halo_ = std::make_unique<SlabHalo>(comm, slab_neighbours(scene.params, slab_));
   block_ = std::make_unique<FluidSolver>(params, halo_.get());
-  // Rank 0's whole grid, for the snapshots: made at the first gather (a run without
-  // snapshots never holds it).
   whole_params_ = scene.params;
   owner_.resize(std::size_t(scene.params.shape.nz));
   for (int r = 0; r < slab_.count; ++r) {
@@ -41,146 +41,179 @@ void DistributedFluid::initialize(const FluidScene& scene) {
 std::string DistributedFluid::describe() const {
   return "slabs along z over " + std::to_string(ranks_) + " MPI ranks (blocks [1, 1, " +
          std::to_string(slab_.count) +
-         "]); rank 0 adds the monitor's row sums, gathers the grid for snapshots and checkpoints and sums the "
-         "markers' samples";
+         "]); rank 0 adds the monitor's row sums and sums the markers' samples; each rank writes its own planes of "
+         "the snapshots and checkpoints (parallel HDF5)";
 }
 
-template <class T>
-void DistributedFluid::gather_field(const BasicPopulationField<T>& from, BasicPopulationField<T>* into) {
-  // Per population a slab's planes are contiguous, and so are they in the whole grid (same
-  // nx and ny: the same rows and planes), at the slab's z0. Each slab sends its planes
-  // z = 0 .. nz - 1 with their x and y ghosts, the first slab its z = -1 ghost plane too and
-  // the last its z = nz one: every ghost a pull of the whole grid reads, with the bits the
-  // slabs' own fills gave them, which are the undivided grid's (a refill on rank 0 would give
-  // the same bits since the kernel's x-outflow ghosts come from the values as stored,
-  // FusedStepMatchesGhostFillStepSingleStore, but the gathered ones need no such link). Except
-  // the reflecting faces' ghosts next to a slab's edge: a wall's ghost lies in the plane of
-  // its neighbour cell's neighbour, which the other slab filled; gather() redoes those.
-  // In values: a plane's last row may end one value into the next plane (the single store's
-  // compact rows: x = nx of row y = ny at the next plane's offset 0, never a value of that
-  // plane's own), so each slab's range begins one value into its first plane and ends one
-  // value into the plane after its last; the last slab's runs to the end of the store.
-  const MPI_Datatype type = std::is_same_v<T, double> ? MPI_DOUBLE : MPI_FLOAT;
-  const std::ptrdiff_t plane = from.layout().plane_stride();
+// ---- snapshots and checkpoints: each rank its own share of the files (parallel HDF5) ----
+
+void DistributedFluid::fill_part() {
+  // The block's macroscopic fields, in part_.m from plane kGhosts on; the vorticity's
+  // differences along z reach 2 planes beyond the block: those of the neighbours (or their
+  // periodic images), whichever rank holds them, the velocity only.
+  constexpr int kGhosts = 2;
+  const FluidSolver& b = *block_;
+  const GridShape& bs = b.shape();
   const int nz_whole = whole_params_.shape.nz;
-  const std::ptrdiff_t whole_stride = std::ptrdiff_t(layout_of(whole_params_.shape, whole_params_.precision).stride());
-  // Slab r's range [begin, end) in the whole store (ghost plane z = -1 at offset 0).
-  const auto range = [&](int r, std::ptrdiff_t& begin, std::ptrdiff_t& end) {
-    const Slab s = slab_of(nz_whole, slab_.count, r);
-    begin = r == 0 ? 0 : std::ptrdiff_t(s.z0 + 1) * plane + 1;
-    if (r + 1 < slab_.count) {
-      end = std::ptrdiff_t(s.z0 + s.nz + 1) * plane + 1;
+  const bool periodic_z = whole_params_.faces[ZMin].kind == FaceKind::Periodic;
+  FieldPart& p = part_;
+  p.m.shape = GridShape{bs.nx, bs.ny, bs.nz + 2 * kGhosts};
+  const std::size_t plane = std::size_t(bs.nx) * std::size_t(bs.ny), n = plane * std::size_t(p.m.shape.nz);
+  for (std::vector<double>* v : {&p.m.rho, &p.m.ux, &p.m.uy, &p.m.uz}) v->assign(n, 0.0);
+  b.macroscopic(p.m, kGhosts);
+  for (int a = 0; a < 3; ++a) p.periodic[std::size_t(a)] = whole_params_.faces[std::size_t(2 * a)].kind == FaceKind::Periodic;
+  p.ghosts = kGhosts;
+  p.z0 = slab_.z0;
+  p.nz_whole = nz_whole;
+  p.step = b.step_count();
+
+  // The ghost planes a rank needs (slot 0..3: z0 - 2, z0 - 1, z0 + nz, z0 + nz + 1), as
+  // planes of the whole grid, -1 where the grid has none (beyond a wall).
+  const auto needed = [&](int rank, int slot) {
+    const Slab s = slab_of(nz_whole, slab_.count, rank);
+    int z = slot < 2 ? s.z0 - 2 + slot : s.z0 + s.nz + (slot - 2);
+    if (periodic_z) return ((z % nz_whole) + nz_whole) % nz_whole;
+    return z >= 0 && z < nz_whole ? z : -1;
+  };
+  const auto pack = [&](int z_local, std::vector<double>& out) {  // a plane of the block's u
+    out.resize(3 * plane);
+    const std::ptrdiff_t from = std::ptrdiff_t(plane) * (z_local + kGhosts);
+    std::copy_n(p.m.ux.begin() + from, plane, out.begin());
+    std::copy_n(p.m.uy.begin() + from, plane, out.begin() + std::ptrdiff_t(plane));
+    std::copy_n(p.m.uz.begin() + from, plane, out.begin() + std::ptrdiff_t(2 * plane));
+  };
+  const auto unpack = [&](int slot, const std::vector<double>& in) {
+    const int z = slot < 2 ? slot : kGhosts + bs.nz + (slot - 2);
+    const std::ptrdiff_t to = std::ptrdiff_t(plane) * z, np = std::ptrdiff_t(plane);
+    std::copy_n(in.begin(), plane, p.m.ux.begin() + to);
+    std::copy_n(in.begin() + np, plane, p.m.uy.begin() + to);
+    std::copy_n(in.begin() + 2 * np, plane, p.m.uz.begin() + to);
+  };
+  constexpr int kTag = 400;  // + slot
+  std::vector<std::vector<double>> sends, receives(4);
+  std::vector<MPI_Request> req;
+  sends.reserve(std::size_t(4 * ranks_));
+  for (int slot = 0; slot < 4; ++slot) {
+    const int z = needed(rank_, slot);
+    if (z < 0) continue;
+    if (owner(z) == rank_) {
+      std::vector<double> mine;
+      pack(z - slab_.z0, mine);
+      unpack(slot, mine);
     } else {
-      const GridShape shape{whole_params_.shape.nx, whole_params_.shape.ny, s.nz};
-      end = std::min(whole_stride, std::ptrdiff_t(s.z0) * plane +
-                                       std::ptrdiff_t(layout_of(shape, whole_params_.precision).stride()));
-    }
-  };
-  std::ptrdiff_t begin = 0, end = 0;
-  range(rank_, begin, end);
-  const std::ptrdiff_t local_begin = begin - std::ptrdiff_t(slab_.z0) * plane;  // the slab's plane z = -1 at 0
-  std::vector<int> counts, displs;
-  if (rank_ == 0) {
-    counts.resize(std::size_t(ranks_));
-    displs.resize(std::size_t(ranks_));
-    for (int r = 0; r < ranks_; ++r) {
-      std::ptrdiff_t b = 0, e = 0;
-      range(r, b, e);
-      counts[std::size_t(r)] = int(e - b);
-      displs[std::size_t(r)] = int(b);
+      receives[std::size_t(slot)].resize(3 * plane);
+      req.emplace_back();
+      check(MPI_Irecv(receives[std::size_t(slot)].data(), int(3 * plane), MPI_DOUBLE, owner(z), kTag + slot, comm_,
+                      &req.back()),
+            "MPI_Irecv (velocity planes for the vorticity)");
     }
   }
-  for (int q = 0; q < D3Q19::Q; ++q)
-    check(MPI_Gatherv(from.q(q) + local_begin, int(end - begin), type, rank_ == 0 ? into->q(q) : nullptr,
-                      counts.data(), displs.data(), type, 0, comm_),
-          "MPI_Gatherv (fields to rank 0)");
+  for (int r = 0; r < ranks_; ++r) {
+    if (r == rank_) continue;
+    for (int slot = 0; slot < 4; ++slot) {
+      const int z = needed(r, slot);
+      if (z < 0 || owner(z) != rank_) continue;
+      sends.emplace_back();
+      pack(z - slab_.z0, sends.back());
+      req.emplace_back();
+      check(MPI_Isend(sends.back().data(), int(3 * plane), MPI_DOUBLE, r, kTag + slot, comm_, &req.back()),
+            "MPI_Isend (velocity planes for the vorticity)");
+    }
+  }
+  check(MPI_Waitall(int(req.size()), req.data(), MPI_STATUSES_IGNORE), "MPI_Waitall (velocity planes)");
+  for (int slot = 0; slot < 4; ++slot)
+    if (const int z = needed(rank_, slot); z >= 0 && owner(z) != rank_) unpack(slot, receives[std::size_t(slot)]);
 }
 
-template <class T>
-void DistributedFluid::gather_into_whole(const BasicPopulationField<T>& from) {
-  if (rank_ == 0 && whole_ == nullptr) whole_ = std::make_unique<FluidSolver>(whole_params_);
-  if constexpr (std::is_same_v<T, double>) {
-    gather_field(from, rank_ == 0 ? &whole_->mutable_state() : nullptr);
-    if (rank_ == 0) whole_->boundaries().fill_reflect_ghosts(whole_->mutable_state());
+void DistributedFluid::write_snapshots(Snapshots& s, bool last) {
+  if (!s.due(block_->step_count(), last)) return;
+  fill_part();
+  const protocol::WriteGroup group(comm_);
+  s.write(part_, &group, last);
+}
+
+StoreShare DistributedFluid::share(bool reading) const {
+  // Per population a slab's planes are contiguous, and so are they in the whole grid (same
+  // nx and ny: the same rows and planes), at the slab's z0.
+  const std::ptrdiff_t plane = block_->layout().plane_stride();
+  StoreShare sh;
+  sh.is_double = block_->precision() == Precision::Double;
+  sh.whole_stride = layout_of(whole_params_.shape, whole_params_.precision).stride();
+  sh.local_stride = block_->layout().stride();
+  const std::ptrdiff_t whole_stride = std::ptrdiff_t(sh.whole_stride);
+  if (reading) {
+    // A restart: each block's whole store, ghost and halo planes included, is the whole
+    // grid's store from the block's plane z = -1 on (and the values after its plane z = nz
+    // that its rows reach): every value a block's step reads is the one the undivided
+    // grid's step reads there. The blocks' ranges overlap.
+    sh.first = std::size_t(std::ptrdiff_t(slab_.z0) * plane);
+    sh.local_first = 0;
+    sh.count = std::size_t(std::min(std::ptrdiff_t(sh.local_stride), whole_stride - std::ptrdiff_t(sh.first)));
+    return sh;
+  }
+  // A checkpoint: the ranges of the blocks part the whole store. Each slab writes its
+  // planes z = 0 .. nz - 1 with their x and y ghosts, the first slab its z = -1 ghost plane
+  // too and the last its z = nz one: every ghost a pull of the whole grid reads, with the
+  // bits the slabs' own fills gave them, which are the undivided grid's. In values: a
+  // plane's last row may end one value into the next plane (the single store's compact
+  // rows: x = nx of row y = ny at the next plane's offset 0, never a value of that plane's
+  // own), so each slab's range begins one value into its first plane and ends one value
+  // into the plane after its last; the last slab's runs to the end of the store.
+  const Slab& s = slab_;
+  const std::ptrdiff_t begin = s.index == 0 ? 0 : std::ptrdiff_t(s.z0 + 1) * plane + 1;
+  std::ptrdiff_t end = 0;
+  if (s.index + 1 < s.count) {
+    end = std::ptrdiff_t(s.z0 + s.nz + 1) * plane + 1;
   } else {
-    gather_field(from, rank_ == 0 ? &whole_->mutable_state_single() : nullptr);
-    if (rank_ == 0) whole_->boundaries().fill_reflect_ghosts(whole_->mutable_state_single());
+    const GridShape shape{whole_params_.shape.nx, whole_params_.shape.ny, s.nz};
+    end = std::min(whole_stride, std::ptrdiff_t(s.z0) * plane +
+                                     std::ptrdiff_t(layout_of(shape, whole_params_.precision).stride()));
   }
+  sh.first = std::size_t(begin);
+  sh.local_first = std::size_t(begin - std::ptrdiff_t(s.z0) * plane);  // the slab's plane z = -1 at 0
+  sh.count = std::size_t(end - begin);
+  return sh;
 }
 
-void DistributedFluid::gather(bool previous) {
-  const FluidSolver& b = *block_;
-  if (b.precision() == Precision::Double)
-    gather_into_whole(previous ? b.previous_state() : b.state());
-  else
-    gather_into_whole(previous ? b.previous_state_single() : b.state_single());
-  if (rank_ == 0) whole_->set_step_count(previous ? b.step_count() - 1 : b.step_count());
-}
-
-StoreView DistributedFluid::whole_store(bool kept) {
-  const FluidSolver& b = *block_;
-  if (b.precision() == Precision::Double)
-    gather_into_whole(kept ? kept_.field() : b.state());
-  else
-    gather_into_whole(kept ? kept_.field_single() : b.state_single());
-  if (rank_ != 0) return {};
-  return b.precision() == Precision::Double ? store_view(whole_->state()) : store_view(whole_->state_single());
-}
-
-template <class T>
-void DistributedFluid::scatter_field(const T* from, BasicPopulationField<T>& into) {
-  // Each block's whole store, ghost and halo planes included, is the whole grid's store
-  // from the block's plane z = -1 on (and the values after its plane z = nz that its rows
-  // reach): every value a block's step reads is the one the undivided grid's step reads
-  // there. Sent from rank 0 point to point (the blocks' ranges overlap).
-  const MPI_Datatype type = std::is_same_v<T, double> ? MPI_DOUBLE : MPI_FLOAT;
-  const std::ptrdiff_t plane = into.layout().plane_stride();
-  const std::ptrdiff_t whole_stride = std::ptrdiff_t(layout_of(whole_params_.shape, whole_params_.precision).stride());
-  const auto range = [&](int rank, std::ptrdiff_t local_stride, std::ptrdiff_t& begin, std::ptrdiff_t& count) {
-    begin = std::ptrdiff_t(slab_of(whole_params_.shape.nz, slab_.count, rank).z0) * plane;
-    count = std::min(local_stride, whole_stride - begin);
-  };
-  constexpr int kTag = 300;  // + q
-  if (rank_ == 0) {
-    std::vector<MPI_Request> req;
-    for (int r = 1; r < ranks_; ++r) {
-      const Slab s = slab_of(whole_params_.shape.nz, slab_.count, r);
-      const GridShape shape{whole_params_.shape.nx, whole_params_.shape.ny, s.nz};
-      std::ptrdiff_t begin = 0, count = 0;
-      range(r, std::ptrdiff_t(layout_of(shape, whole_params_.precision).stride()), begin, count);
-      for (int q = 0; q < D3Q19::Q; ++q) {
-        req.emplace_back();
-        check(MPI_Isend(from + q * whole_stride + begin, int(count), type, r, kTag + q, comm_, &req.back()),
-              "MPI_Isend (a checkpoint to the ranks)");
-      }
-    }
-    std::ptrdiff_t begin = 0, count = 0;
-    range(0, std::ptrdiff_t(into.layout().stride()), begin, count);
-    for (int q = 0; q < D3Q19::Q; ++q) std::copy(from + q * whole_stride + begin, from + q * whole_stride + begin + count, into.q(q));
-    check(MPI_Waitall(int(req.size()), req.data(), MPI_STATUSES_IGNORE), "MPI_Waitall (a checkpoint to the ranks)");
-  } else {
-    std::ptrdiff_t begin = 0, count = 0;
-    range(rank_, std::ptrdiff_t(into.layout().stride()), begin, count);
-    for (int q = 0; q < D3Q19::Q; ++q)
-      check(MPI_Recv(into.q(q), int(count), type, 0, kTag + q, comm_, MPI_STATUS_IGNORE),
-            "MPI_Recv (a checkpoint from rank 0)");
-  }
-}
-
-void DistributedFluid::load_store(const StoreView& from, std::int64_t step) {
+std::string DistributedFluid::write_store(bool kept, const std::string& file, const std::string& name) {
+  const std::string path = broadcast(comm_, file), set = broadcast(comm_, name);
   FluidSolver& b = *block_;
-  const bool dbl = b.precision() == Precision::Double;
-  if (rank_ == 0) {
-    const std::size_t size = std::size_t(D3Q19::Q) * layout_of(whole_params_.shape, whole_params_.precision).stride();
-    if (from.size != size || (dbl ? from.d == nullptr : from.s == nullptr))
-      throw std::invalid_argument("DistributedFluid::load_store: " + std::to_string(from.size) +
-                                  " values of the other precision or size; " + std::to_string(size) + " expected");
+  // The wall ghosts in this block's edge planes that the neighbour blocks' cells fill in the
+  // undivided grid, as they fill them (this block's steps never read them; not across the
+  // periodic wrap, where the undivided grid's sources are ghosts): the file holds the
+  // undivided grid's store.
+  const bool below = slab_.index > 0, above = slab_.index + 1 < slab_.count;
+  const void* store = nullptr;
+  if (!kept) {
+    b.fill_wall_ghosts_of_halo_cells(below, above);
+    store = b.precision() == Precision::Double ? static_cast<const void*>(b.state().q(0))
+                                               : static_cast<const void*>(b.state_single().q(0));
+  } else if (b.precision() == Precision::Double) {
+    b.boundaries().fill_wall_ghosts_of_halo_cells(kept_.mutable_field(), below, above);
+    store = kept_.field().q(0);
+  } else {
+    b.boundaries().fill_wall_ghosts_of_halo_cells(kept_.mutable_field_single(), below, above);
+    store = kept_.field_single().q(0);
   }
-  if (dbl)
-    scatter_field(from.d, b.mutable_state());
-  else
-    scatter_field(from.s, b.mutable_state_single());
-  b.set_step_count(step);
+  const protocol::WriteGroup group(comm_);
+  return write_store_share(path, set, store, share(false), &group);
+}
+
+std::string DistributedFluid::read_store(const std::string& file, const std::string& name, std::int64_t step) {
+  const std::string path = broadcast(comm_, file), set = broadcast(comm_, name);
+  FluidSolver& b = *block_;
+  void* store = b.precision() == Precision::Double ? static_cast<void*>(b.mutable_state().q(0))
+                                                   : static_cast<void*>(b.mutable_state_single().q(0));
+  const std::string error = protocol::WriteGroup(comm_).first_error(read_store_share(path, set, store, share(true)));
+  if (error.empty()) b.set_step_count(step);
+  return error;
+}
+
+std::vector<double> DistributedFluid::peak_memory_mib() {
+  const double mine = protocol::peak_rss_mib();
+  std::vector<double> all(rank_ == 0 ? std::size_t(ranks_) : 0);
+  check(MPI_Gather(&mine, 1, MPI_DOUBLE, all.data(), 1, MPI_DOUBLE, 0, comm_), "MPI_Gather (peak memory)");
+  return all;
 }
 
 std::vector<Vec3> DistributedFluid::from_leader(std::span<const Vec3> values) {
@@ -237,11 +270,6 @@ void DistributedFluid::spread(std::span<const Vec3> X, std::span<const Vec3> J) 
   ib_.spread(std::span<const Vec3>(x), std::span<const Vec3>(j), [&](int cx, int cy, int cz, const Vec3& F) {
     if (owner(cz) == rank_) b.add_force(cx, cy, cz - z0, F[0], F[1], F[2]);
   });
-}
-
-const FluidSolver* DistributedFluid::whole() {
-  gather(false);
-  return whole_.get();
 }
 
 std::string DistributedFluid::kernel_problem(const HealthLimits& limits) {

@@ -1,7 +1,8 @@
 // The fluid grid of a run over MPI ranks (DESIGN 8): one slab per rank, each stepped by the
 // same FluidSolver (kernel and boundary fills) as the undivided grid, with the halo exchange
-// between slabs; the watchdog's extrema combined over the ranks; the whole grid gathered on
-// rank 0 for the monitor and the snapshots, which the serial writers then write as they are.
+// between slabs; the watchdog's extrema combined over the ranks; the monitor's row sums
+// added on rank 0; the snapshots and checkpoints written by every rank, each its own planes
+// (parallel HDF5): no rank holds the whole grid.
 #pragma once
 
 #include <mpi.h>
@@ -20,10 +21,9 @@ namespace cosim::fluid::mpi {
 
 /// Bit for bit the serial run: a cell's step reads the same populations and runs the same
 /// arithmetic whatever slab holds it (whole rows of x, the ghosts as in the whole grid); the
-/// monitor adds the slabs' row sums on rank 0 in the serial order; the snapshots are computed
-/// on rank 0 from the gathered grid with the serial code. The price of the latter: in a run
-/// with snapshots rank 0 holds the whole grid's populations too (twice: FluidSolver's two
-/// fields).
+/// monitor adds the slabs' row sums on rank 0 in the serial order; each rank computes the
+/// snapshots' fields of its own planes with the serial code (the vorticity with the
+/// neighbours' velocity planes) and writes them into the file the serial writer writes.
 ///
 /// The immersed boundary whatever blocks a marker's kernel reaches (DESIGN 8): every rank
 /// lists the nodes of the markers' stencils as the serial sample() does (the whole grid's
@@ -31,7 +31,8 @@ namespace cosim::fluid::mpi {
 /// sums each marker in the serial order; the impulses go to every rank, which spreads all
 /// markers in the serial order onto the nodes it owns, so each node adds its contributions
 /// in the serial order too (a marker whose support straddles a slab edge adds to both).
-/// Checkpoints: the whole grid's store gathered on rank 0; a restart's store scattered.
+/// Checkpoints: each rank writes its range of the whole grid's store into the file one
+/// process writes; a restart reads each block's store (ghost and halo planes included).
 /// Scalar arguments (steps, schedules, limits) must be the same on every rank; the others
 /// are rank 0's.
 class DistributedFluid final : public FluidDomain {
@@ -49,15 +50,16 @@ class DistributedFluid final : public FluidDomain {
   void set_inlet_scale(double s) override { block_->set_inlet_scale(s); }
   std::string kernel_problem(const HealthLimits& limits) override;
   std::optional<FlowSummary> summary() override { return summary_of(false); }
-  const FluidSolver* whole() override;
+  void write_snapshots(Snapshots& s, bool last) override;
   std::string from_leader(const std::string& text) override { return broadcast(comm_, text); }
   std::string describe() const override;
   void sample(std::span<const Vec3> X, std::span<MarkerSample> out) override;
   void spread(std::span<const Vec3> X, std::span<const Vec3> J) override;
   void keep_state() override { kept_.keep(*block_); }
   void restore_kept(std::int64_t step) override { kept_.restore(*block_, step); }
-  StoreView whole_store(bool kept) override;
-  void load_store(const StoreView& from, std::int64_t step) override;
+  std::string write_store(bool kept, const std::string& file, const std::string& name) override;
+  std::string read_store(const std::string& file, const std::string& name, std::int64_t step) override;
+  std::vector<double> peak_memory_mib() override;
 
   const Slab& slab() const { return slab_; }
   const FluidSolver& block() const { return *block_; }
@@ -68,18 +70,11 @@ class DistributedFluid final : public FluidDomain {
   /// sums gathered in row order, their extrema merged; of the current state or (previous)
   /// of the state the last step read, at its step.
   std::optional<FlowSummary> summary_of(bool previous);
-  /// The blocks' current (or, previous = true, last-read) populations into whole_ on rank 0.
-  void gather(bool previous);
-  /// The blocks' `from` into whole_'s state on rank 0, the reflecting ghosts next to the
-  /// slab edges filled again (gather_field).
-  template <class T>
-  void gather_into_whole(const BasicPopulationField<T>& from);
-  template <class T>
-  void gather_field(const BasicPopulationField<T>& from, BasicPopulationField<T>* into);
-  /// Rank 0's store of the whole grid into the blocks' `into`: each block's whole store
-  /// (its ghost and halo planes included) from the whole store's values there.
-  template <class T>
-  void scatter_field(const T* from, BasicPopulationField<T>& into);
+  /// part_: this block's fields for a snapshot, with the velocity planes around it.
+  void fill_part();
+  /// This rank's share of the whole grid's store in a checkpoint: the range it writes, or
+  /// (reading) the block's whole store a restart reads.
+  StoreShare share(bool reading) const;
   /// Rank 0's markers (and impulses) on every rank.
   std::vector<Vec3> from_leader(std::span<const Vec3> values);
   /// The rank that owns plane z of the whole grid.
@@ -91,7 +86,7 @@ class DistributedFluid final : public FluidDomain {
   std::unique_ptr<SlabHalo> halo_;
   std::unique_ptr<FluidSolver> block_;
   FluidParams whole_params_;
-  std::unique_ptr<FluidSolver> whole_;  // rank 0 only, from the first gather on
+  FieldPart part_;                      // kept between snapshots
   ImmersedBoundary ib_;                 // of the whole grid
   std::vector<int> owner_;              // per plane z of the whole grid
   KeptState kept_;                      // of this rank's block

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <optional>
 #include <stdexcept>
 
 #include "fluid/mpi/mpi_world.hpp"
@@ -21,14 +22,15 @@ enum class Call : std::int64_t {
   Schedule,
   KernelProblem,
   Summary,
-  Whole,
+  WriteSnapshots,
   FromLeader,
   Sample,
   Spread,
   Keep,
   RestoreKept,
-  WholeStore,
-  LoadStore,
+  WriteStore,
+  ReadStore,
+  PeakMemory,
   End,
 };
 
@@ -121,9 +123,9 @@ std::optional<FlowSummary> LedDomain::summary() {
   send(orders_, order(Call::Summary));
   return grid_.summary();
 }
-const FluidSolver* LedDomain::whole() {
-  send(orders_, order(Call::Whole));
-  return grid_.whole();
+void LedDomain::write_snapshots(Snapshots& s, bool last) {
+  send(orders_, order(Call::WriteSnapshots, last ? 1 : 0));
+  grid_.write_snapshots(s, last);
 }
 std::string LedDomain::from_leader(const std::string& text) {
   send(orders_, order(Call::FromLeader));
@@ -145,17 +147,23 @@ void LedDomain::restore_kept(std::int64_t step) {
   send(orders_, order(Call::RestoreKept, step));
   grid_.restore_kept(step);
 }
-StoreView LedDomain::whole_store(bool kept) {
-  send(orders_, order(Call::WholeStore, kept ? 1 : 0));
-  return grid_.whole_store(kept);
+std::string LedDomain::write_store(bool kept, const std::string& file, const std::string& name) {
+  send(orders_, order(Call::WriteStore, kept ? 1 : 0));
+  return grid_.write_store(kept, file, name);
 }
-void LedDomain::load_store(const StoreView& from, std::int64_t step) {
-  send(orders_, order(Call::LoadStore, step));
-  grid_.load_store(from, step);
+std::string LedDomain::read_store(const std::string& file, const std::string& name, std::int64_t step) {
+  send(orders_, order(Call::ReadStore, step));
+  return grid_.read_store(file, name, step);
 }
 
-int follow(DistributedFluid& grid, const FluidScene& scene, MPI_Comm orders) {
+std::vector<double> LedDomain::peak_memory_mib() {
+  send(orders_, order(Call::PeakMemory));
+  return grid_.peak_memory_mib();
+}
+
+int follow(DistributedFluid& grid, const FluidScene& scene, double dt_us, MPI_Comm orders) {
   std::vector<MarkerSample> no_samples;
+  std::optional<Snapshots> snapshots;
   for (;;) {
     const Order o = receive(orders);
     switch (static_cast<Call>(o.call)) {
@@ -168,14 +176,22 @@ int follow(DistributedFluid& grid, const FluidScene& scene, MPI_Comm orders) {
         grid.kernel_problem(HealthLimits{o.limits[0], o.limits[1], o.limits[2], o.limits[3]});
         break;
       case Call::Summary: grid.summary(); break;
-      case Call::Whole: grid.whole(); break;
+      case Call::WriteSnapshots:
+        if (!snapshots) snapshots.emplace(scene, dt_us);
+        try {
+          grid.write_snapshots(*snapshots, o.arg != 0);
+        } catch (const std::exception&) {
+          // The same error on rank 0 (FieldWriter::write), which reports it.
+        }
+        break;
       case Call::FromLeader: grid.from_leader(std::string()); break;
       case Call::Sample: grid.sample({}, no_samples); break;
       case Call::Spread: grid.spread({}, {}); break;
       case Call::Keep: grid.keep_state(); break;
       case Call::RestoreKept: grid.restore_kept(o.arg); break;
-      case Call::WholeStore: grid.whole_store(o.arg != 0); break;
-      case Call::LoadStore: grid.load_store(StoreView{}, o.arg); break;
+      case Call::WriteStore: grid.write_store(o.arg != 0, std::string(), std::string()); break;
+      case Call::ReadStore: grid.read_store(std::string(), std::string(), o.arg); break;
+      case Call::PeakMemory: grid.peak_memory_mib(); break;
       case Call::End: return static_cast<int>(o.arg);
       default:
         throw std::runtime_error("rank " + std::to_string(grid.slab().index) + ": an unknown order " +

@@ -11,6 +11,7 @@
 #include <optional>
 #include <span>
 #include <string>
+#include <vector>
 
 #include "fluid/domain/fluid_domain.hpp"
 #include "fluid/mpi/distributed_fluid.hpp"
@@ -38,15 +39,16 @@ class LedDomain final : public FluidDomain {
   void set_row_schedule(RowSchedule schedule) override;
   std::string kernel_problem(const HealthLimits& limits) override;
   std::optional<FlowSummary> summary() override;
-  const FluidSolver* whole() override;
+  void write_snapshots(Snapshots& s, bool last) override;
   std::string from_leader(const std::string& text) override;
   std::string describe() const override { return grid_.describe(); }
   void sample(std::span<const Vec3> X, std::span<MarkerSample> out) override;
   void spread(std::span<const Vec3> X, std::span<const Vec3> J) override;
   void keep_state() override;
   void restore_kept(std::int64_t step) override;
-  StoreView whole_store(bool kept) override;
-  void load_store(const StoreView& from, std::int64_t step) override;
+  std::string write_store(bool kept, const std::string& file, const std::string& name) override;
+  std::string read_store(const std::string& file, const std::string& name, std::int64_t step) override;
+  std::vector<double> peak_memory_mib() override;
 
  private:
   DistributedFluid& grid_;
@@ -55,8 +57,9 @@ class LedDomain final : public FluidDomain {
 };
 
 /// The ranks other than 0: makes the calls rank 0's LedDomain orders on `grid` (the scene's
-/// initial state for Initialize), sleeping between orders (no busy wait while the solid
-/// computes); returns the exit code rank 0 ended the run with.
-int follow(DistributedFluid& grid, const FluidScene& scene, MPI_Comm orders);
+/// initial state for Initialize, the scene's snapshots at dt_us for WriteSnapshots),
+/// sleeping between orders (no busy wait while the solid computes); returns the exit code
+/// rank 0 ended the run with. A snapshot or checkpoint that fails is rank 0's to report.
+int follow(DistributedFluid& grid, const FluidScene& scene, double dt_us, MPI_Comm orders);
 
 }  // namespace cosim::fluid::mpi

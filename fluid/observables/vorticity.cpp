@@ -3,6 +3,7 @@
 #include <array>
 #include <cstddef>
 #include <stdexcept>
+#include <string>
 
 namespace cosim::fluid {
 
@@ -31,19 +32,36 @@ void vorticity(const FluidSolver& solver, const MacroscopicFields& m, std::vecto
   const GridShape& ss = solver.shape();
   if (s.nx != ss.nx || s.ny != ss.ny || s.nz != ss.nz)
     throw std::invalid_argument("vorticity: the macroscopic fields and the solver differ in shape");
-  const std::size_t n = std::size_t(s.cells());
-  if (m.ux.size() != n || m.uy.size() != n || m.uz.size() != n)
-    throw std::invalid_argument("vorticity: the velocity arrays do not match the grid shape");
-  wx.resize(n);
-  wy.resize(n);
-  wz.resize(n);
   std::array<bool, 3> periodic{};
   for (int a = 0; a < 3; ++a)
     periodic[a] = solver.boundaries().face(2 * a).kind == FaceKind::Periodic;
+  vorticity(m, periodic, 0, 0, s.nz, wx, wy, wz);
+}
+
+void vorticity(const MacroscopicFields& m, const std::array<bool, 3>& periodic, int ghosts, int z0, int nz_whole,
+               std::vector<double>& wx, std::vector<double>& wy, std::vector<double>& wz) {
+  const GridShape& s = m.shape;
+  const int nz = s.nz - 2 * ghosts;
+  if (ghosts < 0 || nz < 1 || (ghosts == 0 && nz != nz_whole) || (ghosts > 0 && ghosts < 2) || z0 < 0 ||
+      z0 + nz > nz_whole)
+    throw std::invalid_argument("vorticity: planes " + std::to_string(z0) + " + " + std::to_string(nz) + " with " +
+                                std::to_string(ghosts) + " ghost planes of a grid of " + std::to_string(nz_whole));
+  const std::size_t n = std::size_t(s.cells());
+  if (m.ux.size() != n || m.uy.size() != n || m.uz.size() != n)
+    throw std::invalid_argument("vorticity: the velocity arrays do not match the grid shape");
+  wx.assign(n, 0.0);
+  wy.assign(n, 0.0);
+  wz.assign(n, 0.0);
   const std::ptrdiff_t sx = 1, sy = s.nx, sz = std::ptrdiff_t(s.nx) * s.ny;
+  // Along z a periodic neighbour is a ghost plane where the block has them (the same value
+  // the whole grid's wrap reads), else the wrap of the whole grid.
+  const auto d_dz = [&](const double* p, int z) {
+    if (periodic[2] && ghosts > 0 && nz_whole > 1) return 0.5 * (p[sz] - p[-sz]);
+    return derivative(p, z0 + z - ghosts, nz_whole, sz, periodic[2]);
+  };
 
 #pragma omp parallel for collapse(2) schedule(static)
-  for (int z = 0; z < s.nz; ++z)
+  for (int z = ghosts; z < ghosts + nz; ++z)
     for (int y = 0; y < s.ny; ++y)
       for (int x = 0; x < s.nx; ++x) {
         const std::size_t i = m.index(x, y, z);
@@ -51,8 +69,8 @@ void vorticity(const FluidSolver& solver, const MacroscopicFields& m, std::vecto
         const double* uy = m.uy.data() + i;
         const double* uz = m.uz.data() + i;
         const double duz_dy = derivative(uz, y, s.ny, sy, periodic[1]);
-        const double duy_dz = derivative(uy, z, s.nz, sz, periodic[2]);
-        const double dux_dz = derivative(ux, z, s.nz, sz, periodic[2]);
+        const double duy_dz = d_dz(uy, z);
+        const double dux_dz = d_dz(ux, z);
         const double duz_dx = derivative(uz, x, s.nx, sx, periodic[0]);
         const double duy_dx = derivative(uy, x, s.nx, sx, periodic[0]);
         const double dux_dy = derivative(ux, y, s.ny, sy, periodic[1]);

@@ -1,6 +1,7 @@
 // Vorticity omega = curl u of the macroscopic velocity (DESIGN 4.4), lattice units.
 #pragma once
 
+#include <array>
 #include <vector>
 
 #include "fluid/solver/fluid_solver.hpp"
@@ -15,5 +16,14 @@ namespace cosim::fluid {
 /// @pre m.shape == solver.shape() and m holds solver.macroscopic() or a field of that shape.
 void vorticity(const FluidSolver& solver, const MacroscopicFields& m, std::vector<double>& wx,
                std::vector<double>& wy, std::vector<double>& wz);
+
+/// The same for planes z0 .. z0 + nz - 1 of a grid of nz_whole planes (a block of a run over
+/// MPI ranks, DESIGN 8): `m` holds them from its plane `ghosts` on, with `ghosts` planes of
+/// the grid either side (the neighbours' planes, periodic images across a periodic z face;
+/// unused beyond a wall); wx, wy, wz are stored like m, their ghost planes left 0. Bit for
+/// bit the whole grid's vorticity at those planes (the same differences of the same
+/// values). `periodic`: per axis x, y, z. @pre ghosts >= 2 or nz == nz_whole and ghosts == 0
+void vorticity(const MacroscopicFields& m, const std::array<bool, 3>& periodic, int ghosts, int z0, int nz_whole,
+               std::vector<double>& wx, std::vector<double>& wy, std::vector<double>& wz);
 
 }  // namespace cosim::fluid

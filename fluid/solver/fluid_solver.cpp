@@ -144,6 +144,14 @@ const PopulationField& FluidSolver::state() const {
   make_canonical("state()");
   return f_;
 }
+void FluidSolver::fill_wall_ghosts_of_halo_cells(bool below, bool above) {
+  make_canonical("fill_wall_ghosts_of_halo_cells()");
+  if (params_.precision == Precision::Double)
+    bc_.fill_wall_ghosts_of_halo_cells(f_, below, above);
+  else
+    bc_.fill_wall_ghosts_of_halo_cells(fs_, below, above);
+}
+
 PopulationField& FluidSolver::mutable_state() {
   if (params_.precision != Precision::Double) wrong_precision("mutable_state()", params_.precision);
   make_canonical("mutable_state()");
@@ -510,12 +518,21 @@ void FluidSolver::macroscopic(MacroscopicFields& out) const {
   out.ux.resize(n);
   out.uy.resize(n);
   out.uz.resize(n);
+  macroscopic(out, 0);
+}
+
+void FluidSolver::macroscopic(MacroscopicFields& out, int z_at) const {
+  const GridShape& s = layout_.shape();
+  const std::size_t n = std::size_t(out.shape.cells());
+  if (out.shape.nx != s.nx || out.shape.ny != s.ny || z_at < 0 || out.shape.nz < z_at + s.nz || out.rho.size() != n ||
+      out.ux.size() != n || out.uy.size() != n || out.uz.size() != n)
+    throw std::invalid_argument("FluidSolver::macroscopic: fields of another shape");
 #pragma omp parallel for collapse(2) schedule(static)
   for (int z = 0; z < s.nz; ++z)
     for (int y = 0; y < s.ny; ++y)
       for (int x = 0; x < s.nx; ++x) {
         const CellState c = cell(x, y, z);
-        const std::size_t i = out.index(x, y, z);
+        const std::size_t i = out.index(x, y, z + z_at);
         out.rho[i] = c.rho;
         out.ux[i] = c.ux;
         out.uy[i] = c.uy;

@@ -118,6 +118,10 @@ class FluidSolver {
   CellState cell(int x, int y, int z) const;
   /// rho and u at every interior cell (OpenMP).
   void macroscopic(MacroscopicFields& out) const;
+  /// The same into planes z_at .. z_at + nz - 1 of `out`, whose shape is this grid's with
+  /// more planes (a block's fields with room for its neighbours' planes); the other planes
+  /// are left as they are. @pre out.shape: nx and ny this grid's, nz >= z_at + this nz
+  void macroscopic(MacroscopicFields& out, int z_at) const;
 
   const GridShape& shape() const { return layout_.shape(); }
   const GridLayout& layout() const { return layout_; }
@@ -157,6 +161,11 @@ class FluidSolver {
   const PopulationFieldSingle& previous_state_single() const;
   /// Call after changing mutable_state() or mutable_state_single() by hand.
   void refresh_ghosts();
+  /// A block's wall ghosts that the neighbour blocks' cells fill in the undivided grid
+  /// (BoundaryConditions::fill_wall_ghosts_of_halo_cells), in the current state, which is
+  /// otherwise unchanged (this block's steps never read them): before its share of a
+  /// checkpoint is written.
+  void fill_wall_ghosts_of_halo_cells(bool below, bool above);
   /// A restart from a checkpoint (DESIGN 2.4): the step count the restored state is at.
   void set_step_count(std::int64_t steps) { steps_ = steps; }
 

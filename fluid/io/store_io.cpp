@@ -1,0 +1,64 @@
+#include "fluid/io/store_io.hpp"
+
+#include <exception>
+
+#include "fluid/io/hdf5_handle.hpp"
+#include "fluid/io/hdf5_quiet.hpp"
+#include "fluid/lattice/d3q19.hpp"
+
+namespace cosim::fluid {
+
+std::string write_store_share(const std::string& file, const std::string& name, const void* store,
+                              const StoreShare& share, const protocol::WriteGroup* group) {
+  const protocol::WriteGroup alone;
+  const protocol::WriteGroup& g = group != nullptr ? *group : alone;
+  const H5Quiet quiet;
+  const std::string what = "checkpoint " + file + ": cannot write " + name;
+  const hid_t mem_type = share.is_double ? H5T_NATIVE_DOUBLE : H5T_NATIVE_FLOAT;
+  const std::size_t size = share.is_double ? sizeof(double) : sizeof(float);
+  std::string error;
+  // Every process makes the same collective calls even after a failure of its own (the
+  // open, one write per population, the close), so that none waits for it.
+  H5Id f;
+  try {
+    f = protocol::open_for_hyperslabs(file, g, what);
+  } catch (const std::exception& x) {
+    error = x.what();
+  }
+  if (!(error = g.first_error(error)).empty()) return error;
+  for (int q = 0; q < D3Q19::Q; ++q) {
+    const auto* from = static_cast<const unsigned char*>(store) + (q * share.local_stride + share.local_first) * size;
+    try {
+      protocol::write_rows(f.get(), name, mem_type, hsize_t(q * share.whole_stride + share.first),
+                           hsize_t(share.count), from, g, what);
+    } catch (const std::exception& x) {
+      if (error.empty()) error = x.what();
+    }
+  }
+  try {
+    f.close(what);
+  } catch (const std::exception& x) {
+    if (error.empty()) error = x.what();
+  }
+  return g.first_error(error);
+}
+
+std::string read_store_share(const std::string& file, const std::string& name, void* store, const StoreShare& share) {
+  const H5Quiet quiet;
+  const std::string what = "checkpoint " + file + ": cannot read " + name;
+  const hid_t mem_type = share.is_double ? H5T_NATIVE_DOUBLE : H5T_NATIVE_FLOAT;
+  const std::size_t size = share.is_double ? sizeof(double) : sizeof(float);
+  try {
+    const H5Id f(H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose, what);
+    for (int q = 0; q < D3Q19::Q; ++q) {
+      auto* into = static_cast<unsigned char*>(store) + (q * share.local_stride + share.local_first) * size;
+      protocol::read_values(f.get(), name, mem_type, hsize_t(q * share.whole_stride + share.first),
+                            hsize_t(share.count), into, what);
+    }
+  } catch (const std::exception& x) {
+    return x.what();
+  }
+  return {};
+}
+
+}  // namespace cosim::fluid
