@@ -98,7 +98,7 @@ Result run_all() {
   Result r;
   for (const FluidParams& p : cosim::test::every_boundary_grids()) {
     run<double>(p, Precision::Double, r);
-    run<float>(p, Precision::Single, r);
+    run<float>(p, Precision::Mixed, r);
   }
   return r;
 }

@@ -102,11 +102,11 @@ double max_velocity_difference(const FluidSolver& a, const FluidSolver& b) {
 TEST(Precision, SinglePrecisionWithinTolerance) {
   // Poiseuille start-up against its analytic solution.
   const Poiseuille P;
-  FluidSolver dbl(P.params(Precision::Double)), sgl(P.params(Precision::Single));
+  FluidSolver dbl(P.params(Precision::Double)), sgl(P.params(Precision::Mixed));
   // Half the memory on the paper's grid (rows padded to whole 64-byte lines either way).
-  EXPECT_LT(double(population_bytes({120, 60, 90}, Precision::Single)),
+  EXPECT_LT(double(population_bytes({120, 60, 90}, Precision::Mixed)),
             0.55 * double(population_bytes({120, 60, 90}, Precision::Double)));
-  EXPECT_EQ(sgl.population_bytes(), population_bytes(sgl.shape(), Precision::Single));
+  EXPECT_EQ(sgl.population_bytes(), population_bytes(sgl.shape(), Precision::Mixed));
   for (int n = 0; n < P.steps(); ++n) {
     dbl.step();
     sgl.step();
@@ -136,7 +136,7 @@ TEST(Precision, SinglePrecisionWithinTolerance) {
   EXPECT_LE(err_s, err_d + bound / rms_exact);
 
   // The channel's open boundaries (inlet, outflow written by the kernel, plate, free slip).
-  FluidSolver cd(channel(Precision::Double)), cs(channel(Precision::Single));
+  FluidSolver cd(channel(Precision::Double)), cs(channel(Precision::Mixed));
   const double u_in = channel(Precision::Double).faces[XMin].inlet_speed;
   cd.initialize_uniform(1.0, {u_in, 0.0, 0.0});
   cs.initialize_uniform(1.0, {u_in, 0.0, 0.0});
@@ -159,7 +159,7 @@ TEST(Precision, SingleStoreStreamingMatchesCachedStores) {
   using L = D3Q19;
   for (int nx = 1; nx <= 40; ++nx) {
     const GridShape shape{nx, 3, 2};
-    const GridLayout lay = layout_of(shape, Precision::Single);
+    const GridLayout lay = layout_of(shape, Precision::Mixed);
     ASSERT_EQ(lay.values_per_line(), 16);
     PopulationFieldSingle src(lay), nt(lay), cached(lay);
     const std::size_t n = std::size_t(L::Q) * lay.stride();
@@ -206,7 +206,7 @@ TEST(Precision, SingleStoreStreamingMatchesCachedStores) {
 }
 
 TEST(Precision, DoubleAccessorsRefuseTheSingleStore) {
-  FluidSolver s(channel(Precision::Single));
+  FluidSolver s(channel(Precision::Mixed));
   EXPECT_THROW((void)s.state(), std::logic_error);
   EXPECT_NO_THROW((void)s.state_single());
   FluidSolver d(channel(Precision::Double));

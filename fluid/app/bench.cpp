@@ -361,9 +361,9 @@ Row measure(const Case& base, int threads, Precision precision, Propagation prop
   return row;
 }
 
-/// Whether the table has the peer f32 columns (--peer-pattern with the single store).
+/// Whether the table has the peer f32 columns (--peer-pattern with the mixed mode's float store).
 bool peer_f32_columns(const Options& opt) {
-  return opt.peer && std::find(opt.precisions.begin(), opt.precisions.end(), Precision::Single) != opt.precisions.end();
+  return opt.peer && std::find(opt.precisions.begin(), opt.precisions.end(), Precision::Mixed) != opt.precisions.end();
 }
 
 void print_header(const Options& opt, const std::vector<Case>& cases, const Roofline& roof) {
@@ -372,16 +372,16 @@ void print_header(const Options& opt, const std::vector<Case>& cases, const Roof
               kernel_level_source());
   std::printf("two-grid fields of %.1f MiB and more written with non-temporal stores (the L3 size of CPU 0, else 32)\n",
               double(streaming_stores_from()) / double(1 << 20));
-  std::printf("cosim fluid bench: D3Q19 BGK-Guo, arithmetic in double, populations stored in");
+  std::printf("cosim fluid bench: D3Q19 BGK-Guo, structure of arrays, precision modes");
   for (const Precision p : opt.precisions) std::printf(" %s", precision_name(p));
-  std::printf(", structure of arrays\n");
+  std::printf(" (double: double store and arithmetic; mixed: float store, double arithmetic)\n");
   std::printf("medians of %d repeats of %d steps; OMP_PROC_BIND=%s; rows %s\n", opt.repeat, opt.steps,
               std::getenv("OMP_PROC_BIND") ? std::getenv("OMP_PROC_BIND") : "(unset)",
               opt.schedule == RowSchedule::Static ? "static" : "dynamic (64 chunks)");
   std::printf("B = bytes/update = 2 x 19 x 8 = %.0f for the double store, 2 x 19 x 4 = %.0f for\n"
-              "    the single one (19 values read + 19 written, counted as STREAM counts copy;\n"
+              "    the float one (19 values read + 19 written, counted as STREAM counts copy;\n"
               "    ordinary stores also move 19 write-allocate reads)\n",
-              bytes_per_update(Precision::Double), bytes_per_update(Precision::Single));
+              bytes_per_update(Precision::Double), bytes_per_update(Precision::Mixed));
   std::printf("prop = propagation (FluidParams::propagation): 2grid = pull from one grid into the\n"
               "    other, stores plain or NT; AA = in place, one grid (the AA pattern), ordinary stores\n"
               "    of lines just loaded (no write-allocate)\n");
@@ -397,8 +397,8 @@ void print_header(const Options& opt, const std::vector<Case>& cases, const Roof
   for (const Roofline::Copy& c : roof.copies)
     std::printf("    %-10s plain %6.1f GB/s   NT %6.1f GB/s\n", c.level.c_str(), c.plain_gbs, c.nt_gbs);
   std::printf("roofline = the best copy, %.1f GB/s (%s), the same for every row: %.1f MLUPS for the\n"
-              "    double store, %.1f for the single one (bandwidth / B)\n",
-              roof.gbs, roof.best.c_str(), roof.mlups(Precision::Double), roof.mlups(Precision::Single));
+              "    double store, %.1f for the float one (bandwidth / B)\n",
+              roof.gbs, roof.best.c_str(), roof.mlups(Precision::Double), roof.mlups(Precision::Mixed));
   std::printf("step = FluidSolver::step() (kernel + ghost fill); kernel = stream_collide only\n"
               "    (with the x-outflow ghosts it writes); AA rows: stream_collide_in_place only, no ghosts\n");
   if (opt.ib && opt.stores == Stores::Auto)
@@ -487,9 +487,9 @@ int main(int argc, char** argv) {
                  "kernel stores: auto (as the solver), plain or nt; not auto: kernel only")
       ->transform(CLI::CheckedTransformer(stores, CLI::ignore_case));
   const std::map<std::string, Precision> precisions{{"double", Precision::Double},
-                                                    {"single", Precision::Single}};
+                                                    {"mixed", Precision::Mixed}};
   app.add_option("--precision", opt.precisions,
-                 "population stores to run: double, single (arithmetic is double either way)")
+                 "precision modes to run ([run] precision): double, mixed (float store, double arithmetic)")
       ->transform(CLI::CheckedTransformer(precisions, CLI::ignore_case));
   const std::map<std::string, RowSchedule> schedules{{"static", RowSchedule::Static},
                                                      {"dynamic", RowSchedule::Dynamic}};
@@ -506,7 +506,7 @@ int main(int argc, char** argv) {
   app.add_flag("--no-ib", no_ib, "skip the immersed-boundary columns");
   app.add_flag("--peer-pattern", opt.peer,
                "also run the peer pattern, a minimal in-place (AA) D3Q19 BGK kernel, on the same grid\n"
-               "(single store: also in float arithmetic, peer f32)");
+               "(mixed: also in float arithmetic, peer f32)");
   std::string level;
   app.add_option("--level", level,
                  "kernel instruction-set level to run (default: the highest this CPU runs, or "

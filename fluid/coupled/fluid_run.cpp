@@ -312,9 +312,10 @@ int FluidRun::peer_ending(Ending e, std::int64_t step, const std::string& note) 
 
 // ---- coupled checkpoints (DESIGN 2.4; protocol/README.md section 10) ----
 
-/// The populations of either store (precision "double" or "single") of the whole grid
-/// (gathered from the blocks of a run over MPI ranks); a restart reads them back into a run
-/// of the same precision, on any number of ranks.
+/// The populations of either store (doubles, or floats for the modes "mixed" and "single") of
+/// the whole grid (gathered from the blocks of a run over MPI ranks), with the precision mode's
+/// name and its arithmetic; a restart reads them back into a run of the same mode, on any
+/// number of ranks (precision_problem).
 std::string FluidRun::checkpoint(std::int64_t step, const std::string& reason, bool kept) {
   namespace fs = std::filesystem;
   const StoreView f = domain_.whole_store(kept);
@@ -341,7 +342,10 @@ std::string FluidRun::checkpoint(std::int64_t step, const std::string& reason, b
       w.put("populations", f.d, f.size);
     else
       w.put("populations", f.s, f.size);
-    w.text("precision", f.d == nullptr ? "single" : "double");
+    w.text("precision", precision_name(s_.params.precision));
+    // Marks the names of issue 35 ("mixed" = float store, double arithmetic, called "single"
+    // before): a checkpoint without it is an older build's (precision_problem).
+    w.text("arithmetic", float_arithmetic(s_.params.precision) ? "float" : "double");
     put_rows(w, rows_);
     w.commit();
     protocol::prune_checkpoints(dir, "fluid_", 3, run_id_);
@@ -371,7 +375,11 @@ std::int64_t FluidRun::restore(std::optional<cosimlcm::fluid_state_t>& in_flight
     throw std::runtime_error("num_cgps = " + std::to_string(r.int64_attr("num_cgps")) + ", but the solid announced " +
                              std::to_string(coord_.num_cgps()));
   // The populations in the store's precision (its "precision" text): the scene hash above
-  // ties the checkpoint to this scene file, run.precision included.
+  // ties the checkpoint to this scene file, run.precision included; the mode's name is
+  // checked too, since an older build's "single" is today's "mixed".
+  if (const std::string why = precision_problem(r.text("precision"), r.has("arithmetic"), s_.params.precision);
+      !why.empty())
+    throw std::runtime_error(why);
   const std::size_t size = std::size_t(D3Q19::Q) * layout_of(s_.params.shape, s_.params.precision).stride();
   StoreView pop;
   std::vector<double> d;

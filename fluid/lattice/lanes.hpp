@@ -77,7 +77,7 @@ inline void store_fence() {
 #endif
 }
 
-// The single-precision store (Precision::Single): kLanes floats are loaded into and stored
+// The single-precision store (Precision::Mixed): kLanes floats are loaded into and stored
 // from the same double Lanes; the conversion to float rounds to nearest.
 using LanesSingle = float __attribute__((vector_size(kLanes * sizeof(float))));
 

@@ -151,12 +151,12 @@ PopulationField& FluidSolver::mutable_state() {
   return f_;
 }
 const PopulationFieldSingle& FluidSolver::state_single() const {
-  if (params_.precision != Precision::Single) wrong_precision("state_single()", params_.precision);
+  if (!stores_floats(params_.precision)) wrong_precision("state_single()", params_.precision);
   make_canonical("state_single()");
   return fs_;
 }
 PopulationFieldSingle& FluidSolver::mutable_state_single() {
-  if (params_.precision != Precision::Single)
+  if (!stores_floats(params_.precision))
     wrong_precision("mutable_state_single()", params_.precision);
   make_canonical("mutable_state_single()");
   have_previous_ = mid_step_ = false;
@@ -171,7 +171,7 @@ const PopulationField& FluidSolver::previous_state() const {
   return g_;
 }
 const PopulationFieldSingle& FluidSolver::previous_state_single() const {
-  if (params_.precision != Precision::Single) wrong_precision("previous_state_single()", params_.precision);
+  if (!stores_floats(params_.precision)) wrong_precision("previous_state_single()", params_.precision);
   if (params_.propagation == Propagation::InPlace)
     throw std::logic_error("FluidSolver::previous_state_single(): the in-place propagation keeps no previous state");
   if (!have_previous_) throw std::logic_error("FluidSolver::previous_state_single(): no step() since the state was set");
