@@ -9,6 +9,7 @@ const char* precision_name(Precision p) {
   switch (p) {
     case Precision::Double: return "double";
     case Precision::Mixed: return "mixed";
+    case Precision::Single: return "single";
   }
   return "?";
 }

@@ -17,13 +17,19 @@ namespace cosim::fluid {
 ///    per update (304 -> 152) at the cost of rounding every stored population to float
 ///    (docs/performance.md, docs/error-vs-runtime.md). Before issue 35 this mode was called
 ///    "single".
-enum class Precision { Double, Mixed };
-/// Its scene name: "double", "mixed".
+///  - Single ("single"): float store and float arithmetic (what single precision means in
+///    most LB codes): the kernel collides groups of floats twice as wide as the double ones
+///    (fluid/collision/stream_collide.hpp, Arithmetic). The cells an immersed boundary forces
+///    are collided again by the one-cell BgkGuo in double, in every mode (FluidSolver).
+enum class Precision { Double, Mixed, Single };
+/// The modes, in the order of their scene names.
+inline constexpr Precision kPrecisionModes[] = {Precision::Double, Precision::Mixed, Precision::Single};
+/// Its scene name: "double", "mixed", "single".
 const char* precision_name(Precision p);
 /// Whether the populations are stored as floats (PopulationFieldSingle).
 constexpr bool stores_floats(Precision p) { return p != Precision::Double; }
-/// Whether the kernel computes in float (no mode yet: double and mixed compute in double).
-constexpr bool float_arithmetic(Precision) { return false; }
+/// Whether the kernel computes in float ("single").
+constexpr bool float_arithmetic(Precision p) { return p == Precision::Single; }
 /// Why the populations of a checkpoint (fluid_run.cpp) written in the mode named `written`
 /// cannot continue a run in mode `run`; empty if they can. `marked`: the checkpoint names its
 /// arithmetic, as every build since issue 35 does; an unmarked one is an older build's, whose

@@ -335,7 +335,8 @@ template <class T>
 void FluidSolver::begin_fields(const BasicPopulationField<T>& f, BasicPopulationField<T>& g) {
   // Boundaries (BoundaryConditions): the kernel writes the x outflows, the inlets stay from
   // fill_static_ghosts, the rest is filled after the swap.
-  stream_collide(f, g, params_.tau, params_.body_force, Stores::Auto, bc_.kernel_outflow(), &extrema_, schedule_);
+  stream_collide(f, g, params_.tau, params_.body_force, Stores::Auto, bc_.kernel_outflow(), &extrema_, schedule_,
+                 arithmetic_of(params_.precision));
 }
 
 template <class T>
@@ -391,7 +392,8 @@ void FluidSolver::begin_in_place(BasicPopulationField<T>& f) {
       saved_inputs_[k * D3Q19::Q + q] =
           canonical ? f.q(q)[i - shift(layout_, q)] : f.q(D3Q19::opp[q])[i];
   }
-  stream_collide_in_place(f, arrangement_, params_.tau, params_.body_force, &extrema_, schedule_, &x_faces_);
+  stream_collide_in_place(f, arrangement_, params_.tau, params_.body_force, &extrema_, schedule_, &x_faces_,
+                          arithmetic_of(params_.precision));
   arrangement_ = canonical ? PopulationLayout::Swapped : PopulationLayout::Canonical;
 }
 
