@@ -4,10 +4,10 @@
 # corotational, A_T = 150, 15000 rigid + 15000 free LB steps) run through launch/run-coupled.sh
 # once per coupling scheme, fluid store and propagation, each timed from the launch to both exits. Prints a
 # table (wall, and per LB step each side's compute / waiting / publishing from its log), then,
-# for a scheme run in both stores, how far the single store's solid.h5 is from the double one
+# for a scheme run in both stores, how far each float mode's solid.h5 is from the double one
 # (launch/compare_solid_runs.py).
 #   bash launch/paper-end-to-end.sh [--no-build] [--schemes "serial parallel"]
-#                                   [--precisions "double single"]
+#                                   [--precisions "double mixed"]
 #                                   [--propagations "two-grid in-place"] [--scene FILE]
 # Defaults: the serial scheme (the paper's) in both stores, the scene's propagation (in place, the default),
 # about 7 minutes here. Outputs in out/paper-end-to-end/DATE-TIME/SCHEME_PRECISION/, a folder of
@@ -19,7 +19,7 @@ root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 . "$root/launch/folders.sh"
 build=1
 schemes="serial"
-precisions="double single"
+precisions="double mixed"
 propagations=""
 scene="$root/scenes/paper/single_theta90_re40.toml"
 while [ $# -gt 0 ]; do
@@ -29,7 +29,7 @@ while [ $# -gt 0 ]; do
     --precisions) precisions="$2"; shift ;;
     --propagations) propagations="$2"; shift ;;
     --scene) scene="$2"; shift ;;
-    *) echo "paper-end-to-end: unknown argument $1 (--no-build, --schemes \"serial parallel\", --precisions \"double single\", --propagations \"two-grid in-place\", --scene FILE)" >&2; exit 2 ;;
+    *) echo "paper-end-to-end: unknown argument $1 (--no-build, --schemes \"serial parallel\", --precisions \"double mixed\", --propagations \"two-grid in-place\", --scene FILE)" >&2; exit 2 ;;
   esac
   shift
 done
@@ -38,7 +38,7 @@ for s in $schemes; do
   case "$s" in serial|parallel|implicit) ;; *) echo "paper-end-to-end: --schemes: \"$s\" is not one of serial, parallel, implicit" >&2; exit 2 ;; esac
 done
 for p in $precisions; do
-  case "$p" in double|single) ;; *) echo "paper-end-to-end: --precisions: \"$p\" is not one of double, single" >&2; exit 2 ;; esac
+  case "$p" in double|mixed|single) ;; *) echo "paper-end-to-end: --precisions: \"$p\" is not one of double, mixed, single" >&2; exit 2 ;; esac
 done
 for p in $propagations; do
   case "$p" in two-grid|in-place) ;; *) echo "paper-end-to-end: --propagations: \"$p\" is not one of two-grid, in-place" >&2; exit 2 ;; esac
@@ -89,11 +89,14 @@ for scheme in $schemes; do
   for propagation in ${propagations:-scene}; do
     suffix=""
     [ "$propagation" = scene ] || suffix="_$propagation"
-    d="$runs/${scheme}_double$suffix" s="$runs/${scheme}_single$suffix"
-    if [ -f "$d/solid.h5" ] && [ -f "$s/solid.h5" ]; then
-      echo
-      echo "$scheme scheme${suffix:+, ${propagation}}: the single store against the double one (solid.h5):"
-      /usr/bin/python3 "$root/launch/compare_solid_runs.py" "$d" "$s"
-    fi
+    d="$runs/${scheme}_double$suffix"
+    for mode in mixed single half; do
+      s="$runs/${scheme}_$mode$suffix"
+      if [ -f "$d/solid.h5" ] && [ -f "$s/solid.h5" ]; then
+        echo
+        echo "$scheme scheme${suffix:+, ${propagation}}: precision $mode against double (solid.h5):"
+        /usr/bin/python3 "$root/launch/compare_solid_runs.py" "$d" "$s"
+      fi
+    done
   done
 done

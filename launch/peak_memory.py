@@ -11,7 +11,7 @@ the end of a run (getrusage ru_maxrss). Prints one table row per scene.
 
 Scenes are names under scenes/paper/ without .toml (default: the single sheet and the pair
 at ds = 1.02 um, each at full size and reduced). --set overrides a key of every scene (e.g.
-run.precision="single"). Exit status: 0 done; 1 a run failed or printed no peak; 2 bad
+run.precision="mixed"). Exit status: 0 done; 1 a run failed or printed no peak; 2 bad
 arguments.
 """
 from __future__ import annotations

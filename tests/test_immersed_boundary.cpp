@@ -188,7 +188,7 @@ TEST(ImmersedBoundary, BatchedSampleEqualsMarkerByMarker) {
   // marker; it must give marker by marker sample()'s bits: a sheet of markers a cell apart
   // (overlapping stencils) crossing the periodic z faces and touching the y_min wall, and
   // markers far apart (the box of all stencils mostly empty).
-  for (const Precision precision : {Precision::Double, Precision::Single}) {
+  for (const Precision precision : {Precision::Double, Precision::Mixed}) {
     FluidParams p;
     p.shape = {24, 20, 16};
     p.tau = 0.7;

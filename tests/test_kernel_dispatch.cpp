@@ -83,7 +83,8 @@ void run(const FluidParams& base, Precision precision, Result& r) {
     BasicPopulationField<T> out(s.layout());
     bc.fill_static_ghosts(out);
     KernelExtrema e;
-    stream_collide(state_of<T>(s), out, p.tau, p.body_force, stores, bc.kernel_outflow(), &e);
+    stream_collide(state_of<T>(s), out, p.tau, p.body_force, stores, bc.kernel_outflow(), &e, RowSchedule::Static,
+                   arithmetic_of(precision));
     Result& k = by_stores[stores == Stores::Streaming];
     k.add(out);
     k.add(e);
@@ -98,6 +99,7 @@ Result run_all() {
   Result r;
   for (const FluidParams& p : cosim::test::every_boundary_grids()) {
     run<double>(p, Precision::Double, r);
+    run<float>(p, Precision::Mixed, r);
     run<float>(p, Precision::Single, r);
   }
   return r;

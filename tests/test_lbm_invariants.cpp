@@ -157,7 +157,7 @@ TEST(Lattice, KernelMatchesReferenceCollision) {
 // coupled fluid runs it while the solid computes the forces, gives step()'s state bit for bit,
 // with either row schedule and either store; out of order it throws.
 TEST(Lattice, SplitStepEqualsStep) {
-  for (const Precision precision : {Precision::Double, Precision::Single}) {
+  for (const Precision precision : {Precision::Double, Precision::Mixed}) {
     FluidParams p;
     p.shape = {21, 10, 7};
     p.tau = 0.65;
@@ -272,7 +272,7 @@ TEST(Lattice, FusedStepMatchesGhostFillStep) {
 }
 
 TEST(Lattice, FusedStepMatchesGhostFillStepSingleStore) {
-  expect_fused_step_matches_ghost_fill_step<float>(Precision::Single);
+  expect_fused_step_matches_ghost_fill_step<float>(Precision::Mixed);
 }
 
 // The in-place propagation (FluidParams::propagation, the AA pattern: the state alternates
@@ -439,7 +439,7 @@ TEST(Lattice, InPlaceStepMatchesTwoGridStep) {
     }
     for (const FluidParams& p : grids) {
       EXPECT_EQ(in_place_mismatches<double>(p, Precision::Double), 0) << level;
-      EXPECT_EQ(in_place_mismatches<float>(p, Precision::Single), 0) << level;
+      EXPECT_EQ(in_place_mismatches<float>(p, Precision::Mixed), 0) << level;
     }
     ++levels;
   }
@@ -549,7 +549,7 @@ TEST(Lattice, GhostFillDoesNotReadStaleValues) {
   for (const FluidParams& p : stale_ghost_grids())
     for (const Propagation prop : {Propagation::TwoGrid, Propagation::InPlace}) {
       EXPECT_EQ(stale_ghost_mismatches<double>(p, Precision::Double, prop), 0);
-      EXPECT_EQ(stale_ghost_mismatches<float>(p, Precision::Single, prop), 0);
+      EXPECT_EQ(stale_ghost_mismatches<float>(p, Precision::Mixed, prop), 0);
     }
 }
 
@@ -613,7 +613,7 @@ TEST(Lattice, ThinPeriodicGridMatchesThickerOne) {
     for (const FluidParams& p : grids)
       for (const Propagation prop : {Propagation::TwoGrid, Propagation::InPlace}) {
         EXPECT_EQ(thin_grid_mismatches<double>(p, Precision::Double, prop), 0) << level;
-        EXPECT_EQ(thin_grid_mismatches<float>(p, Precision::Single, prop), 0) << level;
+        EXPECT_EQ(thin_grid_mismatches<float>(p, Precision::Mixed, prop), 0) << level;
       }
     ++levels;
   }

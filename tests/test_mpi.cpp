@@ -77,21 +77,21 @@ TEST(Mpi, MpiFluidMatchesSerialBitForBit) {
     expect_ranks_match_serial(channel, dir / "periodic");
   }
   {
-    // The first and last slabs' own faces (a moving wall, free slip), the single store.
-    SCOPED_TRACE("walls across the span, single store");
+    // The first and last slabs' own faces (a moving wall, free slip), the mixed mode's float store.
+    SCOPED_TRACE("walls across the span, mixed mode's float store");
     fs::create_directories(dir / "walls");
     const fs::path walls = variant(channel, dir / "walls",
                                    {{"z_min = \"periodic\"", "z_min = \"wall\""},
                                     {"z_max = \"periodic\"", "z_max = \"free_slip\""},
-                                    {"threads = 1", "threads = 1\nprecision = \"single\""},
+                                    {"threads = 1", "threads = 1\nprecision = \"mixed\""},
                                     {"[output]", "[wall_velocity]\nz_min = [0.02, 0.0, 0.0]\n\n[output]"}});
     expect_ranks_match_serial(walls, dir / "walls");
   }
   {
-    // Copy-type x and y faces (periodic) driven by a body force, the single store's compact
+    // Copy-type x and y faces (periodic) driven by a body force, the mixed mode's float store's compact
     // rows (nx = 32), two grids: a block's step sends its edge planes with their x and y ghosts
     // while it collides its interior planes (fluid/solver/overlapped_step.cpp).
-    SCOPED_TRACE("periodic x and y, single store, compact rows, two-grid");
+    SCOPED_TRACE("periodic x and y, mixed mode's float store, compact rows, two-grid");
     fs::create_directories(dir / "periodic_xy");
     const fs::path xy = variant(channel, dir / "periodic_xy",
                                 {{"nx = 24", "nx = 32"},
@@ -102,7 +102,7 @@ TEST(Mpi, MpiFluidMatchesSerialBitForBit) {
                                  {"x_max = \"outflow\"", "x_max = \"periodic\""},
                                  {"y_min = \"wall\"", "y_min = \"periodic\""},
                                  {"y_max = \"free_slip\"", "y_max = \"periodic\""},
-                                 {"threads = 1", "threads = 1\nprecision = \"single\"\npropagation = \"two-grid\""}});
+                                 {"threads = 1", "threads = 1\nprecision = \"mixed\"\npropagation = \"two-grid\""}});
     expect_ranks_match_serial(xy, dir / "periodic_xy");
   }
   {
@@ -116,10 +116,10 @@ TEST(Mpi, MpiFluidMatchesSerialBitForBit) {
     expect_ranks_match_serial(two_grid, dir / "two_grid");
   }
   {
-    SCOPED_TRACE("two-grid, walls across the span, single store");
+    SCOPED_TRACE("two-grid, walls across the span, mixed mode's float store");
     fs::create_directories(dir / "two_grid_walls");
     const fs::path walls = variant(dir / "walls" / "mpi_channel.toml", dir / "two_grid_walls",
-                                   {{"precision = \"single\"", "precision = \"single\"\npropagation = \"two-grid\""}});
+                                   {{"precision = \"mixed\"", "precision = \"mixed\"\npropagation = \"two-grid\""}});
     expect_ranks_match_serial(walls, dir / "two_grid_walls");
   }
 }

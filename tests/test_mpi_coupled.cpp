@@ -52,7 +52,7 @@ fs::path write_scene(const fs::path& dir, const std::string& scheme, const std::
   set("base_um = [3.0734, 0.0, 3.8415]", "base_um = [3.0734, 0.0, 4.22565]");
   if (single) {
     set("nx = 40", "nx = 48");
-    set("steps = 60", "steps = 60\nprecision = \"single\"");
+    set("steps = 60", "steps = 60\nprecision = \"mixed\"");
   }
   fs::create_directories(dir);
   const fs::path scene = dir / ("small_" + scheme + (single ? "_single" : "") + ".toml");

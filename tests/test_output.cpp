@@ -201,7 +201,7 @@ TEST(Output, SummaryFindsNanRhoAndMachCells) {
 // summarize() of that state, in both stores and with partial groups of lanes (nx = 21), and
 // kernel_state_problem() names the cell from them without a pass of its own until one is due.
 TEST(Output, KernelExtremaCheckTheStateTheStepRead) {
-  for (const Precision precision : {Precision::Double, Precision::Single})
+  for (const Precision precision : {Precision::Double, Precision::Mixed})
     for (const int nx : {8, 21}) {
       SCOPED_TRACE(std::string(precision_name(precision)) + ", nx " + std::to_string(nx));
       FluidParams p = periodic_box(nx, 6, 5);

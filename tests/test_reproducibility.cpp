@@ -313,7 +313,7 @@ TEST(Reproducibility, ParallelCheckpointRestartIsBitIdentical) {
   if (!HasFailure()) fs::remove_all(dir);
 }
 
-/// The single-precision store in a coupled run (`[run] precision = "single"`), with the
+/// The float store in a coupled run (`[run] precision = "mixed"`, before issue 35 "single"), with the
 /// implicit scheme, whose sub-iterations keep and restore the committed floats: a restart from
 /// its checkpoint of step 80 (the store's floats) gives every HDF5 output bit for bit.
 TEST(Reproducibility, SinglePrecisionCoupledRestartIsBitIdentical) {
@@ -323,12 +323,12 @@ TEST(Reproducibility, SinglePrecisionCoupledRestartIsBitIdentical) {
     std::string s = slurp(scene);
     const std::size_t at = s.find("steps = 120");
     ASSERT_NE(at, std::string::npos);
-    s.insert(at, "precision = \"single\"\n");
+    s.insert(at, "precision = \"mixed\"\n");
     std::ofstream(scene) << s;
   }
   const fs::path clean = dir / "clean", restarted = dir / "restarted", from = dir / "from80";
   expect_done(clean, run_launcher(kSource, scene, clean));
-  EXPECT_NE(slurp(clean / "fluid.log").find("floats (single precision store)"), std::string::npos) << logs(clean);
+  EXPECT_NE(slurp(clean / "fluid.log").find("floats (mixed: float store, double arithmetic)"), std::string::npos) << logs(clean);
   fs::create_directories(from);
   for (const char* side : {"fluid", "solid"})
     fs::copy_file(clean / "checkpoints" / (std::string(side) + "_00000080.h5"),
@@ -412,7 +412,7 @@ std::string compare_checkpoints(const fs::path& a, const fs::path& b, cosim::flu
 TEST(Reproducibility, InPlaceCoupledRunWritesTheTwoGridBits) {
   const fs::path dir = scratch("in_place_coupled");
   for (const std::string scheme : {"serial", "parallel", "implicit"})
-    for (const std::string precision : {"double", "single"}) {
+    for (const std::string precision : {"double", "mixed"}) {
       const std::string name = scheme + "_" + precision;
       const fs::path sub = dir / name;
       fs::create_directories(sub);
@@ -438,7 +438,7 @@ TEST(Reproducibility, InPlaceCoupledRunWritesTheTwoGridBits) {
       };
       EXPECT_EQ(compare_checkpoints(two_grid / "checkpoints", in_place / "checkpoints",
                                     {grid("nx"), grid("ny"), grid("nz")},
-                                    precision == "single", &checkpoints),
+                                    precision == "mixed", &checkpoints),
                 "")
           << name;
       // monitor.h5, solid.h5, 3 field, 4 plane and 4 sheet snapshots; fluid and solid at 40, 80

@@ -3,9 +3,9 @@
 // memory-bandwidth roofline per run (the best STREAM copy of every kernel level this CPU runs,
 // measured once before the rows, the same for every row: Roofline), and the fraction of it
 // reached; the immersed boundary of the paper's sheet (200 markers: interpolation,
-// spreading and a step with the spread forces) timed on its own; double or single precision
-// store; optionally the peer pattern (--peer-pattern: a minimal in-place AA-pattern D3Q19 BGK
-// kernel, fluid/app/bench_kernels.hpp; with the single store also in float arithmetic) on the same
+// spreading and a step with the spread forces) timed on its own; the precision modes double,
+// mixed, single; optionally the peer pattern (--peer-pattern: a minimal in-place AA-pattern D3Q19 BGK
+// kernel, fluid/app/bench_kernels.hpp; with a float store also in float arithmetic) on the same
 // grid in the same run. Prints the CPU model and
 // the kernel level it ran (fluid/collision/kernel_dispatch.hpp), then a plain table of medians; see
 // docs/performance.md.
@@ -212,7 +212,7 @@ struct Row {
   double step_mlups = 0, kernel_mlups = 0;
   double ib_interp_us = 0, ib_spread_us = 0, step_ib_mlups = 0;  ///< 0: not measured
   double peer_mlups = 0;                                          ///< 0: not measured
-  double peer_f32_mlups = 0;  ///< the single store's peer in float arithmetic; 0: not measured
+  double peer_f32_mlups = 0;  ///< a float store's peer in float arithmetic; 0: not measured
 };
 
 /// The peer pattern's field (fluid/app/bench_kernels.hpp) on the solver's layout, every value
@@ -264,7 +264,8 @@ Row measure(const Case& base, int threads, Precision precision, Propagation prop
   for (int s = 0; s < 2; ++s) solver.step();  // warm-up: page faults, caches
   BasicPopulationField<T> peer, peer_f32;
   const int peer_steps = (opt.steps + 1) / 2 * 2;  // whole AA pairs
-  constexpr bool single = std::is_same_v<T, float>;
+  constexpr bool single = std::is_same_v<T, float>;  // a float store
+  const Arithmetic arithmetic = arithmetic_of(precision);
   if (opt.peer) {
     peer = peer_field<T>(solver.layout());
     run_peer(peer, solver.tau(), 2);
@@ -295,16 +296,17 @@ Row measure(const Case& base, int threads, Precision precision, Propagation prop
       for (int s = 0; s < opt.steps; ++s) {
         t0 = Clock::now();
         stream_collide_in_place(scratch, s % 2 == 0 ? PopulationLayout::Canonical : PopulationLayout::Swapped,
-                                solver.tau(), solver.body_force(), nullptr, opt.schedule);
+                                solver.tau(), solver.body_force(), nullptr, opt.schedule, nullptr, arithmetic);
         seconds += seconds_since(t0);
       }
       if (opt.steps % 2 == 1)  // back to Canonical for the next repeat
         stream_collide_in_place(scratch, PopulationLayout::Swapped, solver.tau(), solver.body_force(), nullptr,
-                                opt.schedule);
+                                opt.schedule, nullptr, arithmetic);
     }
     for (int s = 0; s < (in_place ? 0 : opt.steps); ++s) {
       t0 = Clock::now();
-      stream_collide(*from, *to, solver.tau(), solver.body_force(), opt.stores, outflow, nullptr, opt.schedule);
+      stream_collide(*from, *to, solver.tau(), solver.body_force(), opt.stores, outflow, nullptr, opt.schedule,
+                     arithmetic);
       seconds += seconds_since(t0);
       solver.boundaries().fill_ghosts(*to);
       std::swap(from, to);
@@ -361,9 +363,9 @@ Row measure(const Case& base, int threads, Precision precision, Propagation prop
   return row;
 }
 
-/// Whether the table has the peer f32 columns (--peer-pattern with the single store).
+/// Whether the table has the peer f32 columns (--peer-pattern with a float store).
 bool peer_f32_columns(const Options& opt) {
-  return opt.peer && std::find(opt.precisions.begin(), opt.precisions.end(), Precision::Single) != opt.precisions.end();
+  return opt.peer && std::any_of(opt.precisions.begin(), opt.precisions.end(), stores_floats);
 }
 
 void print_header(const Options& opt, const std::vector<Case>& cases, const Roofline& roof) {
@@ -372,16 +374,17 @@ void print_header(const Options& opt, const std::vector<Case>& cases, const Roof
               kernel_level_source());
   std::printf("two-grid fields of %.1f MiB and more written with non-temporal stores (the L3 size of CPU 0, else 32)\n",
               double(streaming_stores_from()) / double(1 << 20));
-  std::printf("cosim fluid bench: D3Q19 BGK-Guo, arithmetic in double, populations stored in");
+  std::printf("cosim fluid bench: D3Q19 BGK-Guo, structure of arrays, precision modes");
   for (const Precision p : opt.precisions) std::printf(" %s", precision_name(p));
-  std::printf(", structure of arrays\n");
+  std::printf(" (double: double store and arithmetic; mixed: float store, double arithmetic;\n"
+              "    single: float store and arithmetic)\n");
   std::printf("medians of %d repeats of %d steps; OMP_PROC_BIND=%s; rows %s\n", opt.repeat, opt.steps,
               std::getenv("OMP_PROC_BIND") ? std::getenv("OMP_PROC_BIND") : "(unset)",
               opt.schedule == RowSchedule::Static ? "static" : "dynamic (64 chunks)");
   std::printf("B = bytes/update = 2 x 19 x 8 = %.0f for the double store, 2 x 19 x 4 = %.0f for\n"
-              "    the single one (19 values read + 19 written, counted as STREAM counts copy;\n"
+              "    the float one (19 values read + 19 written, counted as STREAM counts copy;\n"
               "    ordinary stores also move 19 write-allocate reads)\n",
-              bytes_per_update(Precision::Double), bytes_per_update(Precision::Single));
+              bytes_per_update(Precision::Double), bytes_per_update(Precision::Mixed));
   std::printf("prop = propagation (FluidParams::propagation): 2grid = pull from one grid into the\n"
               "    other, stores plain or NT; AA = in place, one grid (the AA pattern), ordinary stores\n"
               "    of lines just loaded (no write-allocate)\n");
@@ -397,8 +400,8 @@ void print_header(const Options& opt, const std::vector<Case>& cases, const Roof
   for (const Roofline::Copy& c : roof.copies)
     std::printf("    %-10s plain %6.1f GB/s   NT %6.1f GB/s\n", c.level.c_str(), c.plain_gbs, c.nt_gbs);
   std::printf("roofline = the best copy, %.1f GB/s (%s), the same for every row: %.1f MLUPS for the\n"
-              "    double store, %.1f for the single one (bandwidth / B)\n",
-              roof.gbs, roof.best.c_str(), roof.mlups(Precision::Double), roof.mlups(Precision::Single));
+              "    double store, %.1f for the float one (bandwidth / B)\n",
+              roof.gbs, roof.best.c_str(), roof.mlups(Precision::Double), roof.mlups(Precision::Mixed));
   std::printf("step = FluidSolver::step() (kernel + ghost fill); kernel = stream_collide only\n"
               "    (with the x-outflow ghosts it writes); AA rows: stream_collide_in_place only, no ghosts\n");
   if (opt.ib && opt.stores == Stores::Auto)
@@ -412,9 +415,9 @@ void print_header(const Options& opt, const std::vector<Case>& cases, const Roof
                 "    MLUPS; peer/roof against the roofline;\n"
                 "    step/peer = step MLUPS / peer MLUPS\n");
   if (peer_f32_columns(opt))
-    std::printf("peer f32 = the peer pattern on the single store computed in float arithmetic, float\n"
-                "    groups twice as wide (peer and the project's kernel compute in double), MLUPS\n"
-                "    and against the roofline; single-store rows only\n");
+    std::printf("peer f32 = the peer pattern on the float store computed in float arithmetic, float\n"
+                "    groups twice as wide (the peer column computes in double), MLUPS and against the\n"
+                "    roofline; float-store rows only\n");
   std::printf("note: a shared machine; other processes add noise\n\n");
   const char* const f32[3][2] = {{"peer f32", "peer f32"}, {"MLUPS", "/roof"}, {"", ""}};
   const char* const rows[3][15] = {
@@ -487,9 +490,11 @@ int main(int argc, char** argv) {
                  "kernel stores: auto (as the solver), plain or nt; not auto: kernel only")
       ->transform(CLI::CheckedTransformer(stores, CLI::ignore_case));
   const std::map<std::string, Precision> precisions{{"double", Precision::Double},
+                                                    {"mixed", Precision::Mixed},
                                                     {"single", Precision::Single}};
   app.add_option("--precision", opt.precisions,
-                 "population stores to run: double, single (arithmetic is double either way)")
+                 "precision modes to run ([run] precision): double, mixed (float store, double arithmetic), "
+                 "single (float store and arithmetic)")
       ->transform(CLI::CheckedTransformer(precisions, CLI::ignore_case));
   const std::map<std::string, RowSchedule> schedules{{"static", RowSchedule::Static},
                                                      {"dynamic", RowSchedule::Dynamic}};
@@ -506,7 +511,7 @@ int main(int argc, char** argv) {
   app.add_flag("--no-ib", no_ib, "skip the immersed-boundary columns");
   app.add_flag("--peer-pattern", opt.peer,
                "also run the peer pattern, a minimal in-place (AA) D3Q19 BGK kernel, on the same grid\n"
-               "(single store: also in float arithmetic, peer f32)");
+               "(float stores: also in float arithmetic, peer f32)");
   std::string level;
   app.add_option("--level", level,
                  "kernel instruction-set level to run (default: the highest this CPU runs, or "

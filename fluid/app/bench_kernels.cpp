@@ -30,54 +30,8 @@ void copy(const double* a, double* b, std::ptrdiff_t n, bool streaming) {
   }
 }
 
-/// The float-arithmetic peer's group: as many floats as the level's vector registers hold
-/// (AVX-512: 16), loaded, computed on and stored as floats (the project's single store
-/// computes in double Lanes, fluid/lattice/lanes.hpp).
-using Floats = float __attribute__((vector_size(sizeof(Lanes))));
-
-/// The scalar type of a group V (double for Lanes, float for Floats).
-template <class V>
-using Scalar = std::remove_cvref_t<decltype(V{}[0])>;
-
-/// A group V of values stored as T: copied where V holds T, else converted (fluid/lattice/lanes.hpp).
-/// The partial forms move the first n lanes; the others load as 1 (a harmless density).
-template <class V, class T>
-[[gnu::always_inline]] inline V load_group(const T* p) {
-  if constexpr (std::is_same_v<Scalar<V>, T>) {
-    V v;
-    std::memcpy(&v, p, sizeof v);
-    return v;
-  } else {
-    return load(p);
-  }
-}
-
-template <class V, class T>
-[[gnu::always_inline]] inline void store_group(T* p, V v) {
-  if constexpr (std::is_same_v<Scalar<V>, T>)
-    std::memcpy(p, &v, sizeof v);
-  else
-    store_unaligned(p, v);
-}
-
-template <class V, class T>
-inline V load_group_partial(const T* p, int n) {
-  if constexpr (std::is_same_v<Scalar<V>, T>) {
-    V v = V{} + T(1);
-    std::memcpy(&v, p, sizeof(T) * unsigned(n));
-    return v;
-  } else {
-    return load_partial(p, n);
-  }
-}
-
-template <class V, class T>
-inline void store_group_partial(T* p, V v, int n) {
-  if constexpr (std::is_same_v<Scalar<V>, T>)
-    std::memcpy(p, &v, sizeof(T) * unsigned(n));
-  else
-    store_partial(p, v, n);
-}
+// The groups (Lanes, LanesFloat), their loads and stores: fluid/lattice/lanes.hpp, as the
+// project's kernel uses them.
 
 /// c v for a lattice velocity component c in {-1, 0, 1}, known at compile time.
 template <int c, class V>
@@ -164,6 +118,6 @@ void peer(BasicPopulationField<T>& field, double tau, int steps) {
 }  // namespace
 
 extern const BenchKernels bench_kernel_table;
-const BenchKernels bench_kernel_table{&copy, &peer<double, Lanes>, &peer<float, Lanes>, &peer<float, Floats>};
+const BenchKernels bench_kernel_table{&copy, &peer<double, Lanes>, &peer<float, Lanes>, &peer<float, LanesFloat>};
 
 }  // namespace cosim::fluid::COSIM_ISA_NS

@@ -128,7 +128,9 @@ void print_header(const FluidScene& s, const protocol::UnitConverter& units) {
   std::printf("  memory   %.1f MiB of populations (%s x 19 %s per cell, with ghosts; %s propagation)\n",
               double(population_bytes(g, s.params.precision, s.params.propagation)) / (1024.0 * 1024.0),
               s.params.propagation == Propagation::InPlace ? "1" : "2",
-              s.params.precision == Precision::Double ? "doubles" : "floats (single precision store)",
+              s.params.precision == Precision::Double ? "doubles"
+              : s.params.precision == Precision::Mixed ? "floats (mixed: float store, double arithmetic)"
+                                                       : "floats (single: float store, float arithmetic)",
               propagation_name(s.params.propagation));
   std::printf("  run      %lld steps = %.4g us; initial %s; monitor every %lld; ",
               static_cast<long long>(s.steps), units.time_s(double(s.steps)) * 1e6,

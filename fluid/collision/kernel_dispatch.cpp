@@ -179,32 +179,45 @@ bool uses_streaming_stores(const GridLayout& layout, Stores stores, std::size_t 
          D3Q19::Q * layout.stride() * value_bytes >= streaming_stores_from();
 }
 
+namespace {
+
+[[noreturn]] void no_float_arithmetic(const char* call) {
+  throw std::invalid_argument(std::string(call) + ": float arithmetic needs the float store (precision \"single\")");
+}
+
+}  // namespace
+
 void stream_collide(const PopulationField& src, PopulationField& dst, double tau,
-                    const std::array<double, 3>& force, Stores stores,
-                    const KernelOutflow& outflow, KernelExtrema* extrema, RowSchedule schedule) {
+                    const std::array<double, 3>& force, Stores stores, const KernelOutflow& outflow,
+                    KernelExtrema* extrema, RowSchedule schedule, Arithmetic arithmetic) {
+  if (arithmetic != Arithmetic::Double) no_float_arithmetic("stream_collide");
   active_kernel().run_double(src, dst, tau, force, uses_streaming_stores(src.layout(), stores, sizeof(double)),
                              outflow, extrema, schedule);
 }
 
 void stream_collide(const PopulationFieldSingle& src, PopulationFieldSingle& dst, double tau,
-                    const std::array<double, 3>& force, Stores stores,
-                    const KernelOutflow& outflow, KernelExtrema* extrema, RowSchedule schedule) {
-  active_kernel().run_single(src, dst, tau, force, uses_streaming_stores(src.layout(), stores, sizeof(float)),
-                             outflow, extrema, schedule);
+                    const std::array<double, 3>& force, Stores stores, const KernelOutflow& outflow,
+                    KernelExtrema* extrema, RowSchedule schedule, Arithmetic arithmetic) {
+  const KernelTable& k = active_kernel();
+  (arithmetic == Arithmetic::Float ? k.run_single : k.run_mixed)(
+      src, dst, tau, force, uses_streaming_stores(src.layout(), stores, sizeof(float)), outflow, extrema, schedule);
 }
 
 void stream_collide_in_place(PopulationField& f, PopulationLayout layout, double tau,
                              const std::array<double, 3>& force, KernelExtrema* extrema, RowSchedule schedule,
-                             const InPlaceXFaces* x_faces) {
+                             const InPlaceXFaces* x_faces, Arithmetic arithmetic) {
+  if (arithmetic != Arithmetic::Double) no_float_arithmetic("stream_collide_in_place");
   active_kernel().in_place_double(f, layout == PopulationLayout::Canonical, tau, force, extrema, schedule,
                                   x_faces != nullptr && x_faces->all() ? x_faces : nullptr);
 }
 
 void stream_collide_in_place(PopulationFieldSingle& f, PopulationLayout layout, double tau,
                              const std::array<double, 3>& force, KernelExtrema* extrema, RowSchedule schedule,
-                             const InPlaceXFaces* x_faces) {
-  active_kernel().in_place_single(f, layout == PopulationLayout::Canonical, tau, force, extrema, schedule,
-                                  x_faces != nullptr && x_faces->all() ? x_faces : nullptr);
+                             const InPlaceXFaces* x_faces, Arithmetic arithmetic) {
+  const KernelTable& k = active_kernel();
+  (arithmetic == Arithmetic::Float ? k.in_place_single : k.in_place_mixed)(
+      f, layout == PopulationLayout::Canonical, tau, force, extrema, schedule,
+      x_faces != nullptr && x_faces->all() ? x_faces : nullptr);
 }
 
 }  // namespace cosim::fluid

@@ -4,8 +4,8 @@
 // first step the highest level the CPU runs is chosen, or the one that COSIM_KERNEL_LEVEL
 // (or set_kernel_level, e.g. the bench's --level) asks for.
 //
-// Every level gives the same bits: the levels differ only in vector width (2, 4 or 8 doubles
-// per group), the arithmetic is elementwise, and their sources are compiled with
+// Every level gives the same bits, in each precision mode: the levels differ only in vector
+// width (2, 4 or 8 doubles, or 4, 8 or 16 floats, per group), the arithmetic is elementwise, and their sources are compiled with
 // -ffp-contract=off, so no level fuses a multiply and an add that another rounds twice
 // (test_kernel_dispatch: KernelDispatchCoversEveryLevel).
 #pragma once
@@ -30,15 +30,21 @@ namespace cosim::fluid {
 #define COSIM_FOR_EACH_ISA_LEVEL(X) X(generic, "generic")
 #endif
 
-/// What one level's translation unit of the kernel provides.
+/// What one level's translation unit of the kernel provides: the kernel for each store and
+/// arithmetic (fluid/lattice/population_field.hpp, Precision): double store and arithmetic
+/// ("double"), float store in double arithmetic ("mixed"), float store in float arithmetic
+/// ("single").
 struct KernelTable {
   const char* level;    ///< "x86-64-v3", ...
   const char* vectors;  ///< "AVX2, 4 doubles per group", ...
-  int lanes;            ///< doubles per group (fluid/lattice/lanes.hpp, kLanes)
+  int lanes;            ///< doubles per group (fluid/lattice/lanes.hpp, kLanes); floats: twice as many
   bool streaming_stores;
   void (*run_double)(const PopulationField& src, PopulationField& dst, double tau,
                      const std::array<double, 3>& force, bool streaming, const KernelOutflow& outflow,
                      KernelExtrema* extrema, RowSchedule schedule);
+  void (*run_mixed)(const PopulationFieldSingle& src, PopulationFieldSingle& dst, double tau,
+                    const std::array<double, 3>& force, bool streaming, const KernelOutflow& outflow,
+                    KernelExtrema* extrema, RowSchedule schedule);
   void (*run_single)(const PopulationFieldSingle& src, PopulationFieldSingle& dst, double tau,
                      const std::array<double, 3>& force, bool streaming, const KernelOutflow& outflow,
                      KernelExtrema* extrema, RowSchedule schedule);
@@ -46,6 +52,9 @@ struct KernelTable {
   void (*in_place_double)(PopulationField& f, bool from_canonical, double tau,
                           const std::array<double, 3>& force, KernelExtrema* extrema, RowSchedule schedule,
                           const InPlaceXFaces* x_faces);
+  void (*in_place_mixed)(PopulationFieldSingle& f, bool from_canonical, double tau,
+                         const std::array<double, 3>& force, KernelExtrema* extrema, RowSchedule schedule,
+                         const InPlaceXFaces* x_faces);
   void (*in_place_single)(PopulationFieldSingle& f, bool from_canonical, double tau,
                           const std::array<double, 3>& force, KernelExtrema* extrema, RowSchedule schedule,
                           const InPlaceXFaces* x_faces);

@@ -30,28 +30,32 @@ static_assert([] {
   return true;
 }());
 
-// The per-cell helpers below are forced inline ([[gnu::always_inline]]) so that the
-// kLanes-wide values of a cell group stay in registers.
+// The per-cell helpers below are forced inline ([[gnu::always_inline]]) so that the values
+// of a cell group stay in registers. They compute on a group V of the level's vectors
+// (fluid/lattice/lanes.hpp): Lanes (double arithmetic: the precision modes "double" and
+// "mixed") or LanesFloat (float arithmetic: "single"), one template for both; S = Scalar<V>.
+// Constants are written S(...): exact in either type but for the weights and the per-call
+// constants, which are computed in double and rounded once to S (CollisionConstants).
 
 /// a + c v for a lattice velocity component c in {-1, 0, 1}; no multiplication by zero.
-template <int c>
-[[gnu::always_inline]] inline Lanes add_c(Lanes a, Lanes v) {
+template <int c, class V>
+[[gnu::always_inline]] inline V add_c(V a, V v) {
   if constexpr (c == 1) return a + v;
   if constexpr (c == -1) return a - v;
   return a;
 }
 
 /// c v for c in {-1, 1}.
-template <int c>
-[[gnu::always_inline]] inline Lanes times_c(Lanes v) {
+template <int c, class V>
+[[gnu::always_inline]] inline V times_c(V v) {
   static_assert(c == 1 || c == -1);
   if constexpr (c == 1) return v;
   return -v;
 }
 
 /// c_q . a for a direction q (not the rest direction) known at compile time.
-template <int q>
-[[gnu::always_inline]] inline Lanes dot_c(Lanes ax, Lanes ay, Lanes az) {
+template <int q, class V>
+[[gnu::always_inline]] inline V dot_c(V ax, V ay, V az) {
   if constexpr (L::cx[q] != 0)
     return add_c<L::cz[q]>(add_c<L::cy[q]>(times_c<L::cx[q]>(ax), ay), az);
   else if constexpr (L::cy[q] != 0)
@@ -61,20 +65,27 @@ template <int q>
 }
 
 /// Per-call constants of the collision: relaxation rate, the body force and the
-/// velocity-independent parts of Guo's source term.
+/// velocity-independent parts of Guo's source term; computed in double, then rounded once to
+/// the arithmetic's type S.
+template <class S>
 struct CollisionConstants {
-  double omega;                     ///< 1 / tau
-  double Fx, Fy, Fz;                ///< uniform force density
-  double src_pref;                  ///< 1 - omega / 2 (Eq. 26)
-  double cF3[kPairs], cF9[kPairs];  ///< src_pref E_q 3 c_q.F and 9 c_q.F, q of each pair
+  S omega;                     ///< 1 / tau
+  S Fx, Fy, Fz;                ///< uniform force density
+  S src_pref;                  ///< 1 - omega / 2 (Eq. 26)
+  S cF3[kPairs], cF9[kPairs];  ///< src_pref E_q 3 c_q.F and 9 c_q.F, q of each pair
 
-  CollisionConstants(double tau, const std::array<double, 3>& F)
-      : omega(1.0 / tau), Fx(F[0]), Fy(F[1]), Fz(F[2]), src_pref(1.0 - 0.5 * omega) {
+  CollisionConstants(double tau, const std::array<double, 3>& F) {
+    const double om = 1.0 / tau, pref = 1.0 - 0.5 * om;
+    omega = S(om);
+    Fx = S(F[0]);
+    Fy = S(F[1]);
+    Fz = S(F[2]);
+    src_pref = S(pref);
     for (int p = 0; p < kPairs; ++p) {
       const int q = pair_q(p);
-      const double cF = L::cx[q] * Fx + L::cy[q] * Fy + L::cz[q] * Fz;
-      cF3[p] = src_pref * L::w[q] * 3.0 * cF;
-      cF9[p] = src_pref * L::w[q] * 9.0 * cF;
+      const double cF = L::cx[q] * F[0] + L::cy[q] * F[1] + L::cz[q] * F[2];
+      cF3[p] = S(pref * L::w[q] * 3.0 * cF);
+      cF9[p] = S(pref * L::w[q] * 9.0 * cF);
     }
   }
 };
@@ -88,97 +99,98 @@ static_assert([] {
   return true;
 }());
 
-/// rho (Eq. 7) and j = rho v (Eq. 8) of kLanes cells.
+/// rho (Eq. 7) and j = rho v (Eq. 8) of a group of cells.
+template <class V>
 struct LaneMoments {
-  Lanes rho, jx, jy, jz;
+  V rho, jx, jy, jz;
 };
 
 /// Adds the pair (q, opp q) to the moments: both to rho (one by one, in the order of
 /// moments() in fluid/lattice/equilibrium.hpp: same rounding as the one-cell reference), their
 /// difference along c_q to j.
-template <int q>
-[[gnu::always_inline]] inline void add_pair(LaneMoments& m, Lanes fq, Lanes fo) {
+template <int q, class V>
+[[gnu::always_inline]] inline void add_pair(LaneMoments<V>& m, V fq, V fo) {
   m.rho = (m.rho + fq) + fo;
-  const Lanes d = fq - fo;
+  const V d = fq - fo;
   m.jx = add_c<L::cx[q]>(m.jx, d);
   m.jy = add_c<L::cy[q]>(m.jy, d);
   m.jz = add_c<L::cz[q]>(m.jz, d);
 }
 
-template <std::size_t... P>
-[[gnu::always_inline]] inline LaneMoments moments(const Lanes (&f)[L::Q],
-                                                 std::index_sequence<P...>) {
-  LaneMoments m{f[0], {}, {}, {}};
+template <class V, std::size_t... P>
+[[gnu::always_inline]] inline LaneMoments<V> moments(const V (&f)[L::Q], std::index_sequence<P...>) {
+  LaneMoments<V> m{f[0], {}, {}, {}};
   (add_pair<pair_q(P)>(m, f[pair_q(P)], f[pair_q(P) + 1]), ...);
   return m;
 }
 
 /// What the relaxation of every direction needs from a cell: Guo's velocity and the parts
 /// of f_eq (Eq. 11) and of the source that do not depend on the direction.
+template <class V>
 struct LaneFlow {
-  Lanes ux, uy, uz;
-  Lanes uu;       ///< u.u
-  Lanes even0;    ///< 1 - 3/2 u.u
-  Lanes wrho[3];  ///< E rho for E = 1/3, 1/18, 1/36 (weight_class)
-  Lanes src0[3];  ///< (1 - omega/2) E (-3 u.F), the part of S without c.F
+  V ux, uy, uz;
+  V uu;       ///< u.u
+  V even0;    ///< 1 - 3/2 u.u
+  V wrho[3];  ///< E rho for E = 1/3, 1/18, 1/36 (weight_class)
+  V src0[3];  ///< (1 - omega/2) E (-3 u.F), the part of S without c.F
 };
 
-template <bool kForce>
-[[gnu::always_inline]] inline LaneFlow flow(const LaneMoments& m, const CollisionConstants& k) {
-  LaneFlow v;
-  const Lanes inv_rho = 1.0 / m.rho;
+template <bool kForce, class V, class S = Scalar<V>>
+[[gnu::always_inline]] inline LaneFlow<V> flow(const LaneMoments<V>& m, const CollisionConstants<S>& k) {
+  LaneFlow<V> v;
+  const V inv_rho = S(1.0) / m.rho;
   // Guo's velocity u = (j + F/2) / rho
-  v.ux = (kForce ? m.jx + 0.5 * k.Fx : m.jx) * inv_rho;
-  v.uy = (kForce ? m.jy + 0.5 * k.Fy : m.jy) * inv_rho;
-  v.uz = (kForce ? m.jz + 0.5 * k.Fz : m.jz) * inv_rho;
+  v.ux = (kForce ? m.jx + S(0.5) * k.Fx : m.jx) * inv_rho;
+  v.uy = (kForce ? m.jy + S(0.5) * k.Fy : m.jy) * inv_rho;
+  v.uz = (kForce ? m.jz + S(0.5) * k.Fz : m.jz) * inv_rho;
   v.uu = v.ux * v.ux + v.uy * v.uy + v.uz * v.uz;
-  v.even0 = 1.0 - 1.5 * v.uu;
-  const Lanes uF3 = kForce ? (-3.0 * k.src_pref) * (v.ux * k.Fx + v.uy * k.Fy + v.uz * k.Fz)
-                           : Lanes{};
+  v.even0 = S(1.0) - S(1.5) * v.uu;
+  const V uF3 = kForce ? (S(-3.0) * k.src_pref) * (v.ux * k.Fx + v.uy * k.Fy + v.uz * k.Fz) : V{};
   for (int c = 0; c < 3; ++c) {
-    v.wrho[c] = m.rho * kWeights[c];
-    v.src0[c] = kForce ? uF3 * kWeights[c] : Lanes{};
+    v.wrho[c] = m.rho * S(kWeights[c]);
+    v.src0[c] = kForce ? uF3 * S(kWeights[c]) : V{};
   }
   return v;
 }
 
 /// f_q += omega (f_eq_q - f_q) + (1 - omega/2) S_q for the pair (q, opp q) of pair P;
 /// f_eq and S split into the parts even and odd in c (see collide).
-template <bool kForce, int P>
-[[gnu::always_inline]] inline void relax_pair(Lanes& fq, Lanes& fo, const LaneFlow& v,
-                                              const CollisionConstants& k) {
+template <bool kForce, int P, class V, class S = Scalar<V>>
+[[gnu::always_inline]] inline void relax_pair(V& fq, V& fo, const LaneFlow<V>& v, const CollisionConstants<S>& k) {
   constexpr int q = pair_q(P), wi = weight_class(q);
-  const Lanes cu = dot_c<q>(v.ux, v.uy, v.uz);
-  const Lanes even = v.wrho[wi] * (v.even0 + 4.5 * cu * cu);
-  const Lanes odd = v.wrho[wi] * (3.0 * cu);
-  Lanes src_even{}, src_odd{};
+  const V cu = dot_c<q>(v.ux, v.uy, v.uz);
+  const V even = v.wrho[wi] * (v.even0 + S(4.5) * cu * cu);
+  const V odd = v.wrho[wi] * (S(3.0) * cu);
+  V src_even{}, src_odd{};
   if constexpr (kForce) {
     src_even = v.src0[wi] + k.cF9[P] * cu;
-    src_odd = Lanes{} + k.cF3[P];
+    src_odd = V{} + k.cF3[P];
   }
   fq += k.omega * ((even + odd) - fq) + (src_even + src_odd);
   fo += k.omega * ((even - odd) - fo) + (src_even - src_odd);
 }
 
-template <bool kForce, std::size_t... P>
-[[gnu::always_inline]] inline void relax_pairs(Lanes (&f)[L::Q], const LaneFlow& v,
-                                               const CollisionConstants& k,
+template <bool kForce, class V, class S, std::size_t... P>
+[[gnu::always_inline]] inline void relax_pairs(V (&f)[L::Q], const LaneFlow<V>& v, const CollisionConstants<S>& k,
                                                std::index_sequence<P...>) {
   (relax_pair<kForce, int(P)>(f[pair_q(P)], f[pair_q(P) + 1], v, k), ...);
 }
 
 /// The extrema the kernel gathers of the cells it collides (KernelExtrema): a thread's
 /// running values, lane by lane.
+template <class V>
 struct LaneExtrema {
-  Lanes rho_min = Lanes{} + std::numeric_limits<double>::infinity();
-  Lanes rho_max = Lanes{} - std::numeric_limits<double>::infinity();
-  Lanes uu_max = Lanes{};
-  Lanes bad = Lanes{};  ///< NaN once a rho or u.u was not finite (0 inf and 0 NaN are NaN)
+  using S = Scalar<V>;
+  static constexpr int N = lanes_of<V>;
+  V rho_min = V{} + std::numeric_limits<S>::infinity();
+  V rho_max = V{} - std::numeric_limits<S>::infinity();
+  V uu_max = V{};
+  V bad = V{};  ///< NaN once a rho or u.u was not finite (0 inf and 0 NaN are NaN)
   /// The first n lanes of a group (a row's partial group pads with cells of rho = 19).
-  void take(Lanes rho, Lanes uu, int n = kLanes) {
-    if (n < kLanes) {
+  void take(V rho, V uu, int n = N) {
+    if (n < N) {
       // Lanes past n repeat lane 0.
-      for (int i = n; i < kLanes; ++i) {
+      for (int i = n; i < N; ++i) {
         rho[i] = rho[0];
         uu[i] = uu[0];
       }
@@ -186,32 +198,32 @@ struct LaneExtrema {
     rho_min = rho < rho_min ? rho : rho_min;
     rho_max = rho > rho_max ? rho : rho_max;
     uu_max = uu > uu_max ? uu : uu_max;
-    bad += 0.0 * (rho + uu);
+    bad += S(0.0) * (rho + uu);
   }
   /// Into the call's result (one thread at a time).
   void merge_into(KernelExtrema& e) const {
-    for (int i = 0; i < kLanes; ++i) {
-      e.rho_min = std::min(e.rho_min, rho_min[i]);
-      e.rho_max = std::max(e.rho_max, rho_max[i]);
-      e.u2_max = std::max(e.u2_max, uu_max[i]);
-      if (!(bad[i] == 0.0)) e.finite = false;
+    for (int i = 0; i < N; ++i) {
+      e.rho_min = std::min(e.rho_min, double(rho_min[i]));
+      e.rho_max = std::max(e.rho_max, double(rho_max[i]));
+      e.u2_max = std::max(e.u2_max, double(uu_max[i]));
+      if (!(bad[i] == S(0.0))) e.finite = false;
     }
   }
 };
 
-/// BGK collision (Eq. 10) with Guo forcing (Eq. 26) of kLanes cells at once, the same
+/// BGK collision (Eq. 10) with Guo forcing (Eq. 26) of a group of cells at once, the same
 /// arithmetic as BgkGuo::collide; `f` holds the pulled (streamed, Eq. 9) populations and
 /// receives the post-collision ones. Each pair (q, opp q) shares the even part of the
 /// equilibrium (Eq. 11) and of the source S = E (3 (c - u).F + 9 (c.u)(c.F)):
 ///   f_eq = E rho (1 - 3/2 u.u + 9/2 (c.u)^2) +- E rho 3 c.u,
 ///   S    = E (9 (c.u)(c.F) - 3 u.F) +- E 3 c.F.
 /// The first n cells' rho (Eq. 7) and u.u go into `ex`.
-template <bool kForce>
-[[gnu::always_inline]] inline void collide(Lanes (&f)[L::Q], const CollisionConstants& k, LaneExtrema& ex,
-                                           int n = kLanes) {
+template <bool kForce, class V, class S = Scalar<V>>
+[[gnu::always_inline]] inline void collide(V (&f)[L::Q], const CollisionConstants<S>& k, LaneExtrema<V>& ex,
+                                           int n = lanes_of<V>) {
   const auto pairs = std::make_index_sequence<kPairs>{};
-  const LaneMoments m = moments(f, pairs);
-  const LaneFlow v = flow<kForce>(m, k);
+  const LaneMoments<V> m = moments(f, pairs);
+  const LaneFlow<V> v = flow<kForce>(m, k);
   ex.take(m.rho, v.uu, n);
   // Rest direction: c = 0.
   f[0] += k.omega * (v.wrho[0] * v.even0 - f[0]) + v.src0[0];
@@ -221,19 +233,14 @@ template <bool kForce>
 /// The outflow ghost (fluid/boundary/boundary.hpp, outflow_ghost) of the cell in lane `lane` of the
 /// post-collision group f: populations entering through the face (c_x = inward) stored at
 /// g + q stride, g the ghost cell in population 0 of dst. From the values as stored (T), as
-/// the ghost fill reads them back: a float store's values go through the vector conversion
-/// of the store itself (to_single), and outflow_ghost widens them out of line (see there:
+/// the ghost fill reads them back: a float store's values computed in double go through the
+/// vector conversion of the store itself (to_stored), and outflow_ghost widens them out of line (see there:
 /// a (double)(float)x here was miscompiled).
-template <class T>
-inline void store_outflow_ghost(const Lanes (&f)[L::Q], int lane, T* g, std::ptrdiff_t stride,
+template <class T, class V>
+inline void store_outflow_ghost(const V (&f)[L::Q], int lane, T* g, std::ptrdiff_t stride,
                                 int inward, double rho_out) {
   T stored[L::Q], ghost[L::Q];
-  for (int q = 0; q < L::Q; ++q) {
-    if constexpr (std::is_same_v<T, float>)
-      stored[q] = to_single(f[q])[lane];
-    else
-      stored[q] = f[q][lane];
-  }
+  for (int q = 0; q < L::Q; ++q) stored[q] = to_stored<T>(f[q])[lane];
   outflow_ghost(stored, 0, inward, rho_out, ghost);
   for (int q = 0; q < L::Q; ++q)
     if (L::cx[q] == inward) g[q * stride] = ghost[q];
@@ -257,10 +264,10 @@ constexpr int kPrefetchBytes = 512;
 /// below AVX-512) asks only where x starts a line (every row starts at x = 0), so no line is
 /// asked for twice. The address is formed as an integer: near the field's end it lies past
 /// the allocation, and a prefetch never faults.
-template <class T>
+template <int N, class T>
 [[gnu::always_inline]] inline void prefetch_ahead(const T* base, const std::ptrdiff_t (&slot)[L::Q], int x) {
   constexpr int kLineCells = GridLayout::kLineBytes / int(sizeof(T));
-  if constexpr (kLanes < kLineCells)
+  if constexpr (N < kLineCells)
     if (x % kLineCells != 0) return;
 #pragma GCC unroll 19
   for (int q = 0; q < L::Q; ++q)
@@ -282,32 +289,34 @@ template <class Row>
   }
 }
 
-/// The interior of the block row by row (OpenMP), kLanes cells of x at a time; the last,
+/// The interior of the block row by row (OpenMP), a group V of cells of x at a time; the last,
 /// partial group of a row goes through a padded copy. Outflow ghosts on x faces as the row's
 /// first and last cells are stored (KernelOutflow).
 ///
 /// Non-temporal stores must fill whole 64-byte lines back to back, or the write-combining
 /// buffers, shared by the 19 streams, flush partial lines (a first single store that wrote
 /// half lines was slower than the double one; on an AVX2 CPU the double store's half-line
-/// stores moved data at about half the rate of whole lines, issue 21). A group of kLanes
-/// doubles is one line with AVX-512; where a stored group is less than a line (floats on
-/// any level, doubles below AVX-512) the kernel collides the groups of a line first, keeps
+/// stores moved data at about half the rate of whole lines, issue 21). A stored group is one
+/// line with AVX-512 for the double store (8 doubles) and for the float store in float
+/// arithmetic (16 floats); where it is less than a line (the float store in double arithmetic
+/// on any level, the others below AVX-512) the kernel collides the groups of a line first, keeps
 /// all but the last in a small buffer (L1) and then streams each population's line in one go.
-template <class T, bool kForce, bool kStream>
+template <class T, class V, bool kForce, bool kStream>
 void update_rows(const BasicPopulationField<T>& src, BasicPopulationField<T>& dst, double tau,
                  const std::array<double, 3>& F, const KernelOutflow& out, KernelExtrema* extrema,
                  RowSchedule schedule) {
   if (extrema != nullptr) *extrema = KernelExtrema{};
-  constexpr int kGroupBytes = kLanes * int(sizeof(T));
+  constexpr int N = lanes_of<V>;
+  constexpr int kGroupBytes = N * int(sizeof(T));
   constexpr int kLineGroups = kStream && kGroupBytes < GridLayout::kLineBytes
                                   ? GridLayout::kLineBytes / kGroupBytes
                                   : 1;
-  constexpr int kLineCells = kLineGroups * kLanes;
+  constexpr int kLineCells = kLineGroups * N;
   const GridLayout& lay = src.layout();
   const int nx = lay.nx(), ny = lay.ny();
   const std::ptrdiff_t rows = std::ptrdiff_t(ny) * lay.nz();
   const std::ptrdiff_t stride = std::ptrdiff_t(lay.stride());
-  const CollisionConstants k(tau, F);
+  const CollisionConstants<Scalar<V>> k(tau, F);
   // Pull (Eq. 9): population q of cell i comes from src(q) at i - c_q.
   std::ptrdiff_t pull[L::Q];
   for (int q = 0; q < L::Q; ++q) pull[q] = q * stride - lay.offset(L::cx[q], L::cy[q], L::cz[q]);
@@ -317,13 +326,13 @@ void update_rows(const BasicPopulationField<T>& src, BasicPopulationField<T>& ds
 #pragma omp parallel
   {
     alignas(GridLayout::kLineBytes) T line[kLineGroups > 1 ? L::Q : 1][kLineCells];
-    LaneExtrema ex;
+    LaneExtrema<V> ex;
     // One row of x; inlined into both schedules below.
     const auto row = [&](std::ptrdiff_t r) __attribute__((always_inline)) {
       const std::ptrdiff_t base = lay.index(0, int(r % ny), int(r / ny));
       const T* const s = s0 + base;
       T* const d = d0 + base;
-      Lanes f[L::Q];
+      V f[L::Q];
       // Outflow ghosts of the cells x0 .. x0 + n - 1 of f, where the row ends.
       const auto edges = [&](int x0, int n) {
         if (out.x_min && x0 == 0) store_outflow_ghost(f, 0, d - 1, stride, 1, out.rho_x_min);
@@ -334,15 +343,15 @@ void update_rows(const BasicPopulationField<T>& src, BasicPopulationField<T>& ds
       if constexpr (kLineGroups > 1) {
         for (; x + kLineCells <= nx; x += kLineCells) {
           for (int g = 0; g < kLineGroups; ++g) {
-            const int xg = x + g * kLanes;
-            prefetch_ahead(s, pull, xg);
+            const int xg = x + g * N;
+            prefetch_ahead<N>(s, pull, xg);
 #pragma GCC unroll 19
-            for (int q = 0; q < L::Q; ++q) f[q] = load(s + pull[q] + xg);
+            for (int q = 0; q < L::Q; ++q) f[q] = load_group<V>(s + pull[q] + xg);
             collide<kForce>(f, k, ex);
-            edges(xg, kLanes);
+            edges(xg, N);
             if (g + 1 < kLineGroups) {
 #pragma GCC unroll 19
-              for (int q = 0; q < L::Q; ++q) store_aligned(line[q] + g * kLanes, f[q]);
+              for (int q = 0; q < L::Q; ++q) store_group_aligned(line[q] + g * N, f[q]);
             }
           }
           // The last group goes from registers: a 64-byte load of a line that was just
@@ -351,11 +360,11 @@ void update_rows(const BasicPopulationField<T>& src, BasicPopulationField<T>& ds
           static_assert(std::is_same_v<T, float> && kLineGroups == 2);
 #pragma GCC unroll 19
           for (int q = 0; q < L::Q; ++q)
-            store_stream_pair(d + q * stride + x, load_aligned_single(line[q]), to_single(f[q]));
+            store_stream_pair(d + q * stride + x, load_aligned_single(line[q]), to_stored<T>(f[q]));
 #else
 #pragma GCC unroll 19
           for (int q = 0; q < L::Q; ++q) {
-            store_aligned(line[q] + (kLineGroups - 1) * kLanes, f[q]);
+            store_group_aligned(line[q] + (kLineGroups - 1) * N, f[q]);
             store_stream_line(d + q * stride + x, line[q]);
           }
 #endif
@@ -368,22 +377,22 @@ void update_rows(const BasicPopulationField<T>& src, BasicPopulationField<T>& ds
           // line to itself (GridLayout::row_values); its values past the ghost are padding.
           const int n = nx - x;
           for (int g = 0; g < kLineGroups; ++g) {
-            const int xg = x + g * kLanes, ng = n - g * kLanes;
+            const int xg = x + g * N, ng = n - g * N;
             if (ng <= 0) {
 #pragma GCC unroll 19
-              for (int q = 0; q < L::Q; ++q) store_aligned(line[q] + g * kLanes, Lanes{});
+              for (int q = 0; q < L::Q; ++q) store_group_aligned(line[q] + g * N, V{});
               continue;
             }
-            if (ng >= kLanes) {
+            if (ng >= N) {
 #pragma GCC unroll 19
-              for (int q = 0; q < L::Q; ++q) f[q] = load(s + pull[q] + xg);
+              for (int q = 0; q < L::Q; ++q) f[q] = load_group<V>(s + pull[q] + xg);
             } else {
-              for (int q = 0; q < L::Q; ++q) f[q] = load_partial(s + pull[q] + xg, ng);
+              for (int q = 0; q < L::Q; ++q) f[q] = load_group_partial<V>(s + pull[q] + xg, ng);
             }
-            collide<kForce>(f, k, ex, ng < kLanes ? ng : kLanes);
+            collide<kForce>(f, k, ex, ng < N ? ng : N);
             if (out.x_min && xg == 0) store_outflow_ghost(f, 0, d - 1, stride, 1, out.rho_x_min);
 #pragma GCC unroll 19
-            for (int q = 0; q < L::Q; ++q) store_aligned(line[q] + g * kLanes, f[q]);
+            for (int q = 0; q < L::Q; ++q) store_group_aligned(line[q] + g * N, f[q]);
           }
           // Past the row's last cell the line holds the x = nx ghost and padding. An inlet's
           // static ghost is kept (KernelOutflow::keep_x_max_ghosts; read back only then: a
@@ -395,33 +404,33 @@ void update_rows(const BasicPopulationField<T>& src, BasicPopulationField<T>& ds
             line[q][n] = out.keep_x_max_ghosts ? d[q * stride + nx] : T(0);
             for (int i = n + 1; i < kLineCells; ++i) line[q][i] = T(0);
           }
-          // f holds the last group with cells; x = nx - 1 is its lane (n - 1) % kLanes.
+          // f holds the last group with cells; x = nx - 1 is its lane (n - 1) % N.
           if (out.x_max)
-            store_outflow_ghost(f, (n - 1) % kLanes, line[0] + n, kLineCells, -1, out.rho_x_max);
+            store_outflow_ghost(f, (n - 1) % N, line[0] + n, kLineCells, -1, out.rho_x_max);
 #pragma GCC unroll 19
           for (int q = 0; q < L::Q; ++q) store_stream_line(d + q * stride + x, line[q]);
           x = nx;
         }
       }
-      for (; x + kLanes <= nx; x += kLanes) {
-        prefetch_ahead(s, pull, x);
+      for (; x + N <= nx; x += N) {
+        prefetch_ahead<N>(s, pull, x);
 #pragma GCC unroll 19
-        for (int q = 0; q < L::Q; ++q) f[q] = load(s + pull[q] + x);
+        for (int q = 0; q < L::Q; ++q) f[q] = load_group<V>(s + pull[q] + x);
         collide<kForce>(f, k, ex);
-        edges(x, kLanes);
+        edges(x, N);
 #pragma GCC unroll 19
         for (int q = 0; q < L::Q; ++q) {
           // (The single store's rows end in its line loop above.)
-          if constexpr (kStream && kLineGroups == 1) store_stream(d + q * stride + x, f[q]);
-          else store_aligned(d + q * stride + x, f[q]);
+          if constexpr (kStream && kLineGroups == 1) store_group_stream(d + q * stride + x, f[q]);
+          else store_group_aligned(d + q * stride + x, f[q]);
         }
       }
       if (x < nx) {
         const int n = nx - x;
-        for (int q = 0; q < L::Q; ++q) f[q] = load_partial(s + pull[q] + x, n);
+        for (int q = 0; q < L::Q; ++q) f[q] = load_group_partial<V>(s + pull[q] + x, n);
         collide<kForce>(f, k, ex, n);
         edges(x, n);
-        for (int q = 0; q < L::Q; ++q) store_partial(d + q * stride + x, f[q], n);
+        for (int q = 0; q < L::Q; ++q) store_group_partial(d + q * stride + x, f[q], n);
       }
     };
     for_rows(rows, schedule, row);
@@ -434,23 +443,24 @@ void update_rows(const BasicPopulationField<T>& src, BasicPopulationField<T>& ds
 }
 
 /// One in-place step (stream_collide_in_place in stream_collide.hpp) over the interior,
-/// row by row (OpenMP), kLanes cells of x at a time. Each cell x reads its 19 pulled
+/// row by row (OpenMP), a group V of cells of x at a time. Each cell x reads its 19 pulled
 /// populations from the slots `rd` and stores the collided ones to the slots `wr`, the same
 /// 19 slots: from Canonical, f_q(x) = A[q](x - c_q) in and f*_q(x) to A[opp q](x + c_q); from
 /// Swapped, f_q(x) = A[opp q](x) in and f*_q(x) to A[q](x). No two cells share a slot, so
 /// the groups of a row and the rows of the threads never touch each other's values. The
 /// lines a group stores were just loaded: ordinary stores (no write-allocate read), unaligned
 /// where the slot is shifted along x.
-template <class T, bool kForce>
+template <class T, class V, bool kForce>
 void update_in_place(BasicPopulationField<T>& f, bool from_canonical, double tau,
                      const std::array<double, 3>& F, KernelExtrema* extrema, RowSchedule schedule,
                      const InPlaceXFaces* x_faces) {
   if (extrema != nullptr) *extrema = KernelExtrema{};
+  constexpr int N = lanes_of<V>;
   const GridLayout& lay = f.layout();
   const int nx = lay.nx(), ny = lay.ny();
   const std::ptrdiff_t rows = std::ptrdiff_t(ny) * lay.nz();
   const std::ptrdiff_t stride = std::ptrdiff_t(lay.stride());
-  const CollisionConstants k(tau, F);
+  const CollisionConstants<Scalar<V>> k(tau, F);
   std::ptrdiff_t rd[L::Q], wr[L::Q];
   for (int q = 0; q < L::Q; ++q) {
     const std::ptrdiff_t c = lay.offset(L::cx[q], L::cy[q], L::cz[q]);
@@ -466,25 +476,25 @@ void update_in_place(BasicPopulationField<T>& f, bool from_canonical, double tau
 
 #pragma omp parallel
   {
-    LaneExtrema ex;
+    LaneExtrema<V> ex;
     const auto row = [&](std::ptrdiff_t r) __attribute__((always_inline)) {
       const int y = int(r % ny);
       T* const c = f0 + lay.index(0, y, int(r / ny));
-      Lanes v[L::Q];
+      V v[L::Q];
       int x = 0;
-      for (; x + kLanes <= nx; x += kLanes) {
-        prefetch_ahead(c, rd, x);
+      for (; x + N <= nx; x += N) {
+        prefetch_ahead<N>(c, rd, x);
 #pragma GCC unroll 19
-        for (int q = 0; q < L::Q; ++q) v[q] = load(c + rd[q] + x);
+        for (int q = 0; q < L::Q; ++q) v[q] = load_group<V>(c + rd[q] + x);
         collide<kForce>(v, k, ex);
 #pragma GCC unroll 19
-        for (int q = 0; q < L::Q; ++q) store_unaligned(c + wr[q] + x, v[q]);
+        for (int q = 0; q < L::Q; ++q) store_group(c + wr[q] + x, v[q]);
       }
       if (x < nx) {
         const int n = nx - x;
-        for (int q = 0; q < L::Q; ++q) v[q] = load_partial(c + rd[q] + x, n);
+        for (int q = 0; q < L::Q; ++q) v[q] = load_group_partial<V>(c + rd[q] + x, n);
         collide<kForce>(v, k, ex, n);
-        for (int q = 0; q < L::Q; ++q) store_partial(c + wr[q] + x, v[q], n);
+        for (int q = 0; q < L::Q; ++q) store_group_partial(c + wr[q] + x, v[q], n);
       }
       if (x_faces != nullptr) in_place_x_ghosts(c, wr, nx, y, *x_faces);
     };
@@ -496,33 +506,41 @@ void update_in_place(BasicPopulationField<T>& f, bool from_canonical, double tau
   }
 }
 
-template <class T>
+/// The kernel for a store T and a group V of the arithmetic (Lanes: double, LanesFloat: float).
+template <class T, class V>
 void run_in_place(BasicPopulationField<T>& f, bool from_canonical, double tau,
                   const std::array<double, 3>& force, KernelExtrema* extrema, RowSchedule schedule,
                   const InPlaceXFaces* x_faces) {
   if (force[0] == 0.0 && force[1] == 0.0 && force[2] == 0.0)
-    update_in_place<T, false>(f, from_canonical, tau, force, extrema, schedule, x_faces);
+    update_in_place<T, V, false>(f, from_canonical, tau, force, extrema, schedule, x_faces);
   else
-    update_in_place<T, true>(f, from_canonical, tau, force, extrema, schedule, x_faces);
+    update_in_place<T, V, true>(f, from_canonical, tau, force, extrema, schedule, x_faces);
 }
 
-template <class T>
+template <class T, class V>
 void run(const BasicPopulationField<T>& src, BasicPopulationField<T>& dst, double tau,
          const std::array<double, 3>& force, bool nt, const KernelOutflow& outflow,
          KernelExtrema* extrema, RowSchedule schedule) {
   if (force[0] == 0.0 && force[1] == 0.0 && force[2] == 0.0)
-    nt ? update_rows<T, false, true>(src, dst, tau, force, outflow, extrema, schedule)
-       : update_rows<T, false, false>(src, dst, tau, force, outflow, extrema, schedule);
+    nt ? update_rows<T, V, false, true>(src, dst, tau, force, outflow, extrema, schedule)
+       : update_rows<T, V, false, false>(src, dst, tau, force, outflow, extrema, schedule);
   else
-    nt ? update_rows<T, true, true>(src, dst, tau, force, outflow, extrema, schedule)
-       : update_rows<T, true, false>(src, dst, tau, force, outflow, extrema, schedule);
+    nt ? update_rows<T, V, true, true>(src, dst, tau, force, outflow, extrema, schedule)
+       : update_rows<T, V, true, false>(src, dst, tau, force, outflow, extrema, schedule);
 }
 
 }  // namespace
 
 extern const KernelTable kernel_table;
-const KernelTable kernel_table{kIsaLevel,        kIsaVectors,         kLanes,
-                               kHasStreamingStores, &run<double>,       &run<float>,
-                               &run_in_place<double>, &run_in_place<float>};
+const KernelTable kernel_table{kIsaLevel,
+                               kIsaVectors,
+                               kLanes,
+                               kHasStreamingStores,
+                               &run<double, Lanes>,
+                               &run<float, Lanes>,
+                               &run<float, LanesFloat>,
+                               &run_in_place<double, Lanes>,
+                               &run_in_place<float, Lanes>,
+                               &run_in_place<float, LanesFloat>};
 
 }  // namespace cosim::fluid::COSIM_ISA_NS

@@ -58,17 +58,27 @@ struct KernelExtrema {
 /// longer holds up the step. Measured in docs/performance.md (bench --schedule).
 enum class RowSchedule { Static, Dynamic };
 
-/// `extrema`, if given, receives the KernelExtrema of `src`.
+/// The arithmetic the kernel collides in (Precision): Double for the modes "double" and
+/// "mixed", Float for "single". The double store computes in double only.
+enum class Arithmetic { Double, Float };
+constexpr Arithmetic arithmetic_of(Precision p) {
+  return float_arithmetic(p) ? Arithmetic::Float : Arithmetic::Double;
+}
+
+/// `extrema`, if given, receives the KernelExtrema of `src`. `arithmetic`: Double only
+/// (std::invalid_argument otherwise).
 void stream_collide(const PopulationField& src, PopulationField& dst, double tau,
                     const std::array<double, 3>& force, Stores stores = Stores::Auto,
                     const KernelOutflow& outflow = {}, KernelExtrema* extrema = nullptr,
-                    RowSchedule schedule = RowSchedule::Static);
-/// The same for the single-precision store: loads convert to double, the collision is the
-/// double one, stores round to float.
+                    RowSchedule schedule = RowSchedule::Static, Arithmetic arithmetic = Arithmetic::Double);
+/// The same for the float store. Arithmetic::Double ("mixed"): loads convert to double, the
+/// collision is the double one, stores round to float. Arithmetic::Float ("single"): loads,
+/// collision and stores in float, groups twice as wide; the per-call constants (1/tau, the
+/// force, Guo's source terms) computed in double and rounded once to float.
 void stream_collide(const PopulationFieldSingle& src, PopulationFieldSingle& dst, double tau,
                     const std::array<double, 3>& force, Stores stores = Stores::Auto,
                     const KernelOutflow& outflow = {}, KernelExtrema* extrema = nullptr,
-                    RowSchedule schedule = RowSchedule::Static);
+                    RowSchedule schedule = RowSchedule::Static, Arithmetic arithmetic = Arithmetic::Double);
 
 /// Where a field keeps the post-collision populations f*_q(x) of its state.
 ///  - Canonical: at A[q](x), the two-grid layout; a step pulls f_q(x) = A[q](x - c_q), the
@@ -99,12 +109,15 @@ struct InPlaceXFaces {
 /// filled) it ends Canonical (ghosts not filled, but for x_faces). Same collision arithmetic, bit for bit, as
 /// stream_collide; no outflow ghosts (the solver fills them); ordinary stores.
 /// With `x_faces`, the ghosts of those x faces too (only where x_faces->all()).
+/// `arithmetic` as stream_collide.
 void stream_collide_in_place(PopulationField& f, PopulationLayout layout, double tau,
                              const std::array<double, 3>& force, KernelExtrema* extrema = nullptr,
-                             RowSchedule schedule = RowSchedule::Static, const InPlaceXFaces* x_faces = nullptr);
+                             RowSchedule schedule = RowSchedule::Static, const InPlaceXFaces* x_faces = nullptr,
+                             Arithmetic arithmetic = Arithmetic::Double);
 void stream_collide_in_place(PopulationFieldSingle& f, PopulationLayout layout, double tau,
                              const std::array<double, 3>& force, KernelExtrema* extrema = nullptr,
-                             RowSchedule schedule = RowSchedule::Static, const InPlaceXFaces* x_faces = nullptr);
+                             RowSchedule schedule = RowSchedule::Static, const InPlaceXFaces* x_faces = nullptr,
+                             Arithmetic arithmetic = Arithmetic::Double);
 
 /// Population fields from the size of the CPU's last-level cache on (bytes, 19 populations
 /// with ghosts, either precision) are written with non-temporal stores: they cannot stay in

@@ -210,9 +210,8 @@ void load_run(const SceneReader& r, FluidScene& s) {
     if (const std::string why = blocks_problem(s.params.shape, blocks); !why.empty()) run.bad("blocks", why);
     s.blocks = blocks;
   }
-  // How the populations are stored; the arithmetic is double either way.
-  if (const auto p = run.choice("precision", {"double", "single"}))
-    s.params.precision = *p == 0 ? Precision::Double : Precision::Single;
+  // How the populations are stored and computed (Precision; in the order of its names).
+  if (const auto p = run.choice("precision", {"double", "mixed", "single"})) s.params.precision = kPrecisionModes[*p];
   // How a step moves the populations (FluidParams::propagation): the same bits either way
   // (in a coupled scene too: the schemes run the whole step after the solid's message,
   // FluidDomain::bulk_before_impulses), in one process or over MPI ranks.

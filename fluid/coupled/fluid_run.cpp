@@ -311,9 +311,10 @@ int FluidRun::peer_ending(Ending e, std::int64_t step, const std::string& note) 
 
 // ---- coupled checkpoints (DESIGN 2.4; protocol/README.md section 10) ----
 
-/// The populations of either store (precision "double" or "single") of the whole grid, as
-/// one process holds them (each rank of a run over MPI ranks writes its own range: parallel
-/// HDF5); a restart reads them back into a run of the same precision, on any number of ranks.
+/// The populations of either store (doubles, or floats for the modes "mixed" and "single") of
+/// the whole grid, as one process holds them (each rank of a run over MPI ranks writes its own
+/// range: parallel HDF5), with the precision mode's name and its arithmetic; a restart reads
+/// them back into a run of the same mode, on any number of ranks (precision_problem).
 std::string FluidRun::checkpoint(std::int64_t step, const std::string& reason, bool kept) {
   namespace fs = std::filesystem;
   const fs::path dir = fs::path(s_.output_dir) / "checkpoints";
@@ -338,7 +339,10 @@ std::string FluidRun::checkpoint(std::int64_t step, const std::string& reason, b
     protocol::write_identity(w, identity());
     w.text("reason", reason.empty() ? "every coupling.checkpoint_every steps" : reason);
     w.reserve("populations", dbl ? H5T_IEEE_F64LE : H5T_IEEE_F32LE, size);
-    w.text("precision", dbl ? "double" : "single");
+    w.text("precision", precision_name(s_.params.precision));
+    // Marks the names of issue 35 ("mixed" = float store, double arithmetic, called "single"
+    // before): a checkpoint without it is an older build's (precision_problem).
+    w.text("arithmetic", float_arithmetic(s_.params.precision) ? "float" : "double");
     put_rows(w, rows_);
     // The file closed, every process writes its share of the store into it.
     w.pause();
@@ -372,11 +376,15 @@ std::int64_t FluidRun::restore(std::optional<cosimlcm::fluid_state_t>& in_flight
     throw std::runtime_error("num_cgps = " + std::to_string(r.int64_attr("num_cgps")) + ", but the solid announced " +
                              std::to_string(coord_.num_cgps()));
   // The populations in the store's precision (its "precision" text): the scene hash above
-  // ties the checkpoint to this scene file, run.precision included. The checkpoint holds
-  // the whole store, ghost planes included, as the step left them: no ghost fill here, the
-  // restarted step reads the very ghosts the run's next step would have read
-  // (SinglePrecisionCoupledRestartIsBitIdentical). A fill from the stored values gives the
-  // same bits (the kernel's x-outflow ghosts are computed from the values as stored,
+  // ties the checkpoint to this scene file, run.precision included; the mode's name is
+  // checked too, since an older build's "single" is today's "mixed".
+  if (const std::string why = precision_problem(r.text("precision"), r.has("arithmetic"), s_.params.precision);
+      !why.empty())
+    throw std::runtime_error(why);
+  // The checkpoint holds the whole store, ghost planes included, as the step left them: no
+  // ghost fill here, the restarted step reads the very ghosts the run's next step would have
+  // read (SinglePrecisionCoupledRestartIsBitIdentical). A fill from the stored values gives
+  // the same bits (the kernel's x-outflow ghosts are computed from the values as stored,
   // FusedStepMatchesGhostFillStepSingleStore), but a restart does not depend on that. Each
   // process reads its own share (its block's store).
   const std::size_t size = std::size_t(D3Q19::Q) * layout_of(s_.params.shape, s_.params.precision).stride();

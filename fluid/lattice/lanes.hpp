@@ -17,6 +17,7 @@
 #endif
 
 #include <cstring>
+#include <type_traits>
 
 namespace cosim::fluid::COSIM_ISA_NS {
 
@@ -77,7 +78,7 @@ inline void store_fence() {
 #endif
 }
 
-// The single-precision store (Precision::Single): kLanes floats are loaded into and stored
+// The single-precision store (Precision::Mixed): kLanes floats are loaded into and stored
 // from the same double Lanes; the conversion to float rounds to nearest.
 using LanesSingle = float __attribute__((vector_size(kLanes * sizeof(float))));
 
@@ -180,6 +181,97 @@ inline void store_unaligned(double* p, Lanes v) { std::memcpy(p, &v, sizeof v); 
 inline void store_unaligned(float* p, Lanes v) {
   const LanesSingle w = __builtin_convertvector(v, LanesSingle);
   std::memcpy(p, &w, sizeof w);
+}
+
+// ---- Groups of any arithmetic type on any store (the kernel, fluid/collision/stream_collide.cpp,
+// and the bench's peer pattern): a group V is Lanes (double arithmetic: the modes "double" and
+// "mixed") or LanesFloat (float arithmetic: "single"); its values are stored as T (double or
+// float), converted on the way in and out where T is not V's scalar (round to nearest). The
+// double-store and mixed forms do what the overloads above do, bit for bit.
+
+/// The float-arithmetic group: as many floats as the level's vector registers hold (AVX-512:
+/// 16, AVX: 8, else 4), twice the doubles of a Lanes.
+using LanesFloat = float __attribute__((vector_size(sizeof(Lanes))));
+
+/// The scalar type of a group V (double for Lanes, float for LanesFloat) and its width.
+template <class V>
+using Scalar = std::remove_cvref_t<decltype(V{}[0])>;
+template <class V>
+constexpr int lanes_of = int(sizeof(V) / sizeof(Scalar<V>));
+
+/// The group of V's width as stored: lanes_of<V> values of T.
+template <class T, class V>
+struct StoredGroup {
+  typedef T type __attribute__((vector_size(lanes_of<V> * sizeof(T))));
+};
+template <class T, class V>
+using Stored = typename StoredGroup<T, V>::type;
+
+/// A group as stored (rounded to T where V computes in a wider type).
+template <class T, class V>
+[[gnu::always_inline]] inline Stored<T, V> to_stored(V v) {
+  if constexpr (std::is_same_v<Scalar<V>, T>)
+    return v;
+  else
+    return __builtin_convertvector(v, Stored<T, V>);
+}
+
+template <class V, class T>
+[[gnu::always_inline]] inline V from_stored(Stored<T, V> w) {
+  if constexpr (std::is_same_v<Scalar<V>, T>)
+    return w;
+  else
+    return __builtin_convertvector(w, V);
+}
+
+/// A group from any address aligned to sizeof(T).
+template <class V, class T>
+[[gnu::always_inline]] inline V load_group(const T* p) {
+  Stored<T, V> w;
+  std::memcpy(&w, p, sizeof w);
+  return from_stored<V, T>(w);
+}
+
+/// A group to any address aligned to sizeof(T).
+template <class V, class T>
+[[gnu::always_inline]] inline void store_group(T* p, V v) {
+  const Stored<T, V> w = to_stored<T>(v);
+  std::memcpy(p, &w, sizeof w);
+}
+
+/// A group to an address aligned to sizeof(Stored<T, V>).
+template <class V, class T>
+[[gnu::always_inline]] inline void store_group_aligned(T* p, V v) {
+  *static_cast<Stored<T, V>*>(__builtin_assume_aligned(p, sizeof(Stored<T, V>))) = to_stored<T>(v);
+}
+
+/// The first n < lanes_of<V> values from p; the others are 1 (a harmless density).
+template <class V, class T>
+inline V load_group_partial(const T* p, int n) {
+  Stored<T, V> w = Stored<T, V>{} + T(1);
+  std::memcpy(&w, p, sizeof(T) * unsigned(n));
+  return from_stored<V, T>(w);
+}
+
+/// The first n < lanes_of<V> values of v to p.
+template <class V, class T>
+inline void store_group_partial(T* p, V v, int n) {
+  const Stored<T, V> w = to_stored<T>(v);
+  std::memcpy(p, &w, sizeof(T) * unsigned(n));
+}
+
+/// A group of one whole 64-byte line as stored, to an aligned p, with a non-temporal store
+/// (an ordinary one where the target has none).
+template <class V, class T>
+[[gnu::always_inline]] inline void store_group_stream(T* p, V v) {
+  static_assert(sizeof(Stored<T, V>) == 64, "non-temporal group stores are whole lines");
+#if defined(__AVX512F__)
+  const Stored<T, V> w = to_stored<T>(v);
+  _mm512_stream_si512(static_cast<__m512i*>(__builtin_assume_aligned(static_cast<void*>(p), 64)),
+                      reinterpret_cast<const __m512i&>(w));
+#else
+  store_group_aligned(p, v);
+#endif
 }
 
 }  // namespace cosim::fluid::COSIM_ISA_NS

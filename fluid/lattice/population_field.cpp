@@ -5,7 +5,26 @@
 
 namespace cosim::fluid {
 
-const char* precision_name(Precision p) { return p == Precision::Double ? "double" : "single"; }
+const char* precision_name(Precision p) {
+  switch (p) {
+    case Precision::Double: return "double";
+    case Precision::Mixed: return "mixed";
+    case Precision::Single: return "single";
+  }
+  return "?";
+}
+
+std::string precision_problem(const std::string& written, bool marked, Precision run) {
+  const std::string want = precision_name(run);
+  if (!marked && written == "single")
+    return "precision = 'single': this checkpoint was written by an older build, whose \"single\" (float "
+           "store, double arithmetic) is now [run] precision = \"mixed\"; it cannot continue a run of this "
+           "build (start the run again with precision = \"mixed\", or restart it with the build that wrote it)";
+  if (written != want)
+    return "precision = '" + written + "': the checkpoint's populations are of another precision mode than "
+           "this run's [run] precision = \"" + want + "\"";
+  return "";
+}
 
 template <class T>
 void BasicPopulationField<T>::FreeDeleter::operator()(T* p) const {

@@ -159,12 +159,12 @@ PopulationField& FluidSolver::mutable_state() {
   return f_;
 }
 const PopulationFieldSingle& FluidSolver::state_single() const {
-  if (params_.precision != Precision::Single) wrong_precision("state_single()", params_.precision);
+  if (!stores_floats(params_.precision)) wrong_precision("state_single()", params_.precision);
   make_canonical("state_single()");
   return fs_;
 }
 PopulationFieldSingle& FluidSolver::mutable_state_single() {
-  if (params_.precision != Precision::Single)
+  if (!stores_floats(params_.precision))
     wrong_precision("mutable_state_single()", params_.precision);
   make_canonical("mutable_state_single()");
   have_previous_ = mid_step_ = false;
@@ -179,7 +179,7 @@ const PopulationField& FluidSolver::previous_state() const {
   return g_;
 }
 const PopulationFieldSingle& FluidSolver::previous_state_single() const {
-  if (params_.precision != Precision::Single) wrong_precision("previous_state_single()", params_.precision);
+  if (!stores_floats(params_.precision)) wrong_precision("previous_state_single()", params_.precision);
   if (params_.propagation == Propagation::InPlace)
     throw std::logic_error("FluidSolver::previous_state_single(): the in-place propagation keeps no previous state");
   if (!have_previous_) throw std::logic_error("FluidSolver::previous_state_single(): no step() since the state was set");
@@ -343,7 +343,8 @@ template <class T>
 void FluidSolver::begin_fields(const BasicPopulationField<T>& f, BasicPopulationField<T>& g) {
   // Boundaries (BoundaryConditions): the kernel writes the x outflows, the inlets stay from
   // fill_static_ghosts, the rest is filled after the swap.
-  stream_collide(f, g, params_.tau, params_.body_force, Stores::Auto, bc_.kernel_outflow(), &extrema_, schedule_);
+  stream_collide(f, g, params_.tau, params_.body_force, Stores::Auto, bc_.kernel_outflow(), &extrema_, schedule_,
+                 arithmetic_of(params_.precision));
 }
 
 template <class T>
@@ -399,7 +400,8 @@ void FluidSolver::begin_in_place(BasicPopulationField<T>& f) {
       saved_inputs_[k * D3Q19::Q + q] =
           canonical ? f.q(q)[i - shift(layout_, q)] : f.q(D3Q19::opp[q])[i];
   }
-  stream_collide_in_place(f, arrangement_, params_.tau, params_.body_force, &extrema_, schedule_, &x_faces_);
+  stream_collide_in_place(f, arrangement_, params_.tau, params_.body_force, &extrema_, schedule_, &x_faces_,
+                          arithmetic_of(params_.precision));
   arrangement_ = canonical ? PopulationLayout::Swapped : PopulationLayout::Canonical;
 }
 

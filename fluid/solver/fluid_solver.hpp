@@ -145,7 +145,7 @@ class FluidSolver {
   /// @pre precision() == Precision::Double (else std::logic_error)
   const PopulationField& state() const;
   PopulationField& mutable_state();
-  /// The same for the single-precision store. @pre precision() == Precision::Single
+  /// The same for the float store. @pre stores_floats(precision())
   const PopulationFieldSingle& state_single() const;
   PopulationFieldSingle& mutable_state_single();
   /// How the kernel shares the rows among the threads (RowSchedule; default Static).

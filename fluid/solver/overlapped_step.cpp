@@ -51,7 +51,8 @@ void FluidSolver::step_overlapped(BasicPopulationField<T>& f, BasicPopulationFie
     const BasicPopulationField<T> src = BasicPopulationField<T>::planes(f, z0, n);
     BasicPopulationField<T> dst = BasicPopulationField<T>::planes(g, z0, n);
     KernelExtrema part;
-    stream_collide(src, dst, params_.tau, params_.body_force, stores, outflow, &part, schedule_);
+    stream_collide(src, dst, params_.tau, params_.body_force, stores, outflow, &part, schedule_,
+                   arithmetic_of(params_.precision));
     merge(all, part);
   };
   // The forced cells of some planes (apply_local_forces clears what it applies).
