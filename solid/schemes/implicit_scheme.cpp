@@ -34,12 +34,11 @@ class ImplicitScheme final : public SolidScheme {
  public:
   explicit ImplicitScheme(const protocol::ImplicitSettings& settings) : cfg_(settings) {}
 
-  std::string_view name() const override { return "implicit"; }
-  std::int64_t key(std::int64_t seq, std::int64_t /*step*/) const override { return seq; }
-  /// The fluid's first message of the run has seq 0.
-  std::int64_t first_key(std::int64_t /*rigid_steps*/) const override { return 0; }
-  /// The last step accepted is answered by fluid_state_t(N) and closed by solid_state_t(N).
-  std::int64_t final_step(std::int64_t total_steps) const override { return total_steps; }
+  /// Ordered by seq (the fluid's first message has seq 0); the last step accepted is
+  /// answered by fluid_state_t(N) and closed by solid_state_t(N).
+  const protocol::MessageOrder& order() const override {
+    return protocol::message_order(protocol::CouplingScheme::Implicit);
+  }
   int iterations_allowed() const override { return cfg_.max_iterations; }
 
   /// The answer to the current iterate (another iterate, or its acceptance), then the next

@@ -14,11 +14,9 @@ namespace {
 
 class ParallelScheme final : public SolidScheme {
  public:
-  std::string_view name() const override { return "parallel"; }
-
-  /// fluid_state_t(0) when the sheets are free from step 1, else fluid_state_t(1).
-  std::int64_t first_key(std::int64_t rigid_steps) const override {
-    return protocol::parallel_first_fluid_state(rigid_steps);
+  /// First fluid_state_t(0) when the sheets are free from step 1, else fluid_state_t(1).
+  const protocol::MessageOrder& order() const override {
+    return protocol::message_order(protocol::CouplingScheme::Parallel);
   }
   /// The awaited step itself: fluid_state_t(m) drives solid_state_t(m + 1) once free.
   std::int64_t awaited_step(std::int64_t awaited_key, std::int64_t /*last_step*/) const override {
