@@ -71,10 +71,10 @@ class SolidScheme {
 
   // ---- checkpoints (DESIGN 2.4; protocol/README.md section 10) ----
 
-  /// What a checkpoint written now restarts from when it is not the model's state after the
-  /// last interval and the last solid_state_t sent.
+  /// What a checkpoint written now restarts from when it is not the solid's state after the
+  /// last interval and the last solid_state_t sent: the solid's kept start
+  /// (SchemeSolid::keep_start) and this solid_state_t in flight.
   struct RestartPoint {
-    const SolidState* state = nullptr;
     const cosimlcm::solid_state_t* in_flight = nullptr;
   };
   virtual std::optional<RestartPoint> restart_point() const { return std::nullopt; }
