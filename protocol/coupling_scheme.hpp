@@ -26,21 +26,6 @@ namespace cosim::protocol {
 
 enum class CouplingScheme { Serial, Implicit, Parallel };
 
-inline const char* scheme_name(CouplingScheme s) {
-  return s == CouplingScheme::Implicit ? "implicit" : s == CouplingScheme::Parallel ? "parallel" : "serial";
-}
-
-/// The names the scene key takes, in the order of the enum.
-inline constexpr const char* kSchemeNames[] = {"serial", "implicit", "parallel"};
-
-/// "serial", "implicit" or "parallel"; empty for anything else.
-inline std::optional<CouplingScheme> scheme_from_name(std::string_view name) {
-  if (name == "serial") return CouplingScheme::Serial;
-  if (name == "implicit") return CouplingScheme::Implicit;
-  if (name == "parallel") return CouplingScheme::Parallel;
-  return std::nullopt;
-}
-
 /// The keys of the implicit scheme, with their limits (both parsers check the same ones).
 struct ImplicitSettings {
   static constexpr int max_iterations_max = 1000;
@@ -80,5 +65,55 @@ inline bool parallel_fluid_state_needed(std::int64_t m, std::int64_t total_steps
 /// The first fluid_state_t of a parallel run: fluid_state_t(0) when the first dynamic step
 /// is 1, else fluid_state_t(1) (as in the serial scheme).
 inline std::int64_t parallel_first_fluid_state(std::int64_t rigid_steps) { return rigid_steps > 1 ? 1 : 0; }
+
+/// The message order of a scheme (protocol/README.md sections 5, 13, 14): the facts of it
+/// that the coordinator, the replay and both sides' schemes read, one row per scheme in the
+/// one name table below, so that no code outside the schemes/ folders asks which scheme runs.
+struct MessageOrder {
+  const char* name;  ///< [coupling] scheme, hello_t.scheme
+  CouplingScheme scheme;
+  /// Several state messages per LB step (iterates): both sides order them by the peer's seq,
+  /// and reports name a message by its step and iteration.
+  bool several_per_step;
+  /// The step of the first fluid_state_t the solid awaits, with `rigid_steps`.
+  std::int64_t (*first_fluid_step)(std::int64_t rigid_steps);
+  /// The last step of any state message of a run of N = `total_steps` LB steps: N - 1, or N
+  /// where solid_state_t(N, 0) accepts the last step.
+  std::int64_t (*final_step)(std::int64_t total_steps);
+  /// Whether the fluid publishes fluid_state_t(m) after stepping to m (a scheme with one
+  /// message a step), of a run of `total_steps` with `rigid_steps`.
+  bool (*fluid_publishes)(std::int64_t m, std::int64_t total_steps, std::int64_t rigid_steps);
+
+  /// The key of the first fluid_state_t the solid awaits: its step, or seq 0 (several a step).
+  std::int64_t first_fluid_key(std::int64_t rigid_steps) const {
+    return several_per_step ? 0 : first_fluid_step(rigid_steps);
+  }
+};
+
+/// The name table: one row per scheme, in the order of the enum.
+inline constexpr MessageOrder kMessageOrders[] = {
+    {"serial", CouplingScheme::Serial, false, [](std::int64_t) -> std::int64_t { return 1; },
+     [](std::int64_t n) { return n - 1; }, [](std::int64_t m, std::int64_t n, std::int64_t) { return m >= 1 && m < n; }},
+    {"implicit", CouplingScheme::Implicit, true, [](std::int64_t) -> std::int64_t { return 1; },
+     [](std::int64_t n) { return n; }, [](std::int64_t m, std::int64_t n, std::int64_t) { return m >= 1 && m <= n; }},
+    {"parallel", CouplingScheme::Parallel, false, &parallel_first_fluid_state, [](std::int64_t n) { return n - 1; },
+     &parallel_fluid_state_needed},
+};
+
+/// The row of `scheme` in the name table.
+inline const MessageOrder& message_order(CouplingScheme scheme) {
+  for (const MessageOrder& o : kMessageOrders)
+    if (o.scheme == scheme) return o;
+  return kMessageOrders[0];  // unreachable: every enumerator has its row
+}
+
+inline const char* scheme_name(CouplingScheme s) { return message_order(s).name; }
+
+/// "serial", "implicit" or "parallel" (the table's names); empty for anything else.
+inline std::optional<CouplingScheme> scheme_from_name(std::string_view name) {
+  for (const MessageOrder& o : kMessageOrders)
+    if (name == o.name) return o.scheme;
+  return std::nullopt;
+}
 
 }  // namespace cosim::protocol

@@ -1,7 +1,9 @@
 // The solid library's run (sdk/include/cosim/solid.hpp): the solid server's scene reader,
-// session (solid/coupled/solid_peer.hpp over protocol/session/) and coupling scheme's message order
-// (solid/schemes/) around a user's Solid. Protocol state lives there; this file only wires it
-// to the user's interface: the command line, the hello_t, the lock-step loop, the ending.
+// session (solid/coupled/solid_peer.hpp over protocol/session/) and coupling schemes (the
+// registry of solid/schemes/: serial, parallel, implicit) around a user's Solid, which the
+// schemes drive as they drive the server's model (solid/schemes/scheme_solid.hpp). Protocol
+// state lives there; this file only wires it to the user's interface: the command line, the
+// hello_t, the lock-step loop, the user's steps and checkpoints, the ending.
 #include "cosim/solid.hpp"
 
 #include <CLI/CLI.hpp>
@@ -38,6 +40,7 @@
 #include "solid/coupled/coupled_solid.hpp"
 #include "solid/coupling/fluid_state_check.hpp"
 #include "solid/schemes/scheme_context.hpp"
+#include "solid/schemes/scheme_solid.hpp"
 #include "solid/schemes/solid_scheme.hpp"
 #include "solid/coupling/solid_coupler.hpp"
 #include "solid/coupled/solid_peer.hpp"
@@ -128,8 +131,9 @@ Sheet sheet_of(const solid::SheetSpec& spec, const protocol::UnitConverter& unit
   return s;
 }
 
-/// One run of a user's Solid: the pieces of the solid server's session around it.
-class SdkRun {
+/// One run of a user's Solid: the pieces of the solid server's session around it, and the
+/// user's Solid as the coupling schemes drive a solid.
+class SdkRun final : public solid::SchemeSolid {
  public:
   SdkRun(Solid& solid, const solid::SolidScene& scene, const solid::CoupledSolidOptions& options, Scene info)
       : solid_(solid), s_(scene), o_(options), info_(std::move(info)), units_(scene.unit_inputs()),
@@ -139,13 +143,10 @@ class SdkRun {
                 return solid::check_fluid_state(m, n_, scheme_->final_step(peer_.total_steps()),
                                                 peer_.total_steps(), s_.config);
               },
-              std::cout) {}
+              std::cout),
+        ctx_{*this, peer_, std::cout} {}
 
   int run() {
-    if (scheme_->name() != "serial")
-      return report(Ending{exit_code::bad_input,
-                           s_.path + ": [coupling] scheme = \"" + std::string(scheme_->name()) +
-                               "\"; allowed with the solid library: \"serial\""});
     Markers start;
     try {
       start = solid_.start(info_);
@@ -158,6 +159,11 @@ class SdkRun {
       if (!info_.asked.count(name))
         return report(Ending{exit_code::bad_input, "command line: unknown option --" + name + " (" + solid_.model() +
                                                        " reads none of that name)"});
+    // The implicit scheme iterates each step from its start: the solid's save() and restore().
+    if (scheme_->order().several_per_step && solid_.save().empty())
+      return report(Ending{exit_code::bad_input, s_.path + ": [coupling] scheme = \"" + std::string(scheme_->name()) +
+                                                     "\" iterates each step from its start: " + solid_.model() +
+                                                     " needs save() and restore() (it keeps no state)"});
     n_ = start.position_lb.cols();
     x_ = start.position_lb;
     area_ = start.area_lb;
@@ -181,7 +187,7 @@ class SdkRun {
     hello.num_cgps = static_cast<std::int32_t>(n_);
     if (const auto e = peer_.handshake(hello)) return finish(*e);
     std::cout << "solid: handshake accepted: " << peer_.total_steps() << " LB steps (" << peer_.rigid_steps()
-              << " rigid)\n";
+              << " rigid)" << scheme_->announcement() << "\n";
     std::cout.flush();
     peer_.await_from(scheme_->first_key(peer_.rigid_steps()));
     series_.emplace(units_, solid_.model(), n_);
@@ -203,8 +209,8 @@ class SdkRun {
     }
     first_step_ = peer_.last_step();
     // The energy balance, when the solid reports its energy: from step 0, a restart's
-    // continued from its checkpoint (an older checkpoint without it: from here).
-    if (const double e0 = solid_.energy_lb(); std::isfinite(e0)) {
+    // continued from its checkpoint (an older checkpoint without it: from the restored state).
+    if (const double e0 = o_.restart.empty() ? solid_.energy_lb() : restored_energy_; std::isfinite(e0)) {
       balance_.emplace(e0, x_);
       if (saved_balance_) balance_->restore(*saved_balance_);  // a restart's: continued
     }
@@ -215,65 +221,107 @@ class SdkRun {
       if (const auto e = peer_.wait([] {})) return finish(*e);
       const cosimlcm::fluid_state_t m = peer_.awaited();
       restart_pending_ = false;  // the fluid publishes nothing before it accepted its checkpoint
-      if (const auto e = interval(m)) return finish(*e);
+      if (const auto e = scheme_->on_fluid_state(m, ctx_)) return finish(*e);
       peer_.advance();
       if (const auto e = peer_.failure()) return finish(*e);
     }
   }
 
  private:
-  /// Section 5: fluid_state_t(m) drives the interval m - 1 -> m; solid_state_t(m) back.
-  std::optional<Ending> interval(const cosimlcm::fluid_state_t& m) {
-    if (const auto e = solid::check_fluid_state(m, n_, scheme_->final_step(peer_.total_steps()), peer_.total_steps(),
-                                                s_.config))
-      return e;
-    const solid::FluidSample sample = solid::sample_of(m);
-    const int a_t = s_.coupling->time_ratio;
-    Answer a;
-    int substeps = 0;
-    if (m.step < peer_.rigid_steps()) {
-      // The spin-up: the markers held, U_B = 0, J_l = g dA = -2 rho u dA.
-      a.position_lb = x_;
-      a.impulse_lb.resize(3, n_);
-      for (Eigen::Index l = 0; l < n_; ++l)
-        a.impulse_lb.col(l) = momentum_exchange(sample.rho_lb[l], Eigen::Vector3d::Zero(),
-                                                sample.velocity_lb.col(l), area_[l]);
-    } else {
-      Interval in;
-      in.step = m.step;
-      in.substeps = a_t;
-      in.rho_lb = sample.rho_lb;
-      in.velocity_lb = sample.velocity_lb;
-      const Clock::time_point t0 = Clock::now();
-      try {
-        a = solid_.step(in);
-      } catch (const std::length_error& e) {  // a mis-sized answer (the Python binding's)
-        return Ending{exit_code::unhealthy,
-                      "the solid's answer for LB step " + std::to_string(m.step) + ": " + one_line(e.what()), true};
-      } catch (const std::exception& e) {
-        return Ending{exit_code::system, solid_.model() + ": step() of LB step " + std::to_string(m.step) + ": " +
-                                             one_line(e.what()),
-                      true};
-      }
-      compute_s_ += std::chrono::duration<double>(Clock::now() - t0).count();
-      ++computed_;
-      if (auto e = answer_problem(a, n_, m.step)) return e;
-      substeps = a_t;
-      x_ = a.position_lb;
+  // ---- the solid as the coupling schemes drive it (solid/schemes/scheme_solid.hpp) ----
+
+  std::int64_t total_steps() const override { return peer_.total_steps(); }
+  std::int64_t rigid_steps() const override { return peer_.rigid_steps(); }
+  Eigen::Index num_cgps() const override { return n_; }
+  int time_ratio() const override { return s_.coupling->time_ratio; }
+  Eigen::Matrix3Xd positions_lb() const override { return x_; }
+  std::int64_t total_substeps() const override { return total_substeps_; }
+  double solid_time_s(std::int64_t substeps) const override { return static_cast<double>(substeps) * units_.dt_cg_s(); }
+
+  std::optional<Ending> check(const cosimlcm::fluid_state_t& m) const override {
+    return solid::check_fluid_state(m, n_, scheme_->final_step(peer_.total_steps()), peer_.total_steps(), s_.config);
+  }
+
+  /// The interval of `step` (section 5): during the spin-up the markers held, U_B = 0,
+  /// J_l = g dA = -2 rho u dA; then the user's step() with the fluid sample.
+  std::optional<Ending> interval(const solid::FluidSample& sample, std::int64_t step,
+                                 solid::IntervalResult& r) override {
+    if (step >= peer_.rigid_steps()) return user_step(sample, step, r);
+    r.position_lb = x_;
+    r.impulse_lb.resize(3, n_);
+    for (Eigen::Index l = 0; l < n_; ++l)
+      r.impulse_lb.col(l) =
+          momentum_exchange(sample.rho_lb[l], Eigen::Vector3d::Zero(), sample.velocity_lb.col(l), area_[l]);
+    r.substeps = 0;
+    return std::nullopt;
+  }
+
+  /// The interval the fluid gets: the energy balance of a moving step, the row of solid.h5,
+  /// the substeps on the clock.
+  std::optional<Ending> commit(std::int64_t step, const solid::IntervalResult& r, double) override {
+    if (step >= peer_.rigid_steps()) {
+      x_ = r.position_lb;
       if (balance_)
-        if (const auto t = balance_->add(m.step, a.position_lb, a.impulse_lb, solid_.energy_lb()))
+        if (const auto t = balance_->add(step, r.position_lb, r.impulse_lb, solid_.energy_lb()))
           return Ending{exit_code::unhealthy, solid_.model() + ": " + t->diagnosis, true};
     }
-    series_->add(m.step, a.position_lb, a.impulse_lb, energy(), balance_ ? balance_->work() : kNone);
-    total_substeps_ += substeps;
-    peer_.publish_state(m.step, substeps, static_cast<double>(total_substeps_) * units_.dt_cg_s(), a.position_lb,
-                        a.impulse_lb, 0);
+    series_->add(step, r.position_lb, r.impulse_lb, energy(), balance_ ? balance_->work() : kNone);
+    total_substeps_ += r.substeps;
+    return std::nullopt;
+  }
+  std::optional<Ending> snapshot(std::int64_t) override { return std::nullopt; }
+  std::optional<Ending> checkpoint_if_due(std::int64_t step) override {
     const std::int64_t every = s_.coupling->checkpoint_every;
-    if (every > 0 && m.step % every == 0) try {
+    if (every > 0 && step % every == 0) try {
         checkpoint("every coupling.checkpoint_every steps");
       } catch (const std::exception& e) {
-        return Ending{exit_code::system, "checkpoint of step " + std::to_string(m.step) + ": " + one_line(e.what()), true};
+        return Ending{exit_code::system, "checkpoint of step " + std::to_string(step) + ": " + one_line(e.what()), true};
       }
+    return std::nullopt;
+  }
+
+  /// The implicit scheme's iterates: each from the solid's save() at the step's start.
+  void keep_start() override { start_state_ = solid_.save(); }
+  std::optional<Ending> iterate(const solid::FluidSample& drive, std::int64_t step, int iteration,
+                                solid::IntervalResult& trial) override {
+    if (iteration > 0) try {
+        solid_.restore(start_state_);
+      } catch (const std::exception& e) {
+        return Ending{exit_code::system, solid_.model() + ": restore() for iteration " + std::to_string(iteration) +
+                                             " of LB step " + std::to_string(step) + ": " + one_line(e.what()),
+                      true};
+      }
+    return user_step(drive, step, trial);
+  }
+  /// The kept start is the checkpoint's sdk_state (checkpoint()); nothing more.
+  void save_start(protocol::CheckpointWriter&) const override {}
+  void restore_start(const protocol::CheckpointReader&) override {}
+
+ private:
+  /// The user's step() of `step` driven by `sample`: A_T substeps, the answer checked.
+  std::optional<Ending> user_step(const solid::FluidSample& sample, std::int64_t step, solid::IntervalResult& r) {
+    Interval in;
+    in.step = step;
+    in.substeps = s_.coupling->time_ratio;
+    in.rho_lb = sample.rho_lb;
+    in.velocity_lb = sample.velocity_lb;
+    Answer a;
+    const Clock::time_point t0 = Clock::now();
+    try {
+      a = solid_.step(in);
+    } catch (const std::length_error& e) {  // a mis-sized answer (the Python binding's)
+      return Ending{exit_code::unhealthy,
+                    "the solid's answer for LB step " + std::to_string(step) + ": " + one_line(e.what()), true};
+    } catch (const std::exception& e) {
+      return Ending{exit_code::system,
+                    solid_.model() + ": step() of LB step " + std::to_string(step) + ": " + one_line(e.what()), true};
+    }
+    compute_s_ += std::chrono::duration<double>(Clock::now() - t0).count();
+    ++computed_;
+    if (auto e = answer_problem(a, n_, step)) return e;
+    r.position_lb = a.position_lb;
+    r.impulse_lb = a.impulse_lb;
+    r.substeps = in.substeps;
     return std::nullopt;
   }
 
@@ -282,7 +330,9 @@ class SdkRun {
   /// OUTPUT/checkpoints/solid_NNNNNNNN.h5 of the last step sent, if the solid keeps any: its
   /// path, or "".
   std::string checkpoint(const std::string& reason) {
-    const std::vector<double> state = solid_.save();
+    // A step being iterated restarts from its start (the scheme's restart point).
+    const std::optional<solid::SolidScheme::RestartPoint> point = scheme_->restart_point();
+    const std::vector<double> state = point ? start_state_ : solid_.save();
     if (state.empty()) return "";
     namespace fs = std::filesystem;
     const fs::path dir = fs::path(s_.output_dir) / "checkpoints";
@@ -290,7 +340,8 @@ class SdkRun {
     const fs::path file = dir / protocol::checkpoint_name("solid", peer_.last_step());
     protocol::CheckpointWriter w(file);
     w.attr("step", peer_.last_step());
-    w.attr("solid_seq", peer_.next_seq());
+    w.attr("solid_seq", point ? point->in_flight->seq + 1 : peer_.next_seq());
+    scheme_->save(w, ctx_);
     w.attr("total_substeps", total_substeps_);
     w.attr("num_cgps", static_cast<std::int64_t>(n_));
     protocol::write_identity(w, identity());
@@ -300,7 +351,7 @@ class SdkRun {
     w.put("sdk_state", state);
     if (series_) series_->save(w);
     if (balance_) save_balance(w, balance_->saved());
-    const cosimlcm::solid_state_t& sent = peer_.last_sent();
+    const cosimlcm::solid_state_t& sent = point ? *point->in_flight : peer_.last_sent();
     std::vector<std::uint8_t> bytes(static_cast<std::size_t>(sent.getEncodedSize()));
     sent.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
     w.put("in_flight_solid_state", bytes);
@@ -335,6 +386,7 @@ class SdkRun {
     } catch (const std::invalid_argument& e) {
       throw std::runtime_error(solid_.model() + ": " + e.what());
     }
+    restored_energy_ = solid_.energy_lb();
     cosimlcm::solid_state_t sent{};
     const std::vector<std::uint8_t> bytes = r.bytes("in_flight_solid_state");
     if (sent.decode(bytes.data(), 0, static_cast<int>(bytes.size())) < 0 || sent.step != step || sent.num_cgps != n_)
@@ -345,8 +397,9 @@ class SdkRun {
       std::cout << "solid: " << path << " holds no solid.h5 rows (an older library's checkpoint): solid.h5 starts at step "
                 << step << "\n";
     total_substeps_ = r.int64_attr("total_substeps");
+    // The scheme's part (what it awaits; the implicit scheme's first iterate again).
+    peer_.await_from(scheme_->restore(r, step, false, sent, ctx_));
     peer_.resume(std::move(sent), r.int64_attr("solid_seq"));
-    peer_.await_from(step + 1);
   }
 
   int finish(Ending e) {
@@ -365,6 +418,7 @@ class SdkRun {
     std::cout << "solid: coupled run " << (e.code == exit_code::ok ? "done" : "stopped") << " at step "
               << peer_.last_step() << " of " << peer_.total_steps() << ", " << total_substeps_ << " substeps in "
               << fmt("%.1f", wall) << " s; " << peer_.counters() << "\n";
+    scheme_->report(std::cout);
     if (computed_ > 0)
       std::cout << "solid: per LB step: step() " << fmt("%.4g", 1e3 * compute_s_ / double(computed_)) << " ms over "
                 << computed_ << " steps\n";
@@ -428,6 +482,9 @@ class SdkRun {
   std::optional<EnergyBalance::Saved> saved_balance_;  ///< a restart's checkpoint's balance
   std::optional<SolidSeries> series_;
   bool restart_pending_ = false;  ///< a restart the fluid has not yet accepted: solid.h5 stays as it is
+  solid::SchemeContext ctx_;
+  std::vector<double> start_state_;       ///< save() at the start of the step being iterated
+  double restored_energy_ = kNone;        ///< energy_lb() of a restart's restored state
   std::int64_t total_substeps_ = 0, computed_ = 0, first_step_ = 0;
   double compute_s_ = 0.0;
   Clock::time_point start_ = Clock::now();

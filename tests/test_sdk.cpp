@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "tests/support/run_compare.hpp"
@@ -263,6 +264,41 @@ TEST(SolidLibrary, InstalledToolsRunFromThePrefix) {
   EXPECT_EQ(slurp(out / "solid.exit"), "0\n") << cosim::test::logs(out);
   EXPECT_NE(slurp(out / "fluid.log").find("coupled run done, 60 LB steps"), std::string::npos) << cosim::test::logs(out);
   EXPECT_TRUE(fs::exists(out / "solid.h5"));
+}
+
+// Issue 31 step 5: library solids run every coupling scheme through the solid server's
+// scheme registry (solid/schemes/). The spring sheet in C++ and in Python, coupled under the
+// serial, parallel and implicit schemes, each twice: both runs complete, and their HDF5
+// outputs (the fluid's monitor.h5, the library's solid.h5) are bit-identical run to run.
+TEST(SolidLibrary, SdkSolidRunsEveryScheme) {
+  const fs::path dir = cosim::test::scratch("sdk_every_scheme");
+  const std::string python = "env PYTHONPATH=" + (kBuild / "sdk" / "python").string() + " /usr/bin/python3 " +
+                             (kSource / "examples" / "python_sheet" / "spring_sheet.py").string();
+  const std::vector<std::pair<std::string, std::string>> solids{{"cpp", SPRING_SHEET_EXE}, {"python", python}};
+  for (const char* scheme : {"serial", "parallel", "implicit"}) {
+    std::string text = slurp(kSource / "scenes" / "coupled_spring_sheet.toml");
+    cosim::test::replace_in(text, "rigid_steps = 10\n", "rigid_steps = 10\nscheme = \"" + std::string(scheme) + "\"\n");
+    const fs::path scene = dir / (std::string(scheme) + ".toml");
+    std::ofstream(scene) << text;
+    for (const auto& [name, cmd] : solids) {
+      const fs::path a = dir / (std::string(scheme) + "_" + name + "_a"), b = dir / (std::string(scheme) + "_" + name + "_b");
+      for (const fs::path& out : {a, b}) {
+        SCOPED_TRACE(out.string());
+        cosim::test::expect_run_done(out, cosim::test::run_launcher(kSource, scene, out, "--solid-cmd " + quoted(cmd)));
+        const std::string solid_log = slurp(out / "solid.log");
+        EXPECT_NE(solid_log.find("solid: coupled run done at step"), std::string::npos) << solid_log;
+        if (std::string(scheme) == "implicit") {
+          EXPECT_NE(solid_log.find("solid: implicit scheme: 50 steps iterated"), std::string::npos) << solid_log;
+        }
+        if (std::string(scheme) == "parallel") {
+          EXPECT_NE(solid_log.find("parallel scheme"), std::string::npos) << solid_log;
+        }
+      }
+      std::size_t files = 0;
+      EXPECT_EQ(cosim::test::compare_outputs(a, b, &files), "") << scheme << " " << name;
+      EXPECT_GE(files, 2u) << scheme << " " << name;  // monitor.h5 and solid.h5 at least
+    }
+  }
 }
 
 }  // namespace

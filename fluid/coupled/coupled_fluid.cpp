@@ -9,6 +9,7 @@
 
 #include "fluid/coupled/coordinator.hpp"
 #include "fluid/coupled/fluid_run.hpp"
+#include "fluid/coupled/step_driver.hpp"
 #include "fluid/domain/fluid_domain.hpp"
 #include "fluid/schemes/fluid_scheme.hpp"
 #include "common/run/checkpoint_file.hpp"
@@ -28,7 +29,7 @@ int run_steps(const FluidScene& scene, const CoupledFluidOptions& options, Coord
   std::optional<int> failed;
   const std::int64_t first_step = run.start(failed);
   if (failed) return *failed;
-  return scheme.run(coord, run, first_step);
+  return drive_steps(coord, run, scheme, first_step);
 }
 
 int run_coupled(const FluidScene& scene, const CoupledFluidOptions& options, Coordinator& coord, FluidScheme& scheme,

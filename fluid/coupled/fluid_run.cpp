@@ -295,12 +295,6 @@ std::optional<int> FluidRun::step_outputs(std::int64_t now, bool last, bool peri
   return std::nullopt;
 }
 
-int FluidRun::interrupt(std::int64_t step) {
-  std::string reason = protocol::interrupt_reason() + " at step " + std::to_string(step);
-  if (step > coord_.first_step()) reason += checkpoint(step, reason);
-  return coord_.stop_and_end({exit_code::system, reason, false}, step);
-}
-
 int FluidRun::peer_ending(Ending e, std::int64_t step, const std::string& note) {
   e.reason += note;
   // The solid's watchdog tripped on a sentinel that a smaller dt_CG may cure.

@@ -108,9 +108,6 @@ class FluidRun {
   /// The peer lost or stopped with an error while the fluid waited at `step`: `note` (a
   /// checkpoint's line, or why there is none) added, the retry advice when a smaller dt_CG
   /// may cure the solid's trip; the exit code.
-  /// SIGINT or SIGTERM (protocol/session/interrupt.hpp) noticed at `step`, whose state is
-  /// whole: its checkpoint (after a restart's first step), stop_t(1) naming the signal.
-  int interrupt(std::int64_t step);
   int peer_ending(protocol::Ending e, std::int64_t step, const std::string& note);
 
   /// Every protocol::progress_every_s(1) seconds, unless quiet: "fluid: progress step N/M

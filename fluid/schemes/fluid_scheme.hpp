@@ -1,14 +1,17 @@
 // The fluid's side of a coupling scheme (protocol/coupling_scheme.hpp; protocol/README.md
-// sections 5, 13, 14): its message order (which solid_state_t each LB step waits for, which
-// fluid_state_t it publishes), what it keeps for a restart, and how the coordinator orders
-// and bounds the solid's messages. One class per scheme, one file each, chosen by name from
-// the registry below; the solid's side is solid/schemes/.
+// sections 5, 13, 14), as the solid's (solid/schemes/solid_scheme.hpp): it answers each
+// solid_state_t the step driver (fluid/coupled/step_driver.hpp) hands it, which owns the
+// loop, the waiting, the interrupt path, timing and progress. A scheme says which
+// solid_state_t it awaits and what each drives (LB steps, the fluid_state_t published), what
+// it keeps for a restart, and how the coordinator orders and bounds the solid's messages.
+// One class per scheme, one file each, chosen by name from the registry (registry.cpp).
 #pragma once
 
 #include <cstdint>
 #include <memory>
 #include <optional>
 #include <ostream>
+#include <string>
 #include <vector>
 
 #include "cosimlcm/fluid_state_t.hpp"
@@ -20,17 +23,46 @@ namespace cosim::fluid {
 
 class Coordinator;
 class FluidRun;
+class SchemeContext;
+
+/// What a scheme's answer to one solid_state_t leaves: the run ended (its exit code), or the
+/// step the progress line reports (with the iteration, in a scheme that iterates).
+struct Reply {
+  std::optional<int> exit;  ///< the run ended: stop_t or end() done, the exit code
+  std::int64_t now = -1;    ///< the step reached; -1: no progress line
+  int iteration = -1;       ///< the iterate published, or -1
+};
 
 class FluidScheme {
  public:
+  explicit FluidScheme(const protocol::MessageOrder& order) : order_(order) {}
   virtual ~FluidScheme() = default;
 
-  /// The LB steps of the run from `first_step` (0, or a restart's step) to the end, after
-  /// the handshake and the restore; the exit code (the coordinator ended the run).
-  virtual int run(Coordinator& coordinator, FluidRun& run, std::int64_t first_step) = 0;
+  /// The scheme's row of the protocol's name table.
+  const protocol::MessageOrder& order() const { return order_; }
 
-  /// What the coordinator orders solid_state_t by: its step (one message per LB step).
-  virtual std::int64_t key_of(const cosimlcm::solid_state_t& m) const { return m.step; }
+  // ---- the message order (the step driver's calls) ----
+  /// The run's LB steps begin at `first_step` (0, or a restart's step).
+  virtual void start(std::int64_t first_step, SchemeContext& ctx) = 0;
+  /// The committed LB step whose solid_state_t is awaited.
+  virtual std::int64_t step() const = 0;
+  /// The run's last LB step is committed.
+  virtual bool done() const = 0;
+  /// What runs before the wait for the awaited solid_state_t (the serial scheme's bulk of
+  /// the step); the exit code of a trip.
+  virtual std::optional<int> before_wait(SchemeContext& ctx) {
+    (void)ctx;
+    return std::nullopt;
+  }
+  /// The awaited solid_state_t `m`, taken from the coordinator: what it drives.
+  virtual Reply on_solid_state(const cosimlcm::solid_state_t& m, SchemeContext& ctx) = 0;
+  /// The run ends (a lost peer, a signal) while step() is awaited: the checkpoint of the
+  /// committed state (FluidRun::checkpoint's line), or why there is none.
+  virtual std::string keep(SchemeContext& ctx, const std::string& reason);
+
+  /// What the coordinator orders solid_state_t by: its step, or its seq where a step has
+  /// several messages (the name table's).
+  std::int64_t key_of(const cosimlcm::solid_state_t& m) const { return order_.several_per_step ? m.seq : m.step; }
   /// The highest step of a solid_state_t the coordinator accepts now (the step window of
   /// protocol/README.md 8a), with `awaited_key` and the committed LB step `awaited_step`.
   virtual std::int64_t highest_solid_step(std::int64_t awaited_key, std::int64_t awaited_step,
@@ -62,6 +94,9 @@ class FluidScheme {
     (void)out;
     (void)steps;
   }
+
+ private:
+  const protocol::MessageOrder& order_;
 };
 
 /// The fluid's side of the scheme named in the scene (the registry: fluid/schemes/registry.cpp).

@@ -1,5 +1,5 @@
 // The parallel (Jacobi) scheme, the fluid's side (DESIGN 2.1; protocol/README.md section 14):
-// the serial loop, publishing the fluid_state_t the solid's next interval needs right after
+// the serial scheme, publishing the fluid_state_t the solid's next interval needs right after
 // each step: fluid_state_t(n + 1) drives solid_state_t(n + 2) (dynamic steps), so the solid
 // integrates while the fluid steps. Its checkpoints also hold the fluid_state_t in flight.
 #include <memory>
@@ -44,16 +44,13 @@ class ParallelFluidScheme final : public SerialFluidScheme {
     return m;
   }
 
- protected:
-  bool publishes(std::int64_t m) const override {
-    return protocol::parallel_fluid_state_needed(m, total_steps_, rigid_steps_);
-  }
 };
 
 }  // namespace
 
 std::unique_ptr<FluidScheme> make_parallel_fluid_scheme(std::int64_t total_steps, std::int64_t rigid_steps) {
-  return std::make_unique<ParallelFluidScheme>(total_steps, rigid_steps);
+  return std::make_unique<ParallelFluidScheme>(protocol::message_order(protocol::CouplingScheme::Parallel), total_steps,
+                                              rigid_steps);
 }
 
 }  // namespace cosim::fluid

@@ -6,7 +6,9 @@
 #include <string>
 
 #include "fluid/coupled/coordinator.hpp"
+#include "fluid/coupled/fluid_run.hpp"
 #include "fluid/schemes/fluid_scheme.hpp"
+#include "fluid/schemes/scheme_context.hpp"
 #include "fluid/schemes/serial_scheme.hpp"
 #include "protocol/message_checks.hpp"
 
@@ -19,6 +21,10 @@ std::int64_t FluidScheme::highest_solid_step(std::int64_t awaited_key, std::int6
   return std::min<std::int64_t>(awaited_key + protocol::kStepWindow, total_steps - 1);
 }
 
+std::string FluidScheme::keep(SchemeContext& ctx, const std::string& reason) {
+  return ctx.run.checkpoint(step(), reason);
+}
+
 void FluidScheme::write_checkpoint(protocol::CheckpointWriter& w, std::int64_t, const Coordinator& c) const {
   w.attr("fluid_seq", c.fluid_seq());
 }
@@ -26,7 +32,8 @@ void FluidScheme::write_checkpoint(protocol::CheckpointWriter& w, std::int64_t, 
 std::unique_ptr<FluidScheme> make_fluid_scheme(const protocol::SchemeSettings& settings, std::int64_t total_steps,
                                                std::int64_t rigid_steps) {
   switch (settings.scheme) {
-    case protocol::CouplingScheme::Serial: return std::make_unique<SerialFluidScheme>(total_steps, rigid_steps);
+    case protocol::CouplingScheme::Serial:
+      return std::make_unique<SerialFluidScheme>(protocol::message_order(settings.scheme), total_steps, rigid_steps);
     case protocol::CouplingScheme::Parallel: return make_parallel_fluid_scheme(total_steps, rigid_steps);
     case protocol::CouplingScheme::Implicit: return make_implicit_fluid_scheme(total_steps, rigid_steps);
   }

@@ -21,6 +21,7 @@
 #include "protocol/session/interrupt.hpp"
 #include "common/text/text.hpp"
 #include "solid/schemes/solid_scheme.hpp"
+#include "solid/coupled/server_solid.hpp"
 #include "solid/coupled/solid_checkpoints.hpp"
 #include "solid/coupled/solid_peer.hpp"
 #include "solid/coupled/solid_run.hpp"
@@ -43,7 +44,8 @@ class CoupledSolid {
         run_(scene),
         peer_(*scene.coupling, options, *scheme_, [this](const cosimlcm::fluid_state_t& m) { return run_.check(m); },
               out),
-        checkpoints_(scene, options, run_, peer_, *scheme_, out), ctx_{run_, peer_, checkpoints_, out} {}
+        solid_(run_, checkpoints_), checkpoints_(scene, options, run_, peer_, *scheme_, solid_, out),
+        ctx_{solid_, peer_, out} {}
 
   CoupledSolid(const CoupledSolid&) = delete;
   CoupledSolid& operator=(const CoupledSolid&) = delete;
@@ -259,6 +261,7 @@ class CoupledSolid {
   std::unique_ptr<SolidScheme> scheme_;
   SolidRun run_;
   SolidPeer peer_;
+  ServerSolid solid_;  ///< the run as the scheme drives it
   SolidCheckpoints checkpoints_;
   std::unique_ptr<CoupledSeriesFile> series_file_;  ///< solid.h5, once step 0 or the restart is in
   bool series_failed_ = false;                      ///< an append failed (a full disk)

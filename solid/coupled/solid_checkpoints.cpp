@@ -15,6 +15,7 @@
 #include "common/text/text.hpp"
 #include "solid/schemes/solid_scheme.hpp"
 #include "solid/io/sheet_snapshots.hpp"
+#include "solid/coupled/server_solid.hpp"
 #include "solid/coupled/solid_peer.hpp"
 #include "solid/coupled/solid_run.hpp"
 
@@ -29,14 +30,14 @@ std::string SolidCheckpoints::write(const std::string& reason) {
   const std::optional<SolidScheme::RestartPoint> point = scheme_.restart_point();
   w.attr("step", peer_.last_step());
   w.attr("solid_seq", point ? point->in_flight->seq + 1 : peer_.next_seq());
-  const SchemeContext ctx{run_, peer_, *this, out_};
+  const SchemeContext ctx{solid_, peer_, out_};
   scheme_.save(w, ctx);
   w.attr("total_substeps", run_.total_substeps());
   w.attr("num_cgps", static_cast<std::int64_t>(run_.num_cgps()));
   protocol::save_energy_watch(w, run_.energy_watch().state(), "watchdog_", "_J");
   protocol::write_identity(w, {s_.path, o_.run_id, run_.coupling().time_ratio, o_.new_time_ratio});
   w.text("reason", reason.empty() ? "every coupling.checkpoint_every steps" : reason);
-  const SolidState st = point ? *point->state : run_.model().state();
+  const SolidState st = point ? solid_.kept_start() : run_.model().state();
   w.text("model", st.model);
   w.put("positions_bohr", st.positions_bohr.data(), std::size_t(st.positions_bohr.size()));
   w.put("velocities_au", st.velocities_au.data(), std::size_t(st.velocities_au.size()));
@@ -121,7 +122,7 @@ void SolidCheckpoints::restore(const std::string& path) {
   } else {
     run_.reference_energy(step);  // an older checkpoint: E here is E(0)
   }
-  SchemeContext ctx{run_, peer_, *this, out_};
+  SchemeContext ctx{solid_, peer_, out_};
   peer_.await_from(scheme_.restore(r, step, ratio_changed, sent, ctx));
   if (SheetSnapshotWriter* snapshots = run_.snapshots())
     for (std::int64_t k = 0; k <= step; ++k)

@@ -19,12 +19,13 @@ namespace cosim::solid {
 class SolidRun;
 class SolidPeer;
 class SolidScheme;
+class ServerSolid;
 
 class SolidCheckpoints {
  public:
   SolidCheckpoints(const SolidScene& scene, const protocol::SessionOptions& options, SolidRun& run, SolidPeer& peer,
-                   SolidScheme& scheme, std::ostream& out)
-      : s_(scene), o_(options), run_(run), peer_(peer), scheme_(scheme), out_(out) {}
+                   SolidScheme& scheme, ServerSolid& solid, std::ostream& out)
+      : s_(scene), o_(options), run_(run), peer_(peer), scheme_(scheme), solid_(solid), out_(out) {}
 
   /// Writes the checkpoint of the last step sent (or the scheme's restart point) and keeps
   /// the newest three; returns its path. Throws (one line) on an output error.
@@ -44,6 +45,7 @@ class SolidCheckpoints {
   SolidRun& run_;
   SolidPeer& peer_;
   SolidScheme& scheme_;
+  ServerSolid& solid_;  ///< the run as the scheme drives it (the start of a step being iterated)
   std::ostream& out_;
 };
 

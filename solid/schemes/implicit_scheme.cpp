@@ -14,16 +14,14 @@
 #include "common/text/text.hpp"
 #include "solid/coupling/aitken_relaxation.hpp"
 #include "solid/schemes/solid_scheme.hpp"
-#include "solid/coupled/solid_checkpoints.hpp"
 #include "solid/coupled/solid_peer.hpp"
-#include "solid/coupled/solid_run.hpp"
+#include "solid/schemes/scheme_solid.hpp"
 
 namespace cosim::solid {
 
 namespace {
 
 using protocol::fmt;
-using protocol::one_line;
 
 /// The fluid before the step at the iterate's markers (fluid_state_t's *_start_lb).
 FluidSample start_sample_of(const cosimlcm::fluid_state_t& m) {
@@ -34,12 +32,11 @@ class ImplicitScheme final : public SolidScheme {
  public:
   explicit ImplicitScheme(const protocol::ImplicitSettings& settings) : cfg_(settings) {}
 
-  std::string_view name() const override { return "implicit"; }
-  std::int64_t key(std::int64_t seq, std::int64_t /*step*/) const override { return seq; }
-  /// The fluid's first message of the run has seq 0.
-  std::int64_t first_key(std::int64_t /*rigid_steps*/) const override { return 0; }
-  /// The last step accepted is answered by fluid_state_t(N) and closed by solid_state_t(N).
-  std::int64_t final_step(std::int64_t total_steps) const override { return total_steps; }
+  /// Ordered by seq (the fluid's first message has seq 0); the last step accepted is
+  /// answered by fluid_state_t(N) and closed by solid_state_t(N).
+  const protocol::MessageOrder& order() const override {
+    return protocol::message_order(protocol::CouplingScheme::Implicit);
+  }
   int iterations_allowed() const override { return cfg_.max_iterations; }
 
   /// The answer to the current iterate (another iterate, or its acceptance), then the next
@@ -47,25 +44,25 @@ class ImplicitScheme final : public SolidScheme {
   /// solid_state_t(N, 0), zero impulses, which closes the run (the fluid commits its last step
   /// on it and answers with stop_t).
   std::optional<Ending> on_fluid_state(const cosimlcm::fluid_state_t& m, SchemeContext& ctx) override {
-    if (const auto e = ctx.run.check(m)) return e;
+    if (const auto e = ctx.solid.check(m)) return e;
     if (iterate_) {
       bool again = false;
       if (const auto e = answer_iterate(m, ctx, again)) return e;
       if (again) return std::nullopt;
     }
-    if (m.step == ctx.run.total_steps()) {
-      ctx.publish(m.step, 0, ctx.run.coupler().positions_lb(), Eigen::Matrix3Xd::Zero(3, ctx.run.num_cgps()));
+    if (m.step == ctx.solid.total_steps()) {
+      ctx.publish(m.step, 0, ctx.solid.positions_lb(), Eigen::Matrix3Xd::Zero(3, ctx.solid.num_cgps()));
       return std::nullopt;
     }
-    if (m.step < ctx.run.rigid_steps()) return ctx.interval(m, m.step);  // the spin-up: nothing to iterate
+    if (m.step < ctx.solid.rigid_steps()) return ctx.interval(m, m.step);  // the spin-up: nothing to iterate
     return begin_iterate(m, ctx);
   }
 
-  /// A checkpoint of a step being iterated holds its start and its first iterate: a restart
-  /// iterates the step again from there, as the run did.
+  /// A checkpoint of a step being iterated holds its start (the solid's kept start) and its
+  /// first iterate: a restart iterates the step again from there, as the run did.
   std::optional<RestartPoint> restart_point() const override {
     if (!iterate_) return std::nullopt;
-    return RestartPoint{&iterate_->start, &iterate_->first};
+    return RestartPoint{&iterate_->first};
   }
   void save(protocol::CheckpointWriter& w, const SchemeContext& ctx) const override;
   std::int64_t restore(const protocol::CheckpointReader& r, std::int64_t step, bool ratio_changed,
@@ -74,13 +71,12 @@ class ImplicitScheme final : public SolidScheme {
   void report(std::ostream& out) const override;
 
  private:
-  /// The sub-iterations of one step: the state at its start, the fluid sample that drives
-  /// the current iterate, that iterate's interval, and what a checkpoint of the step keeps.
+  /// The sub-iterations of one step (from the solid's kept start, SchemeSolid::keep_start):
+  /// the fluid sample that drives the current iterate, that iterate's interval, and what a
+  /// checkpoint of the step keeps.
   struct Iterate {
     std::int64_t step = 0;
     int iteration = 0;
-    SolidState start;                ///< the committed state at the start of the interval
-    SolidCoupler::ReactionMemory start_memory;  ///< the implicit reaction's, at the start
     FluidSample drive;               ///< u^k (relaxed) and the latest rho, lattice units
     IntervalResult trial;            ///< the interval driven by it
     double start_bulk_velocity = 0;  ///< U_b of the fluid_state_t that began the step
@@ -94,7 +90,6 @@ class ImplicitScheme final : public SolidScheme {
   double first_relaxation() const { return cfg_.relaxation > 0.0 ? cfg_.relaxation : 0.5; }
 
   std::optional<Ending> begin_iterate(const cosimlcm::fluid_state_t& m, SchemeContext& ctx);
-  std::optional<Ending> run_iterate(Iterate& it, SolidRun& run) const;
   std::optional<Ending> answer_iterate(const cosimlcm::fluid_state_t& m, SchemeContext& ctx, bool& again);
 
   const protocol::ImplicitSettings cfg_;
@@ -110,40 +105,19 @@ class ImplicitScheme final : public SolidScheme {
 std::optional<Ending> ImplicitScheme::begin_iterate(const cosimlcm::fluid_state_t& m, SchemeContext& ctx) {
   Iterate it;
   it.step = m.step;
-  it.start = ctx.run.model().state();
-  it.start_memory = ctx.run.coupler().reaction_memory();
+  ctx.solid.keep_start();
   it.start_bulk_velocity = m.bulk_velocity_lb;
   it.drive = sample_of(m);
   it.first_drive = it.drive;
   if (!aitken_) aitken_.emplace(first_relaxation());
   aitken_->new_step();
-  if (const auto e = run_iterate(it, ctx.run)) return e;
+  if (const auto e = ctx.solid.iterate(it.drive, it.step, it.iteration, it.trial)) return e;
   ctx.publish(it.step, it.trial.substeps, it.trial.position_lb, it.trial.impulse_lb, 0, it.trial.substeps);
   it.first = ctx.peer.last_sent();
   it.fluid_seq_awaited = ctx.peer.awaited_key() + 1;  // the sequencer advances after this
   iterate_ = std::move(it);
   ++implicit_steps_;
-  return ctx.checkpoints.write_if_due(m.step);
-}
-
-/// The interval driven by it.drive from it.start (the model holds it.start), with the
-/// reaction integrated exactly over each substep.
-std::optional<Ending> ImplicitScheme::run_iterate(Iterate& it, SolidRun& run) const {
-  const std::string where = "iteration " + std::to_string(it.iteration) + " of step " + std::to_string(it.step);
-  try {
-    run.coupler().set_reaction_memory(it.start_memory);
-    it.trial = run.coupler().advance(it.drive, false, true);
-  } catch (const std::exception& e) {
-    return Ending{exit_code::unhealthy, "the implicit scheme's " + where + ": " + one_line(e.what()), true};
-  }
-  if (it.trial.overspeed) {
-    Ending e = run.overspeed(it.step, *it.trial.overspeed);
-    e.reason += " (the implicit scheme's " + where + ")";
-    return e;
-  }
-  if (const std::string bad = run.non_finite(it.trial); !bad.empty())
-    return Ending{exit_code::unhealthy, "non-finite solid state in the implicit scheme's " + where + ": " + bad, true};
-  return std::nullopt;
+  return ctx.solid.checkpoint_if_due(m.step);
 }
 
 /// fluid_state_t(step + 1, k) answers iterate k with the fluid before the step at the
@@ -162,10 +136,9 @@ std::optional<Ending> ImplicitScheme::answer_iterate(const cosimlcm::fluid_state
   if (!converged && it.iteration + 1 < cfg_.max_iterations) {
     it.drive.velocity_lb = aitken_->next(it.drive.velocity_lb, answer.velocity_lb);
     it.drive.rho_lb = answer.rho_lb;
-    ctx.run.model().restore(it.start);
     ++it.iteration;
     ++iterations_redone_;
-    if (const auto e = run_iterate(it, ctx.run)) return e;
+    if (const auto e = ctx.solid.iterate(it.drive, it.step, it.iteration, it.trial)) return e;
     ctx.publish(it.step, it.trial.substeps, it.trial.position_lb, it.trial.impulse_lb, it.iteration,
                 it.trial.substeps);
     again = true;
@@ -178,10 +151,10 @@ std::optional<Ending> ImplicitScheme::answer_iterate(const cosimlcm::fluid_state
     unconverged_residual_max_ = std::max(unconverged_residual_max_, it.residual);
   }
   iterations_max_ = std::max(iterations_max_, it.iteration + 1);
-  if (const auto e = ctx.run.commit(it.step, it.trial, it.start_bulk_velocity)) return e;
+  if (const auto e = ctx.solid.commit(it.step, it.trial, it.start_bulk_velocity)) return e;
   const std::int64_t step = it.step;
   iterate_.reset();
-  return ctx.run.snapshot(step);
+  return ctx.solid.snapshot(step);
 }
 
 void ImplicitScheme::save(protocol::CheckpointWriter& w, const SchemeContext& ctx) const {
@@ -194,9 +167,7 @@ void ImplicitScheme::save(protocol::CheckpointWriter& w, const SchemeContext& ct
     const FluidSample& d = iterate_->first_drive;
     w.put("iterate_rho_lb", d.rho_lb.data(), std::size_t(d.rho_lb.size()));
     w.put("iterate_velocity_lb", d.velocity_lb.data(), std::size_t(d.velocity_lb.size()));
-    const SolidCoupler::ReactionMemory& mem = iterate_->start_memory;
-    w.put("reaction_memory_velocity_au", mem.velocity.data(), std::size_t(mem.velocity.size()));
-    w.put("reaction_memory_force_au", mem.force.data(), std::size_t(mem.force.size()));
+    ctx.solid.save_start(w);
   }
 }
 
@@ -206,17 +177,12 @@ std::int64_t ImplicitScheme::restore(const protocol::CheckpointReader& r, std::i
                                      cosimlcm::solid_state_t& in_flight, SchemeContext& ctx) {
   const std::int64_t awaited = r.int64_attr("fluid_seq_awaited");
   if (r.int64_attr("iterating") == 0) return awaited;
-  const Eigen::Index n = ctx.run.num_cgps();
+  const Eigen::Index n = ctx.solid.num_cgps();
   const auto size = static_cast<std::size_t>(3 * n);
   Iterate it;
   it.step = step;
-  it.start = ctx.run.model().state();
-  // An empty memory (the first free step) was written as empty arrays.
-  if (r.doubles("reaction_memory_velocity_au").size() == size) {
-    it.start_memory.velocity =
-        Eigen::Map<const Eigen::Matrix3Xd>(r.doubles("reaction_memory_velocity_au", size).data(), 3, n);
-    it.start_memory.force = Eigen::Map<const Eigen::Matrix3Xd>(r.doubles("reaction_memory_force_au", size).data(), 3, n);
-  }
+  ctx.solid.keep_start();  // the checkpoint's state: the step's start
+  ctx.solid.restore_start(r);
   it.drive.rho_lb = Eigen::Map<const Eigen::VectorXd>(r.doubles("iterate_rho_lb", std::size_t(n)).data(), n);
   it.drive.velocity_lb = Eigen::Map<const Eigen::Matrix3Xd>(r.doubles("iterate_velocity_lb", size).data(), 3, n);
   it.first_drive = it.drive;
@@ -224,16 +190,17 @@ std::int64_t ImplicitScheme::restore(const protocol::CheckpointReader& r, std::i
   it.fluid_seq_awaited = awaited;
   aitken_.emplace(first_relaxation());
   aitken_->restore_start(r.double_attr("aitken_start"));
-  if (const auto e = run_iterate(it, ctx.run)) throw std::runtime_error("its first iterate again: " + e->reason);
+  if (const auto e = ctx.solid.iterate(it.drive, it.step, it.iteration, it.trial))
+    throw std::runtime_error("its first iterate again: " + e->reason);
   // At another A_T that iterate differs from the checkpoint's solid_state_t(step, 0): the
   // solid would continue from the one while the fluid spread the other's impulses (and,
   // converged, committed them). The recomputed iterate is published in its place (same seq),
   // as a run at this A_T from the step's start sends it (protocol/README.md 13).
   if (ratio_changed) {
     in_flight.substeps = it.trial.substeps;
-    in_flight.solid_time_s = ctx.run.solid_time_s(ctx.run.total_substeps() + it.trial.substeps);
+    in_flight.solid_time_s = ctx.solid.solid_time_s(ctx.solid.total_substeps() + it.trial.substeps);
     set_positions_impulses(in_flight, it.trial.position_lb, it.trial.impulse_lb);
-    ctx.out << "solid: step " << step << "'s first iterate computed again at A_T = " << ctx.run.coupling().time_ratio
+    ctx.out << "solid: step " << step << "'s first iterate computed again at A_T = " << ctx.solid.time_ratio()
             << " and sent in place of the checkpoint's (A_T = " << r.int64_attr("time_ratio") << ")\n";
   }
   it.first = in_flight;

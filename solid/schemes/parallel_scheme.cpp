@@ -6,7 +6,7 @@
 
 #include "solid/schemes/solid_scheme.hpp"
 #include "solid/coupled/solid_peer.hpp"
-#include "solid/coupled/solid_run.hpp"
+#include "solid/schemes/scheme_solid.hpp"
 
 namespace cosim::solid {
 
@@ -14,11 +14,9 @@ namespace {
 
 class ParallelScheme final : public SolidScheme {
  public:
-  std::string_view name() const override { return "parallel"; }
-
-  /// fluid_state_t(0) when the sheets are free from step 1, else fluid_state_t(1).
-  std::int64_t first_key(std::int64_t rigid_steps) const override {
-    return protocol::parallel_first_fluid_state(rigid_steps);
+  /// First fluid_state_t(0) when the sheets are free from step 1, else fluid_state_t(1).
+  const protocol::MessageOrder& order() const override {
+    return protocol::message_order(protocol::CouplingScheme::Parallel);
   }
   /// The awaited step itself: fluid_state_t(m) drives solid_state_t(m + 1) once free.
   std::int64_t awaited_step(std::int64_t awaited_key, std::int64_t /*last_step*/) const override {
@@ -35,19 +33,19 @@ class ParallelScheme final : public SolidScheme {
   /// 21-24): the fluid receives exactly the J its CGPs received the opposite of, one step
   /// after the interval, as in the serial scheme. fluid_state_t(D - 1) drives both.
   std::optional<Ending> on_fluid_state(const cosimlcm::fluid_state_t& m, SchemeContext& ctx) override {
-    const std::int64_t dynamic_from = std::max<std::int64_t>(ctx.run.rigid_steps(), 1);
+    const std::int64_t dynamic_from = std::max<std::int64_t>(ctx.solid.rigid_steps(), 1);
     // (A restart at step D - 1 has published solid_state_t(D - 1) already.)
     if (m.step >= 1 && m.step < dynamic_from && ctx.peer.last_step() < m.step)
       if (const auto e = ctx.interval(m, m.step)) return e;
-    if (m.step + 1 >= dynamic_from && m.step + 1 <= ctx.run.total_steps() - 1) return ctx.interval(m, m.step + 1);
-    return ctx.run.check(m);
+    if (m.step + 1 >= dynamic_from && m.step + 1 <= ctx.solid.total_steps() - 1) return ctx.interval(m, m.step + 1);
+    return ctx.solid.check(m);
   }
 
   /// From step D - 1 on, a restart awaits fluid_state_t(step) (it drives the interval
   /// step -> step + 1), which the fluid publishes again.
   std::int64_t restore(const protocol::CheckpointReader& /*r*/, std::int64_t step, bool /*ratio_changed*/,
                        cosimlcm::solid_state_t& /*in_flight*/, SchemeContext& ctx) override {
-    return step >= std::max<std::int64_t>(ctx.run.rigid_steps(), 1) - 1 ? step : step + 1;
+    return step >= std::max<std::int64_t>(ctx.solid.rigid_steps(), 1) - 1 ? step : step + 1;
   }
 };
 

@@ -1,8 +1,7 @@
 #include "solid/schemes/scheme_context.hpp"
 
-#include "solid/coupled/solid_checkpoints.hpp"
 #include "solid/coupled/solid_peer.hpp"
-#include "solid/coupled/solid_run.hpp"
+#include "solid/schemes/scheme_solid.hpp"
 
 namespace cosim::solid {
 
@@ -22,19 +21,19 @@ FluidSample sample_from(const std::vector<double>& rho, const std::vector<std::v
 FluidSample sample_of(const cosimlcm::fluid_state_t& m) { return sample_from(m.rho_lb, m.velocity_lb); }
 
 std::optional<protocol::Ending> SchemeContext::interval(const cosimlcm::fluid_state_t& m, std::int64_t step) {
-  if (const auto e = run.check(m)) return e;
+  if (const auto e = solid.check(m)) return e;
   IntervalResult r;
-  if (const auto e = run.interval(sample_of(m), step, r)) return e;
+  if (const auto e = solid.interval(sample_of(m), step, r)) return e;
   // The energy sentinel, before anything of this interval is published or recorded.
-  if (const auto e = run.commit(step, r, m.bulk_velocity_lb)) return e;
+  if (const auto e = solid.commit(step, r, m.bulk_velocity_lb)) return e;
   publish(step, r.substeps, r.position_lb, r.impulse_lb);
-  if (const auto e = run.snapshot(step)) return e;
-  return checkpoints.write_if_due(step);
+  if (const auto e = solid.snapshot(step)) return e;
+  return solid.checkpoint_if_due(step);
 }
 
 void SchemeContext::publish(std::int64_t step, int substeps, const Eigen::Matrix3Xd& x, const Eigen::Matrix3Xd& j,
                             int iteration, int pending_substeps) {
-  peer.publish_state(step, substeps, run.solid_time_s(run.total_substeps() + pending_substeps), x, j, iteration);
+  peer.publish_state(step, substeps, solid.solid_time_s(solid.total_substeps() + pending_substeps), x, j, iteration);
 }
 
 }  // namespace cosim::solid

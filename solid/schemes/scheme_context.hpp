@@ -1,5 +1,6 @@
-// The solid as a coupling scheme (solid_scheme.hpp) sees it: its physics (SolidRun), its
-// session (SolidPeer) and its checkpoints, with the steps every scheme builds on.
+// The solid as a coupling scheme (solid_scheme.hpp) sees it: the solid it drives (the
+// server's or a library solid, scheme_solid.hpp), its session (SolidPeer), with the steps
+// every scheme builds on.
 #pragma once
 
 #include <cstdint>
@@ -15,9 +16,8 @@
 
 namespace cosim::solid {
 
-class SolidRun;
+class SchemeSolid;
 class SolidPeer;
-class SolidCheckpoints;
 
 /// rho_l and u_l of a message's arrays as a FluidSample (sizes checked by SolidRun::check).
 FluidSample sample_from(const std::vector<double>& rho, const std::vector<std::vector<double>>& u);
@@ -25,14 +25,13 @@ FluidSample sample_from(const std::vector<double>& rho, const std::vector<std::v
 FluidSample sample_of(const cosimlcm::fluid_state_t& m);
 
 struct SchemeContext {
-  SolidRun& run;
+  SchemeSolid& solid;
   SolidPeer& peer;
-  SolidCheckpoints& checkpoints;
   std::ostream& out;  ///< the run's report
 
   /// One LB interval driven by fluid_state_t(m) (section 5, steps 1-4; Eqs. 18-20 and 24),
   /// published as solid_state_t(step): the checks, the interval and its sentinels, the row
-  /// of solid.h5, the snapshot and the checkpoint when due.
+  /// of solid.h5, the snapshot and the checkpoint when due (SchemeSolid's).
   std::optional<protocol::Ending> interval(const cosimlcm::fluid_state_t& m, std::int64_t step);
   /// solid_state_t(step) of an interval of `substeps` with positions x and impulses j, as
   /// iterate `iteration`; `pending_substeps`: substeps of an iterate not yet on the solid's

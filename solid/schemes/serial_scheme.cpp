@@ -11,9 +11,8 @@ namespace {
 
 class SerialScheme final : public SolidScheme {
  public:
-  std::string_view name() const override { return "serial"; }
   /// fluid_state_t(1) answers solid_state_t(0), the initial positions.
-  std::int64_t first_key(std::int64_t /*rigid_steps*/) const override { return 1; }
+  const protocol::MessageOrder& order() const override { return protocol::message_order(protocol::CouplingScheme::Serial); }
   std::optional<Ending> on_fluid_state(const cosimlcm::fluid_state_t& m, SchemeContext& ctx) override {
     return ctx.interval(m, m.step);
   }

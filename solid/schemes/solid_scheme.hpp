@@ -35,16 +35,18 @@ class SolidScheme {
  public:
   virtual ~SolidScheme() = default;
 
+  /// The scheme's row of the protocol's name table (protocol/coupling_scheme.hpp).
+  virtual const protocol::MessageOrder& order() const = 0;
   /// The scheme's name ([coupling] scheme, hello_t.scheme).
-  virtual std::string_view name() const = 0;
+  std::string_view name() const { return order().name; }
 
   // ---- the message order ----
 
   /// What the inbox orders fluid_state_t by, from its seq and step: the step (one message
-  /// per step) unless the scheme says otherwise.
-  virtual std::int64_t key(std::int64_t /*seq*/, std::int64_t step) const { return step; }
-  /// The key of the first fluid_state_t awaited after the handshake.
-  virtual std::int64_t first_key(std::int64_t rigid_steps) const = 0;
+  /// per step), or the seq where a step has several (the name table's).
+  std::int64_t key(std::int64_t seq, std::int64_t step) const { return order().several_per_step ? seq : step; }
+  /// The key of the first fluid_state_t awaited after the handshake (the name table's).
+  std::int64_t first_key(std::int64_t rigid_steps) const { return order().first_fluid_key(rigid_steps); }
   /// The step that resend_t asks for (and a timeout names) while `awaited_key` is awaited
   /// and `last_step` was the last solid_state_t's: fluid_state_t(n + 1) answers
   /// solid_state_t(n) unless the scheme says otherwise.
@@ -54,8 +56,8 @@ class SolidScheme {
   /// The window of steps a fluid_state_t may carry: from this one ...
   virtual std::int64_t lowest_fluid_step() const { return 1; }
   /// ... to this one, of a run of N = `total_steps`: the last step of any state message, in
-  /// either direction; N - 1 unless the scheme says otherwise.
-  virtual std::int64_t final_step(std::int64_t total_steps) const { return total_steps - 1; }
+  /// either direction (the name table's).
+  std::int64_t final_step(std::int64_t total_steps) const { return order().final_step(total_steps); }
   /// What the message checks allow for a state message's iteration: [0, this).
   virtual int iterations_allowed() const { return 1; }
   /// The solid has sent its part of the run's last step: a success stop_t fits from then on.
@@ -69,10 +71,10 @@ class SolidScheme {
 
   // ---- checkpoints (DESIGN 2.4; protocol/README.md section 10) ----
 
-  /// What a checkpoint written now restarts from when it is not the model's state after the
-  /// last interval and the last solid_state_t sent.
+  /// What a checkpoint written now restarts from when it is not the solid's state after the
+  /// last interval and the last solid_state_t sent: the solid's kept start
+  /// (SchemeSolid::keep_start) and this solid_state_t in flight.
   struct RestartPoint {
-    const SolidState* state = nullptr;
     const cosimlcm::solid_state_t* in_flight = nullptr;
   };
   virtual std::optional<RestartPoint> restart_point() const { return std::nullopt; }

@@ -500,10 +500,9 @@ protocol::PeerLink::Settings link_settings(lcm::LCM& bus, const Selected& sel, S
 
 class Peer {
  public:
-  Peer(lcm::LCM& bus, LogReader& log, const Selected& sel, Side side, bool implicit, bool parallel, bool quiet,
+  Peer(lcm::LCM& bus, LogReader& log, const Selected& sel, Side side, const protocol::MessageOrder& order, bool quiet,
        std::ostream& err)
-      : bus_(bus), log_(log), run_(*sel.run), token_(sel.token), side_(side), implicit_(implicit),
-        parallel_(parallel), quiet_(quiet), err_(err), link_(link_settings(bus, sel, side), err),
+      : bus_(bus), log_(log), run_(*sel.run), token_(sel.token), side_(side), order_(order), quiet_(quiet), err_(err), link_(link_settings(bus, sel, side), err),
         ch_(link_.channels()) {
     const bool fluid = side_ == Side::Fluid;
     const auto& inputs = fluid ? run_.solid_states : run_.fluid_states;
@@ -714,7 +713,7 @@ class Peer {
   void beyond_log(std::int64_t step, std::int32_t iteration) {
     if (stopped_ || done_ || next_ < feed_.size() || stop_) return;
     const std::int64_t total = run_.welcome->total_steps;
-    if (side_ == Side::Solid && iteration == 0 && step == (implicit_ ? total : total - 1)) {
+    if (side_ == Side::Solid && iteration == 0 && step == order_.final_step(total)) {
       stopped_ = true;
       cosimlcm::stop_t s{};
       s.token = token_;
@@ -751,19 +750,19 @@ class Peer {
   /// step has one message, else by seq.
   std::string awaited() const {
     const std::string type = peer_type();
-    if (implicit_ && next_ > 0)
+    if (order_.several_per_step && next_ > 0)
       return type + " of seq " + std::to_string(next_) + " (after step " + std::to_string(feed_[next_ - 1]->step) +
              ", iteration " + std::to_string(feed_[next_ - 1]->iteration) + ")";
     if (next_ > 0) return type + " of step " + std::to_string(feed_[next_ - 1]->step + 1);
     if (side_ == Side::Fluid) return type + " of step 0";
     return type + " of step " +
-           std::to_string(parallel_ ? protocol::parallel_first_fluid_state(run_.welcome->rigid_steps) : 1);
+           std::to_string(order_.first_fluid_step(run_.welcome->rigid_steps));
   }
 
   std::string last_fed() const {
     if (next_ == 0) return ": none";
     const Logged& l = *feed_[next_ - 1];
-    return ": step " + std::to_string(l.step) + (implicit_ ? ", iteration " + std::to_string(l.iteration) : "") +
+    return ": step " + std::to_string(l.step) + (order_.several_per_step ? ", iteration " + std::to_string(l.iteration) : "") +
            ", seq " + std::to_string(next_ - 1);
   }
 
@@ -816,7 +815,7 @@ class Peer {
   const RunTraffic& run_;
   const std::string token_;
   const Side side_;
-  const bool implicit_, parallel_;
+  const protocol::MessageOrder& order_;  ///< the scheme's row of the protocol's name table
   const bool quiet_;
   std::ostream& err_;
   protocol::PeerLink link_;  ///< the session layer's transport, on the server's bus
@@ -893,7 +892,8 @@ class Replay {
     // Every scheme is replayed the same way (the peer feeds by causality); the scheme only
     // words the report (several messages a step) and the end of a log without stop_t.
     const protocol::SchemeSettings& scheme = fluid ? fscene->coupling->scheme : sscene->coupling->scheme;
-    implicit_ = scheme.implicit_scheme();
+    const protocol::MessageOrder& order = protocol::message_order(scheme.scheme);
+    per_message_ = order.several_per_step;
     const fs::path output = output_dir();
     if (fluid) {
       fluid::SceneOverrides ov;
@@ -923,7 +923,7 @@ class Replay {
 
     lcm::LCM bus("memq://");
     if (!bus.good()) throw std::runtime_error("cannot open LCM's in-process bus memq://");
-    Peer peer(bus, log, sel, o_.side, scheme.implicit_scheme(), scheme.parallel_scheme(), o_.quiet, err_);
+    Peer peer(bus, log, sel, o_.side, order, o_.quiet, err_);
     if (!peer.subscribed()) throw std::runtime_error("cannot subscribe to " + sel.prefix + "* on memq://");
 
     std::ostringstream server_out, server_err;
@@ -1036,7 +1036,7 @@ class Replay {
     const bool different = p.differing > 0 || !not_in_log.empty() || (code == 0 && !missing.empty());
     if (!different && code == 0 && p.log_gap.empty()) {
       out_ << "identical: " << units(p.compared) << " compared (" << type << " " << step_range(steps_of(logged))
-           << (implicit_ ? ", iterations 0.." + std::to_string(max_iteration(logged)) : std::string())
+           << (per_message_ ? ", iterations 0.." + std::to_string(max_iteration(logged)) : std::string())
            << ", by seq: " << compared_fields(o_.side) << ", bit for bit)\n";
       cleanup(output, false);
       return exit_code::identical;
@@ -1082,14 +1082,14 @@ class Replay {
 
   /// "59 steps", or in the implicit scheme (several messages a step) "143 messages".
   std::string units(std::size_t n) const {
-    const char* unit = implicit_ ? " message" : " step";
+    const char* unit = per_message_ ? " message" : " step";
     return std::to_string(n) + unit + (n == 1 ? "" : "s");
   }
   std::string units(std::int64_t n) const { return units(static_cast<std::size_t>(n)); }
 
   /// "step 37", or in the implicit scheme "step 37, iteration 1".
   std::string where(std::int64_t step, std::int32_t iteration) const {
-    return "step " + std::to_string(step) + (implicit_ ? ", iteration " + std::to_string(iteration) : std::string());
+    return "step " + std::to_string(step) + (per_message_ ? ", iteration " + std::to_string(iteration) : std::string());
   }
 
   /// The default temporary folder goes when the replay is identical or refused.
@@ -1104,7 +1104,7 @@ class Replay {
   std::ostream& out_;
   std::ostream& err_;
   bool temporary_ = false;
-  bool implicit_ = false;  ///< the scene's scheme has several messages a step
+  bool per_message_ = false;  ///< the scene's scheme has several messages a step (the name table's)
 };
 
 }  // namespace

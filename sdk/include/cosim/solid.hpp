@@ -12,9 +12,11 @@
 //
 // Spin-up: during the scene's [coupling] rigid_steps the library holds the markers itself and
 // answers J_l = -2 rho_l u_l dA_l (section 5, U_B = 0); step() is called from the first free
-// step on. Checkpoints and --restart when the solid implements save() and restore(). Only
-// the serial scheme is run (a scene with [coupling] scheme = "implicit" or
-// "parallel" is refused with exit code 2).
+// step on. Checkpoints and --restart when the solid implements save() and restore().
+// Every coupling scheme runs ([coupling] scheme = "serial", "parallel" or "implicit"), through
+// the solid server's scheme registry (solid/schemes/): the implicit scheme calls step() once
+// per iterate, each from the step's start (restore() of the state save() gave there), so it
+// needs save() and restore() (a solid without them is refused with exit code 2).
 #pragma once
 
 #include <cstdint>
