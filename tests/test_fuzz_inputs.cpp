@@ -44,16 +44,11 @@
 #include "support/run_command.hpp"
 #include "tests/support/valid_messages.hpp"
 
-
 namespace {
 
 namespace fs = std::filesystem;
-using cosim::protocol::Expectation;
-using cosim::protocol::RejectCategory;
 using namespace cosim::test::messages;
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-constexpr double kInf = std::numeric_limits<double>::infinity();
 
 const fs::path kSource = COSIM_SOURCE_DIR;
 

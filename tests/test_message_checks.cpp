@@ -43,16 +43,12 @@
 #include "support/run_command.hpp"
 #include "tests/support/valid_messages.hpp"
 
-
 namespace {
 
 namespace fs = std::filesystem;
-using cosim::protocol::Expectation;
-using cosim::protocol::RejectCategory;
 using namespace cosim::test::messages;
+using cosim::protocol::RejectCategory;
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-constexpr double kInf = std::numeric_limits<double>::infinity();
 
 template <class M>
 struct Case {

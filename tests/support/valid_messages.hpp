@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include "cosimlcm/fluid_state_t.hpp"
@@ -22,6 +23,8 @@ namespace cosim::test::messages {
 
 using cosim::protocol::Expectation;
 
+inline constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+inline constexpr double kInf = std::numeric_limits<double>::infinity();
 inline constexpr const char* kToken = "0123456789abcdef";
 inline constexpr int kTimeRatio = 150;
 
