@@ -70,6 +70,24 @@ struct Poiseuille {
     }
     return u;
   }
+  /// The relative L2 error of u_x against exact() over the 8 x cells x 8 grid.
+  double l2_error(const FluidSolver& s) const {
+    double num = 0.0, den = 0.0;
+    for (int z = 0; z < 8; ++z)
+      for (int y = 0; y < cells; ++y)
+        for (int x = 0; x < 8; ++x) {
+          const double e = exact(y);
+          num += std::pow(s.cell(x, y, z).ux - e, 2);
+          den += e * e;
+        }
+    return std::sqrt(num / den);
+  }
+  /// The root mean square of exact() over the grid.
+  double rms_exact() const {
+    double den = 0.0;
+    for (int y = 0; y < cells; ++y) den += exact(y) * exact(y);
+    return std::sqrt(den / cells);
+  }
   FluidParams params(Precision p) const {
     FluidParams fp;
     fp.shape = {8, cells, 8};
@@ -126,17 +144,8 @@ TEST(Precision, SinglePrecisionWithinTolerance) {
   EXPECT_GT(diff, 0.0) << "the single store should round";
   // Relative L2 error against the analytic profile: the single run's may exceed the
   // double's only by the round-off bound (triangle inequality).
-  double num_d = 0, num_s = 0, den = 0;
-  for (int z = 0; z < 8; ++z)
-    for (int y = 0; y < P.cells; ++y)
-      for (int x = 0; x < 8; ++x) {
-        const double e = P.exact(y);
-        num_d += std::pow(dbl.cell(x, y, z).ux - e, 2);
-        num_s += std::pow(sgl.cell(x, y, z).ux - e, 2);
-        den += e * e;
-      }
-  const double err_d = std::sqrt(num_d / den), err_s = std::sqrt(num_s / den);
-  const double rms_exact = std::sqrt(den / (64.0 * P.cells));
+  const double err_d = P.l2_error(dbl), err_s = P.l2_error(sgl);
+  const double rms_exact = P.rms_exact();
   RecordProperty("poiseuille_error_double", sci(err_d));
   RecordProperty("poiseuille_error_single", sci(err_s));
   EXPECT_LT(err_d, 0.01);  // the scheme itself (second order; about 1e-3 at 32 cells)
@@ -236,16 +245,7 @@ TEST(Precision, FloatArithmeticWithinTolerance) {
     sgl.step();
   }
   const double diff = max_velocity_difference(sgl, dbl), diff_mixed = max_velocity_difference(mix, dbl);
-  double num_d = 0, num_s = 0, den = 0;
-  for (int z = 0; z < 8; ++z)
-    for (int y = 0; y < P.cells; ++y)
-      for (int x = 0; x < 8; ++x) {
-        const double e = P.exact(y);
-        num_d += std::pow(dbl.cell(x, y, z).ux - e, 2);
-        num_s += std::pow(sgl.cell(x, y, z).ux - e, 2);
-        den += e * e;
-      }
-  const double err_d = std::sqrt(num_d / den), err_s = std::sqrt(num_s / den);
+  const double err_d = P.l2_error(dbl), err_s = P.l2_error(sgl);
   std::printf("Poiseuille, %d steps: max |u_single - u_double| %s (mixed %s); relative L2 error double %s, single %s\n",
               P.steps(), sci(diff).c_str(), sci(diff_mixed).c_str(), sci(err_d).c_str(), sci(err_s).c_str());
   RecordProperty("poiseuille_max_difference_single", sci(diff));
