@@ -105,7 +105,7 @@ const std::vector<BadCase> kBadCases = {
      {":36: watchdog.max_cgp_sped = 0.3: unknown key in [watchdog]; allowed: health_every, rho_min,",
       "did you mean \"max_cgp_speed\""}},
     {"precision_unknown.toml",
-     {":30: run.precision = \"quad\": must be one of \"double\", \"mixed\""}},
+     {":30: run.precision = \"quad\": must be one of \"double\", \"mixed\", \"single\", \"half\""}},
     {"thin_span_not_periodic.toml",
      {"grid.nz = 2: below 8 cells only between periodic z faces", "boundaries.z_min = \"wall\""}},
     {"parabolic_without_walls.toml",

@@ -4,7 +4,7 @@
 // measured once before the rows, the same for every row: Roofline), and the fraction of it
 // reached; the immersed boundary of the paper's sheet (200 markers: interpolation,
 // spreading and a step with the spread forces) timed on its own; the precision modes double,
-// mixed, single; optionally the peer pattern (--peer-pattern: a minimal in-place AA-pattern D3Q19 BGK
+// mixed, single, half; optionally the peer pattern (--peer-pattern: a minimal in-place AA-pattern D3Q19 BGK
 // kernel, fluid/app/bench_kernels.hpp; with a float store also in float arithmetic) on the same
 // grid in the same run. Prints the CPU model and
 // the kernel level it ran (fluid/collision/kernel_dispatch.hpp), then a plain table of medians; see
@@ -237,6 +237,8 @@ template <class T>
 BasicPopulationField<T>& state_of(FluidSolver& s) {
   if constexpr (std::is_same_v<T, double>)
     return s.mutable_state();
+  else if constexpr (std::is_same_v<T, Half16>)
+    return s.mutable_state_half();
   else
     return s.mutable_state_single();
 }
@@ -265,8 +267,10 @@ Row measure(const Case& base, int threads, Precision precision, Propagation prop
   BasicPopulationField<T> peer, peer_f32;
   const int peer_steps = (opt.steps + 1) / 2 * 2;  // whole AA pairs
   constexpr bool single = std::is_same_v<T, float>;  // a float store
+  // The peer pattern has no half store: its columns stay empty on half rows.
+  constexpr bool has_peer = !std::is_same_v<T, Half16>;
   const Arithmetic arithmetic = arithmetic_of(precision);
-  if (opt.peer) {
+  if constexpr (has_peer) if (opt.peer) {
     peer = peer_field<T>(solver.layout());
     run_peer(peer, solver.tau(), 2);
     if constexpr (single) {
@@ -312,7 +316,7 @@ Row measure(const Case& base, int threads, Precision precision, Propagation prop
       std::swap(from, to);
     }
     kernel.push_back(updates / seconds * 1e-6);
-    if (opt.peer) {
+    if constexpr (has_peer) if (opt.peer) {
       t0 = Clock::now();
       run_peer(peer, solver.tau(), peer_steps);
       peer_rate.push_back(double(solver.shape().cells()) * peer_steps / seconds_since(t0) * 1e-6);
@@ -377,14 +381,15 @@ void print_header(const Options& opt, const std::vector<Case>& cases, const Roof
   std::printf("cosim fluid bench: D3Q19 BGK-Guo, structure of arrays, precision modes");
   for (const Precision p : opt.precisions) std::printf(" %s", precision_name(p));
   std::printf(" (double: double store and arithmetic; mixed: float store, double arithmetic;\n"
-              "    single: float store and arithmetic)\n");
+              "    single: float store and arithmetic; half: 16-bit store of f - w (FP16S), float arithmetic)\n");
   std::printf("medians of %d repeats of %d steps; OMP_PROC_BIND=%s; rows %s\n", opt.repeat, opt.steps,
               std::getenv("OMP_PROC_BIND") ? std::getenv("OMP_PROC_BIND") : "(unset)",
               opt.schedule == RowSchedule::Static ? "static" : "dynamic (64 chunks)");
   std::printf("B = bytes/update = 2 x 19 x 8 = %.0f for the double store, 2 x 19 x 4 = %.0f for\n"
-              "    the float one (19 values read + 19 written, counted as STREAM counts copy;\n"
-              "    ordinary stores also move 19 write-allocate reads)\n",
-              bytes_per_update(Precision::Double), bytes_per_update(Precision::Mixed));
+              "    the float one, 2 x 19 x 2 = %.0f for the half one (19 values read + 19 written,\n"
+              "    counted as STREAM counts copy; ordinary stores also move 19 write-allocate reads)\n",
+              bytes_per_update(Precision::Double), bytes_per_update(Precision::Mixed),
+              bytes_per_update(Precision::Half));
   std::printf("prop = propagation (FluidParams::propagation): 2grid = pull from one grid into the\n"
               "    other, stores plain or NT; AA = in place, one grid (the AA pattern), ordinary stores\n"
               "    of lines just loaded (no write-allocate)\n");
@@ -400,8 +405,9 @@ void print_header(const Options& opt, const std::vector<Case>& cases, const Roof
   for (const Roofline::Copy& c : roof.copies)
     std::printf("    %-10s plain %6.1f GB/s   NT %6.1f GB/s\n", c.level.c_str(), c.plain_gbs, c.nt_gbs);
   std::printf("roofline = the best copy, %.1f GB/s (%s), the same for every row: %.1f MLUPS for the\n"
-              "    double store, %.1f for the float one (bandwidth / B)\n",
-              roof.gbs, roof.best.c_str(), roof.mlups(Precision::Double), roof.mlups(Precision::Mixed));
+              "    double store, %.1f for the float one, %.1f for the half one (bandwidth / B)\n",
+              roof.gbs, roof.best.c_str(), roof.mlups(Precision::Double), roof.mlups(Precision::Mixed),
+              roof.mlups(Precision::Half));
   std::printf("step = FluidSolver::step() (kernel + ghost fill); kernel = stream_collide only\n"
               "    (with the x-outflow ghosts it writes); AA rows: stream_collide_in_place only, no ghosts\n");
   if (opt.ib && opt.stores == Stores::Auto)
@@ -491,10 +497,12 @@ int main(int argc, char** argv) {
       ->transform(CLI::CheckedTransformer(stores, CLI::ignore_case));
   const std::map<std::string, Precision> precisions{{"double", Precision::Double},
                                                     {"mixed", Precision::Mixed},
-                                                    {"single", Precision::Single}};
+                                                    {"single", Precision::Single},
+                                                    {"half", Precision::Half}};
   app.add_option("--precision", opt.precisions,
                  "precision modes to run ([run] precision): double, mixed (float store, double arithmetic), "
-                 "single (float store and arithmetic)")
+                 "single (float store and arithmetic), half (16-bit store of f - w, float arithmetic; no peer "
+                 "pattern)")
       ->transform(CLI::CheckedTransformer(precisions, CLI::ignore_case));
   const std::map<std::string, RowSchedule> schedules{{"static", RowSchedule::Static},
                                                      {"dynamic", RowSchedule::Dynamic}};
@@ -546,7 +554,9 @@ int main(int argc, char** argv) {
     for (const Precision p : opt.precisions)
       for (const Propagation g : opt.propagations)
         for (const int t : opt.threads)
-          print_row(p == Precision::Double ? measure<double>(c, t, p, g, opt) : measure<float>(c, t, p, g, opt), opt,
-                    roof);
+          print_row(p == Precision::Double ? measure<double>(c, t, p, g, opt)
+                    : stores_halves(p)   ? measure<Half16>(c, t, p, g, opt)
+                                         : measure<float>(c, t, p, g, opt),
+                    opt, roof);
   return 0;
 }

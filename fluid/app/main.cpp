@@ -129,8 +129,9 @@ void print_header(const FluidScene& s, const protocol::UnitConverter& units) {
               double(population_bytes(g, s.params.precision, s.params.propagation)) / (1024.0 * 1024.0),
               s.params.propagation == Propagation::InPlace ? "1" : "2",
               s.params.precision == Precision::Double ? "doubles"
-              : s.params.precision == Precision::Mixed ? "floats (mixed: float store, double arithmetic)"
-                                                       : "floats (single: float store, float arithmetic)",
+              : s.params.precision == Precision::Mixed  ? "floats (mixed: float store, double arithmetic)"
+              : s.params.precision == Precision::Single ? "floats (single: float store, float arithmetic)"
+                                                        : "16-bit codes of f - w (half: FP16S store, float arithmetic)",
               propagation_name(s.params.propagation));
   std::printf("  run      %lld steps = %.4g us; initial %s; monitor every %lld; ",
               static_cast<long long>(s.steps), units.time_s(double(s.steps)) * 1e6,

@@ -283,17 +283,18 @@ void BoundaryConditions::fill(BasicPopulationField<T>& f, HaloExchange* halo, Fi
 template <class T>
 void outflow_ghost(const T* stored, int axis, int inward, double rho_out, T* ghost) {
   double fb[D3Q19::Q];
-  for (int q = 0; q < D3Q19::Q; ++q) fb[q] = static_cast<double>(stored[q]);
+  for (int q = 0; q < D3Q19::Q; ++q) fb[q] = decode_population(stored[q], q);
   const Moments m = moments(fb);
   const double ux = m.jx / m.rho, uy = m.jy / m.rho, uz = m.jz / m.rho;
   for (int q = 0; q < D3Q19::Q; ++q)
     if (D3Q19::c(q, axis) == inward)
-      ghost[q] = static_cast<T>(equilibrium(q, rho_out, ux, uy, uz) + fb[q] -
-                                equilibrium(q, m.rho, ux, uy, uz));
+      ghost[q] = encode_population<T>(equilibrium(q, rho_out, ux, uy, uz) + fb[q] -
+                                          equilibrium(q, m.rho, ux, uy, uz), q);
 }
 
 template void outflow_ghost(const double*, int, int, double, double*);
 template void outflow_ghost(const float*, int, int, double, float*);
+template void outflow_ghost(const Half16*, int, int, double, Half16*);
 
 template <class T>
 void in_place_x_ghosts(T* c, const std::ptrdiff_t* wr, int nx, int y, const InPlaceXFaces& xf) {
@@ -319,7 +320,7 @@ void in_place_x_ghosts(T* c, const std::ptrdiff_t* wr, int nx, int y, const InPl
       case Kind::Inlet: {
         const double* const v = xf.inlet[side] + std::ptrdiff_t(y) * L::Q;
         for (int q = 0; q < L::Q; ++q)
-          if (L::cx[q] == inward) c[wr[q] + gx] = static_cast<T>(v[q]);
+          if (L::cx[q] == inward) c[wr[q] + gx] = encode_population<T>(v[q], q);
         break;
       }
       case Kind::Other:
@@ -330,6 +331,7 @@ void in_place_x_ghosts(T* c, const std::ptrdiff_t* wr, int nx, int y, const InPl
 
 template void in_place_x_ghosts(double*, const std::ptrdiff_t*, int, int, const InPlaceXFaces&);
 template void in_place_x_ghosts(float*, const std::ptrdiff_t*, int, int, const InPlaceXFaces&);
+template void in_place_x_ghosts(Half16*, const std::ptrdiff_t*, int, int, const InPlaceXFaces&);
 
 template <class T>
 void BoundaryConditions::fill_ghosts(BasicPopulationField<T>& f, HaloExchange* halo) const {
@@ -454,7 +456,7 @@ void BoundaryConditions::fill_copy_face(const PopulationSlots<T>& f, int face) c
         const std::ptrdiff_t len = hi - lo + 1;
         T* const fq = f.q(qs[i]) + layout_.index(lo, y, z);
         if (spec.kind == FaceKind::Inlet)
-          std::fill_n(fq, len, static_cast<T>(inlet_ghost(spec, axis, inward, qs[i], y, inlet_scale_)));
+          std::fill_n(fq, len, encode_population<T>(inlet_ghost(spec, axis, inward, qs[i], y, inlet_scale_), qs[i]));
         else  // Periodic: source and ghost rows are n[axis] cells apart, never overlapping
           std::copy_n(fq + src_off, len, fq);
       }
@@ -490,7 +492,7 @@ void BoundaryConditions::fill_wall(const PopulationSlots<T>& f, int face, int z_
       for (int y = r.lo[1]; y <= r.hi[1]; ++y)
         for (int x = r.lo[0]; x <= r.hi[0]; ++x) {
           const std::ptrdiff_t c = layout_.index(x, y, z);
-          fq[c + back] = static_cast<T>(fo[c] + moving);
+          fq[c + back] = encode_population<T>(decode_population(fo[c], o) + moving, q);
         }
   }
 }
@@ -546,5 +548,12 @@ template void BoundaryConditions::fill_static_ghosts(PopulationFieldSingle&) con
 template void BoundaryConditions::fill_step_ghosts(PopulationFieldSingle&, HaloExchange*) const;
 template void BoundaryConditions::fill_outflow_ghost(PopulationFieldSingle&, int, int, int) const;
 template void BoundaryConditions::fill_wall_ghosts_of_halo_cells(PopulationFieldSingle&, bool, bool) const;
+template void BoundaryConditions::fill_ghosts(PopulationFieldHalf&, HaloExchange*) const;
+template void BoundaryConditions::fill_ghosts_but_x(PopulationFieldHalf&, HaloExchange*) const;
+template void BoundaryConditions::fill_swapped_ghosts(PopulationFieldHalf&, bool) const;
+template void BoundaryConditions::fill_static_ghosts(PopulationFieldHalf&) const;
+template void BoundaryConditions::fill_step_ghosts(PopulationFieldHalf&, HaloExchange*) const;
+template void BoundaryConditions::fill_outflow_ghost(PopulationFieldHalf&, int, int, int) const;
+template void BoundaryConditions::fill_wall_ghosts_of_halo_cells(PopulationFieldHalf&, bool, bool) const;
 
 }  // namespace cosim::fluid

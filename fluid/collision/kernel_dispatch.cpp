@@ -185,6 +185,10 @@ namespace {
   throw std::invalid_argument(std::string(call) + ": float arithmetic needs the float store (precision \"single\")");
 }
 
+[[noreturn]] void no_double_arithmetic(const char* call) {
+  throw std::invalid_argument(std::string(call) + ": the half store computes in float only (precision \"half\")");
+}
+
 }  // namespace
 
 void stream_collide(const PopulationField& src, PopulationField& dst, double tau,
@@ -218,6 +222,22 @@ void stream_collide_in_place(PopulationFieldSingle& f, PopulationLayout layout, 
   (arithmetic == Arithmetic::Float ? k.in_place_single : k.in_place_mixed)(
       f, layout == PopulationLayout::Canonical, tau, force, extrema, schedule,
       x_faces != nullptr && x_faces->all() ? x_faces : nullptr);
+}
+
+void stream_collide(const PopulationFieldHalf& src, PopulationFieldHalf& dst, double tau,
+                    const std::array<double, 3>& force, Stores stores, const KernelOutflow& outflow,
+                    KernelExtrema* extrema, RowSchedule schedule, Arithmetic arithmetic) {
+  if (arithmetic != Arithmetic::Float) no_double_arithmetic("stream_collide");
+  active_kernel().run_half(src, dst, tau, force, uses_streaming_stores(src.layout(), stores, sizeof(Half16)), outflow,
+                           extrema, schedule);
+}
+
+void stream_collide_in_place(PopulationFieldHalf& f, PopulationLayout layout, double tau,
+                             const std::array<double, 3>& force, KernelExtrema* extrema, RowSchedule schedule,
+                             const InPlaceXFaces* x_faces, Arithmetic arithmetic) {
+  if (arithmetic != Arithmetic::Float) no_double_arithmetic("stream_collide_in_place");
+  active_kernel().in_place_half(f, layout == PopulationLayout::Canonical, tau, force, extrema, schedule,
+                                x_faces != nullptr && x_faces->all() ? x_faces : nullptr);
 }
 
 }  // namespace cosim::fluid

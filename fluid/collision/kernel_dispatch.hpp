@@ -7,7 +7,8 @@
 // Every level gives the same bits, in each precision mode: the levels differ only in vector
 // width (2, 4 or 8 doubles, or 4, 8 or 16 floats, per group), the arithmetic is elementwise, and their sources are compiled with
 // -ffp-contract=off, so no level fuses a multiply and an add that another rounds twice
-// (test_kernel_dispatch: KernelDispatchCoversEveryLevel).
+// (test_kernel_dispatch: KernelDispatchCoversEveryLevel). The half store's conversions
+// (F16C on v3 and v4, portable code on the baseline) round alike (fluid/lattice/half.hpp).
 #pragma once
 
 #include <array>
@@ -33,7 +34,7 @@ namespace cosim::fluid {
 /// What one level's translation unit of the kernel provides: the kernel for each store and
 /// arithmetic (fluid/lattice/population_field.hpp, Precision): double store and arithmetic
 /// ("double"), float store in double arithmetic ("mixed"), float store in float arithmetic
-/// ("single").
+/// ("single"), 16-bit store in float arithmetic ("half").
 struct KernelTable {
   const char* level;    ///< "x86-64-v3", ...
   const char* vectors;  ///< "AVX2, 4 doubles per group", ...
@@ -48,6 +49,9 @@ struct KernelTable {
   void (*run_single)(const PopulationFieldSingle& src, PopulationFieldSingle& dst, double tau,
                      const std::array<double, 3>& force, bool streaming, const KernelOutflow& outflow,
                      KernelExtrema* extrema, RowSchedule schedule);
+  void (*run_half)(const PopulationFieldHalf& src, PopulationFieldHalf& dst, double tau,
+                   const std::array<double, 3>& force, bool streaming, const KernelOutflow& outflow,
+                   KernelExtrema* extrema, RowSchedule schedule);
   /// stream_collide_in_place; from_canonical: the state is in PopulationLayout::Canonical.
   void (*in_place_double)(PopulationField& f, bool from_canonical, double tau,
                           const std::array<double, 3>& force, KernelExtrema* extrema, RowSchedule schedule,
@@ -58,6 +62,9 @@ struct KernelTable {
   void (*in_place_single)(PopulationFieldSingle& f, bool from_canonical, double tau,
                           const std::array<double, 3>& force, KernelExtrema* extrema, RowSchedule schedule,
                           const InPlaceXFaces* x_faces);
+  void (*in_place_half)(PopulationFieldHalf& f, bool from_canonical, double tau,
+                        const std::array<double, 3>& force, KernelExtrema* extrema, RowSchedule schedule,
+                        const InPlaceXFaces* x_faces);
 };
 
 /// The names of the levels built into the binary, lowest first.

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <type_traits>
 #include <utility>
@@ -73,6 +74,7 @@ struct CollisionConstants {
   S Fx, Fy, Fz;                ///< uniform force density
   S src_pref;                  ///< 1 - omega / 2 (Eq. 26)
   S cF3[kPairs], cF9[kPairs];  ///< src_pref E_q 3 c_q.F and 9 c_q.F, q of each pair
+  S shift[L::Q];               ///< w_q: the half store keeps f_q - w_q (load_pop, store_pop)
 
   CollisionConstants(double tau, const std::array<double, 3>& F) {
     const double om = 1.0 / tau, pref = 1.0 - 0.5 * om;
@@ -87,6 +89,7 @@ struct CollisionConstants {
       cF3[p] = S(pref * L::w[q] * 3.0 * cF);
       cF9[p] = S(pref * L::w[q] * 9.0 * cF);
     }
+    for (int q = 0; q < L::Q; ++q) shift[q] = S(L::w[q]);
   }
 };
 
@@ -234,13 +237,16 @@ template <bool kForce, class V, class S = Scalar<V>>
 /// post-collision group f: populations entering through the face (c_x = inward) stored at
 /// g + q stride, g the ghost cell in population 0 of dst. From the values as stored (T), as
 /// the ghost fill reads them back: a float store's values computed in double go through the
-/// vector conversion of the store itself (to_stored), and outflow_ghost widens them out of line (see there:
+/// vector conversion of the store itself (to_stored_pop), and outflow_ghost widens them out of line (see there:
 /// a (double)(float)x here was miscompiled).
-template <class T, class V>
+template <class T, class V, class S>
 inline void store_outflow_ghost(const V (&f)[L::Q], int lane, T* g, std::ptrdiff_t stride,
-                                int inward, double rho_out) {
+                                int inward, double rho_out, const CollisionConstants<S>& k) {
   T stored[L::Q], ghost[L::Q];
-  for (int q = 0; q < L::Q; ++q) stored[q] = to_stored<T>(f[q])[lane];
+  for (int q = 0; q < L::Q; ++q) {
+    const Stored<T, V> s = to_stored_pop<T>(f[q], k.shift[q]);
+    std::memcpy(&stored[q], reinterpret_cast<const char*>(&s) + std::size_t(lane) * sizeof(T), sizeof(T));
+  }
   outflow_ghost(stored, 0, inward, rho_out, ghost);
   for (int q = 0; q < L::Q; ++q)
     if (L::cx[q] == inward) g[q * stride] = ghost[q];
@@ -335,9 +341,9 @@ void update_rows(const BasicPopulationField<T>& src, BasicPopulationField<T>& ds
       V f[L::Q];
       // Outflow ghosts of the cells x0 .. x0 + n - 1 of f, where the row ends.
       const auto edges = [&](int x0, int n) {
-        if (out.x_min && x0 == 0) store_outflow_ghost(f, 0, d - 1, stride, 1, out.rho_x_min);
+        if (out.x_min && x0 == 0) store_outflow_ghost(f, 0, d - 1, stride, 1, out.rho_x_min, k);
         if (out.x_max && x0 + n == nx)
-          store_outflow_ghost(f, n - 1, d + nx, stride, -1, out.rho_x_max);
+          store_outflow_ghost(f, n - 1, d + nx, stride, -1, out.rho_x_max, k);
       };
       int x = 0;
       if constexpr (kLineGroups > 1) {
@@ -346,25 +352,28 @@ void update_rows(const BasicPopulationField<T>& src, BasicPopulationField<T>& ds
             const int xg = x + g * N;
             prefetch_ahead<N>(s, pull, xg);
 #pragma GCC unroll 19
-            for (int q = 0; q < L::Q; ++q) f[q] = load_group<V>(s + pull[q] + xg);
+            for (int q = 0; q < L::Q; ++q) f[q] = load_pop<V>(s + pull[q] + xg, k.shift[q]);
             collide<kForce>(f, k, ex);
             edges(xg, N);
             if (g + 1 < kLineGroups) {
 #pragma GCC unroll 19
-              for (int q = 0; q < L::Q; ++q) store_group_aligned(line[q] + g * N, f[q]);
+              for (int q = 0; q < L::Q; ++q) store_pop_aligned(line[q] + g * N, f[q], k.shift[q]);
             }
           }
           // The last group goes from registers: a 64-byte load of a line that was just
           // stored as two halves would wait for the stores (no store forwarding).
 #if defined(__AVX512F__)
-          static_assert(std::is_same_v<T, float> && kLineGroups == 2);
+          // Two half lines of 32 bytes (8 floats, or 16 halves moved as 8 floats' bytes).
+          static_assert((std::is_same_v<T, float> || std::is_same_v<T, Half16>) && kLineGroups == 2);
 #pragma GCC unroll 19
           for (int q = 0; q < L::Q; ++q)
-            store_stream_pair(d + q * stride + x, load_aligned_single(line[q]), to_stored<T>(f[q]));
+            store_stream_pair(reinterpret_cast<float*>(static_cast<void*>(d + q * stride + x)),
+                              load_aligned_single(reinterpret_cast<const float*>(static_cast<const void*>(line[q]))),
+                              __builtin_bit_cast(LanesSingle, to_stored_pop<T>(f[q], k.shift[q])));
 #else
 #pragma GCC unroll 19
           for (int q = 0; q < L::Q; ++q) {
-            store_group_aligned(line[q] + (kLineGroups - 1) * N, f[q]);
+            store_pop_aligned(line[q] + (kLineGroups - 1) * N, f[q], k.shift[q]);
             store_stream_line(d + q * stride + x, line[q]);
           }
 #endif
@@ -380,19 +389,19 @@ void update_rows(const BasicPopulationField<T>& src, BasicPopulationField<T>& ds
             const int xg = x + g * N, ng = n - g * N;
             if (ng <= 0) {
 #pragma GCC unroll 19
-              for (int q = 0; q < L::Q; ++q) store_group_aligned(line[q] + g * N, V{});
+              for (int q = 0; q < L::Q; ++q) store_pop_aligned(line[q] + g * N, V{}, k.shift[q]);
               continue;
             }
             if (ng >= N) {
 #pragma GCC unroll 19
-              for (int q = 0; q < L::Q; ++q) f[q] = load_group<V>(s + pull[q] + xg);
+              for (int q = 0; q < L::Q; ++q) f[q] = load_pop<V>(s + pull[q] + xg, k.shift[q]);
             } else {
-              for (int q = 0; q < L::Q; ++q) f[q] = load_group_partial<V>(s + pull[q] + xg, ng);
+              for (int q = 0; q < L::Q; ++q) f[q] = load_pop_partial<V>(s + pull[q] + xg, ng, k.shift[q]);
             }
             collide<kForce>(f, k, ex, ng < N ? ng : N);
-            if (out.x_min && xg == 0) store_outflow_ghost(f, 0, d - 1, stride, 1, out.rho_x_min);
+            if (out.x_min && xg == 0) store_outflow_ghost(f, 0, d - 1, stride, 1, out.rho_x_min, k);
 #pragma GCC unroll 19
-            for (int q = 0; q < L::Q; ++q) store_group_aligned(line[q] + g * N, f[q]);
+            for (int q = 0; q < L::Q; ++q) store_pop_aligned(line[q] + g * N, f[q], k.shift[q]);
           }
           // Past the row's last cell the line holds the x = nx ghost and padding. An inlet's
           // static ghost is kept (KernelOutflow::keep_x_max_ghosts; read back only then: a
@@ -401,12 +410,12 @@ void update_rows(const BasicPopulationField<T>& src, BasicPopulationField<T>& ds
           // padded lanes of the last group, so that the stored bytes (checkpoints hold the
           // whole field) do not depend on the group width.
           for (int q = 0; q < L::Q; ++q) {
-            line[q][n] = out.keep_x_max_ghosts ? d[q * stride + nx] : T(0);
-            for (int i = n + 1; i < kLineCells; ++i) line[q][i] = T(0);
+            line[q][n] = out.keep_x_max_ghosts ? d[q * stride + nx] : T{};
+            for (int i = n + 1; i < kLineCells; ++i) line[q][i] = T{};
           }
           // f holds the last group with cells; x = nx - 1 is its lane (n - 1) % N.
           if (out.x_max)
-            store_outflow_ghost(f, (n - 1) % N, line[0] + n, kLineCells, -1, out.rho_x_max);
+            store_outflow_ghost(f, (n - 1) % N, line[0] + n, kLineCells, -1, out.rho_x_max, k);
 #pragma GCC unroll 19
           for (int q = 0; q < L::Q; ++q) store_stream_line(d + q * stride + x, line[q]);
           x = nx;
@@ -415,22 +424,22 @@ void update_rows(const BasicPopulationField<T>& src, BasicPopulationField<T>& ds
       for (; x + N <= nx; x += N) {
         prefetch_ahead<N>(s, pull, x);
 #pragma GCC unroll 19
-        for (int q = 0; q < L::Q; ++q) f[q] = load_group<V>(s + pull[q] + x);
+        for (int q = 0; q < L::Q; ++q) f[q] = load_pop<V>(s + pull[q] + x, k.shift[q]);
         collide<kForce>(f, k, ex);
         edges(x, N);
 #pragma GCC unroll 19
         for (int q = 0; q < L::Q; ++q) {
           // (The single store's rows end in its line loop above.)
           if constexpr (kStream && kLineGroups == 1) store_group_stream(d + q * stride + x, f[q]);
-          else store_group_aligned(d + q * stride + x, f[q]);
+          else store_pop_aligned(d + q * stride + x, f[q], k.shift[q]);
         }
       }
       if (x < nx) {
         const int n = nx - x;
-        for (int q = 0; q < L::Q; ++q) f[q] = load_group_partial<V>(s + pull[q] + x, n);
+        for (int q = 0; q < L::Q; ++q) f[q] = load_pop_partial<V>(s + pull[q] + x, n, k.shift[q]);
         collide<kForce>(f, k, ex, n);
         edges(x, n);
-        for (int q = 0; q < L::Q; ++q) store_group_partial(d + q * stride + x, f[q], n);
+        for (int q = 0; q < L::Q; ++q) store_pop_partial(d + q * stride + x, f[q], n, k.shift[q]);
       }
     };
     for_rows(rows, schedule, row);
@@ -485,16 +494,16 @@ void update_in_place(BasicPopulationField<T>& f, bool from_canonical, double tau
       for (; x + N <= nx; x += N) {
         prefetch_ahead<N>(c, rd, x);
 #pragma GCC unroll 19
-        for (int q = 0; q < L::Q; ++q) v[q] = load_group<V>(c + rd[q] + x);
+        for (int q = 0; q < L::Q; ++q) v[q] = load_pop<V>(c + rd[q] + x, k.shift[q]);
         collide<kForce>(v, k, ex);
 #pragma GCC unroll 19
-        for (int q = 0; q < L::Q; ++q) store_group(c + wr[q] + x, v[q]);
+        for (int q = 0; q < L::Q; ++q) store_pop(c + wr[q] + x, v[q], k.shift[q]);
       }
       if (x < nx) {
         const int n = nx - x;
-        for (int q = 0; q < L::Q; ++q) v[q] = load_group_partial<V>(c + rd[q] + x, n);
+        for (int q = 0; q < L::Q; ++q) v[q] = load_pop_partial<V>(c + rd[q] + x, n, k.shift[q]);
         collide<kForce>(v, k, ex, n);
-        for (int q = 0; q < L::Q; ++q) store_group_partial(c + wr[q] + x, v[q], n);
+        for (int q = 0; q < L::Q; ++q) store_pop_partial(c + wr[q] + x, v[q], n, k.shift[q]);
       }
       if (x_faces != nullptr) in_place_x_ghosts(c, wr, nx, y, *x_faces);
     };
@@ -539,8 +548,10 @@ const KernelTable kernel_table{kIsaLevel,
                                &run<double, Lanes>,
                                &run<float, Lanes>,
                                &run<float, LanesFloat>,
+                               &run<Half16, LanesFloat>,
                                &run_in_place<double, Lanes>,
                                &run_in_place<float, Lanes>,
-                               &run_in_place<float, LanesFloat>};
+                               &run_in_place<float, LanesFloat>,
+                               &run_in_place<Half16, LanesFloat>};
 
 }  // namespace cosim::fluid::COSIM_ISA_NS

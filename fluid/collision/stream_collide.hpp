@@ -59,7 +59,8 @@ struct KernelExtrema {
 enum class RowSchedule { Static, Dynamic };
 
 /// The arithmetic the kernel collides in (Precision): Double for the modes "double" and
-/// "mixed", Float for "single". The double store computes in double only.
+/// "mixed", Float for "single" and "half". The double store computes in double only, the
+/// half store in float only.
 enum class Arithmetic { Double, Float };
 constexpr Arithmetic arithmetic_of(Precision p) {
   return float_arithmetic(p) ? Arithmetic::Float : Arithmetic::Double;
@@ -79,6 +80,13 @@ void stream_collide(const PopulationFieldSingle& src, PopulationFieldSingle& dst
                     const std::array<double, 3>& force, Stores stores = Stores::Auto,
                     const KernelOutflow& outflow = {}, KernelExtrema* extrema = nullptr,
                     RowSchedule schedule = RowSchedule::Static, Arithmetic arithmetic = Arithmetic::Double);
+/// The same for the half store ("half"): Arithmetic::Float only (std::invalid_argument
+/// otherwise); the single mode's float kernel, each load decoding f_q = w_q + code 2^-15 and
+/// each store encoding (f_q - w_q) 2^15 (fluid/lattice/half.hpp).
+void stream_collide(const PopulationFieldHalf& src, PopulationFieldHalf& dst, double tau,
+                    const std::array<double, 3>& force, Stores stores = Stores::Auto,
+                    const KernelOutflow& outflow = {}, KernelExtrema* extrema = nullptr,
+                    RowSchedule schedule = RowSchedule::Static, Arithmetic arithmetic = Arithmetic::Float);
 
 /// Where a field keeps the post-collision populations f*_q(x) of its state.
 ///  - Canonical: at A[q](x), the two-grid layout; a step pulls f_q(x) = A[q](x - c_q), the
@@ -118,6 +126,10 @@ void stream_collide_in_place(PopulationFieldSingle& f, PopulationLayout layout, 
                              const std::array<double, 3>& force, KernelExtrema* extrema = nullptr,
                              RowSchedule schedule = RowSchedule::Static, const InPlaceXFaces* x_faces = nullptr,
                              Arithmetic arithmetic = Arithmetic::Double);
+void stream_collide_in_place(PopulationFieldHalf& f, PopulationLayout layout, double tau,
+                             const std::array<double, 3>& force, KernelExtrema* extrema = nullptr,
+                             RowSchedule schedule = RowSchedule::Static, const InPlaceXFaces* x_faces = nullptr,
+                             Arithmetic arithmetic = Arithmetic::Float);
 
 /// Population fields from the size of the CPU's last-level cache on (bytes, 19 populations
 /// with ghosts, either precision) are written with non-temporal stores: they cannot stay in

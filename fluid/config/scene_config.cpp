@@ -211,7 +211,8 @@ void load_run(const SceneReader& r, FluidScene& s) {
     s.blocks = blocks;
   }
   // How the populations are stored and computed (Precision; in the order of its names).
-  if (const auto p = run.choice("precision", {"double", "mixed", "single"})) s.params.precision = kPrecisionModes[*p];
+  if (const auto p = run.choice("precision", {"double", "mixed", "single", "half"}))
+    s.params.precision = kPrecisionModes[*p];
   // How a step moves the populations (FluidParams::propagation): the same bits either way
   // (in a coupled scene too: the schemes run the whole step after the solid's message,
   // FluidDomain::bulk_before_impulses), in one process or over MPI ranks.

@@ -305,7 +305,8 @@ int FluidRun::peer_ending(Ending e, std::int64_t step, const std::string& note) 
 
 // ---- coupled checkpoints (DESIGN 2.4; protocol/README.md section 10) ----
 
-/// The populations of either store (doubles, or floats for the modes "mixed" and "single") of
+/// The populations of any store (doubles, floats for the modes "mixed" and "single", or the
+/// 16-bit codes of f_q - w_q for "half", stored as unsigned 16-bit integers) of
 /// the whole grid, as one process holds them (each rank of a run over MPI ranks writes its own
 /// range: parallel HDF5), with the precision mode's name and its arithmetic; a restart reads
 /// them back into a run of the same mode, on any number of ranks (precision_problem).
@@ -313,7 +314,6 @@ std::string FluidRun::checkpoint(std::int64_t step, const std::string& reason, b
   namespace fs = std::filesystem;
   const fs::path dir = fs::path(s_.output_dir) / "checkpoints";
   const fs::path file = dir / protocol::checkpoint_name("fluid", step);
-  const bool dbl = s_.params.precision == Precision::Double;
   const std::size_t size = std::size_t(D3Q19::Q) * layout_of(s_.params.shape, s_.params.precision).stride();
   try {
     fs::create_directories(dir);
@@ -332,7 +332,9 @@ std::string FluidRun::checkpoint(std::int64_t step, const std::string& reason, b
     }
     protocol::write_identity(w, identity());
     w.text("reason", reason.empty() ? "every coupling.checkpoint_every steps" : reason);
-    w.reserve("populations", dbl ? H5T_IEEE_F64LE : H5T_IEEE_F32LE, size);
+    const Precision p = s_.params.precision;
+    w.reserve("populations", stores_halves(p) ? H5T_STD_U16LE : stores_floats(p) ? H5T_IEEE_F32LE : H5T_IEEE_F64LE,
+              size);
     w.text("precision", precision_name(s_.params.precision));
     // Marks the names of issue 35 ("mixed" = float store, double arithmetic, called "single"
     // before): a checkpoint without it is an older build's (precision_problem).

@@ -25,7 +25,7 @@ namespace {
 
 StoreShare whole_share(const FluidSolver& solver) {
   StoreShare share;
-  share.is_double = solver.precision() == Precision::Double;
+  share.value_bytes = bytes_per_value(solver.precision());
   share.whole_stride = share.local_stride = share.count = solver.layout().stride();
   return share;
 }
@@ -33,16 +33,12 @@ StoreShare whole_share(const FluidSolver& solver) {
 }  // namespace
 
 std::string SerialDomain::write_store(bool kept, const std::string& file, const std::string& name) {
-  const bool dbl = solver_.precision() == Precision::Double;
-  const void* store = dbl ? static_cast<const void*>((kept ? kept_.field() : solver_.state()).q(0))
-                          : static_cast<const void*>((kept ? kept_.field_single() : solver_.state_single()).q(0));
+  const void* store = kept ? kept_.data() : solver_.state_data();
   return write_store_share(file, name, store, whole_share(solver_), nullptr);
 }
 
 std::string SerialDomain::read_store(const std::string& file, const std::string& name, std::int64_t step) {
-  const bool dbl = solver_.precision() == Precision::Double;
-  void* store = dbl ? static_cast<void*>(solver_.mutable_state().q(0))
-                    : static_cast<void*>(solver_.mutable_state_single().q(0));
+  void* store = solver_.mutable_state_data();
   const std::string error = read_store_share(file, name, store, whole_share(solver_));
   if (error.empty()) solver_.set_step_count(step);
   return error;

@@ -27,22 +27,33 @@ namespace cosim::fluid {
 class KeptState {
  public:
   void keep(const FluidSolver& solver) {
-    double_ = solver.precision() == Precision::Double;
-    double_ ? solver.copy_state(d_) : solver.copy_state(s_);
+    precision_ = solver.precision();
+    with_field([&](auto& f) { solver.copy_state(f); });
   }
   void restore(FluidSolver& solver, std::int64_t step) const {
-    solver.precision() == Precision::Double ? solver.restore_state(d_, step) : solver.restore_state(s_, step);
+    with_field([&](const auto& f) { solver.restore_state(f, step); });
   }
-  bool is_double() const { return double_; }
-  const PopulationField& field() const { return d_; }
-  const PopulationFieldSingle& field_single() const { return s_; }
-  PopulationField& mutable_field() { return d_; }
-  PopulationFieldSingle& mutable_field_single() { return s_; }
+  /// fn(the kept field of the solver's store).
+  template <class Fn>
+  void with_field(Fn&& fn) {
+    stores_halves(precision_) ? fn(h_) : stores_floats(precision_) ? fn(s_) : fn(d_);
+  }
+  template <class Fn>
+  void with_field(Fn&& fn) const {
+    stores_halves(precision_) ? fn(h_) : stores_floats(precision_) ? fn(s_) : fn(d_);
+  }
+  /// Its first value (population 0's), as stored.
+  const void* data() const {
+    const void* p = nullptr;
+    with_field([&](const auto& f) { p = f.q(0); });
+    return p;
+  }
 
  private:
-  bool double_ = true;
+  Precision precision_ = Precision::Double;
   PopulationField d_;
   PopulationFieldSingle s_;
+  PopulationFieldHalf h_;
 };
 
 /// Every call is collective (all processes of the run make it, in the same order); the

@@ -22,11 +22,13 @@ class HaloExchange {
   virtual ~HaloExchange() = default;
   virtual void exchange(PopulationField& f) = 0;
   virtual void exchange(PopulationFieldSingle& f) = 0;
+  virtual void exchange(PopulationFieldHalf& f) = 0;
   /// exchange() in two halves, so that work that neither reads the ghost planes nor writes
   /// the planes sent can run between them (FluidSolver's step of a block): post() starts
   /// it, wait() ends it. By default post() is the whole exchange.
   virtual void post(PopulationField& f) { exchange(f); }
   virtual void post(PopulationFieldSingle& f) { exchange(f); }
+  virtual void post(PopulationFieldHalf& f) { exchange(f); }
   virtual void wait() {}
   /// The faces it fills; the boundary fills leave them alone.
   virtual std::array<bool, kHaloFaces> faces() const = 0;

@@ -8,14 +8,24 @@
 
 namespace cosim::fluid {
 
+namespace {
+
+/// The values in memory: doubles, floats, or the half store's 16-bit codes (as unsigned
+/// integers: their bits, fluid/lattice/half.hpp).
+hid_t memory_type(const StoreShare& share) {
+  return share.value_bytes == 8 ? H5T_NATIVE_DOUBLE : share.value_bytes == 4 ? H5T_NATIVE_FLOAT : H5T_NATIVE_UINT16;
+}
+
+}  // namespace
+
 std::string write_store_share(const std::string& file, const std::string& name, const void* store,
                               const StoreShare& share, const protocol::WriteGroup* group) {
   const protocol::WriteGroup alone;
   const protocol::WriteGroup& g = group != nullptr ? *group : alone;
   const H5Quiet quiet;
   const std::string what = "checkpoint " + file + ": cannot write " + name;
-  const hid_t mem_type = share.is_double ? H5T_NATIVE_DOUBLE : H5T_NATIVE_FLOAT;
-  const std::size_t size = share.is_double ? sizeof(double) : sizeof(float);
+  const hid_t mem_type = memory_type(share);
+  const std::size_t size = share.value_bytes;
   std::string error;
   // Every process makes the same collective calls even after a failure of its own (the
   // open, one write per population, the close), so that none waits for it.
@@ -46,8 +56,8 @@ std::string write_store_share(const std::string& file, const std::string& name, 
 std::string read_store_share(const std::string& file, const std::string& name, void* store, const StoreShare& share) {
   const H5Quiet quiet;
   const std::string what = "checkpoint " + file + ": cannot read " + name;
-  const hid_t mem_type = share.is_double ? H5T_NATIVE_DOUBLE : H5T_NATIVE_FLOAT;
-  const std::size_t size = share.is_double ? sizeof(double) : sizeof(float);
+  const hid_t mem_type = memory_type(share);
+  const std::size_t size = share.value_bytes;
   try {
     const H5Id f(H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose, what);
     for (int q = 0; q < D3Q19::Q; ++q) {

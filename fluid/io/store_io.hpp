@@ -17,7 +17,7 @@ namespace cosim::fluid {
 /// One process's share of a whole grid's store: per population q, the values
 /// [first, first + count) of the whole store's q, at local_first of its own store's q.
 struct StoreShare {
-  bool is_double = true;
+  std::size_t value_bytes = sizeof(double);  ///< 8 (double), 4 (float) or 2 (the half store's codes)
   std::size_t whole_stride = 0;  ///< values per population, the whole grid's layout
   std::size_t local_stride = 0;  ///< the same for this process's store
   std::size_t first = 0, local_first = 0, count = 0;

@@ -16,8 +16,11 @@
 #include <immintrin.h>
 #endif
 
+#include <cstdint>
 #include <cstring>
 #include <type_traits>
+
+#include "fluid/lattice/half.hpp"
 
 namespace cosim::fluid::COSIM_ISA_NS {
 
@@ -272,6 +275,120 @@ template <class V, class T>
 #else
   store_group_aligned(p, v);
 #endif
+}
+
+// ---- The half store (Precision::Half, fluid/lattice/half.hpp): a LanesFloat group stored as
+// the binary16 codes of (f - w) 2^15, w the population's weight. Converted by F16C where the
+// level has it (x86-64-v4: 16 values, v3: 8 an instruction), else by the portable conversion
+// of half.hpp on the level's vectors: the same bits (rounded to nearest, ties to even).
+
+template <class V>
+struct StoredGroup<Half16, V> {
+  typedef std::uint16_t type __attribute__((vector_size(lanes_of<V> * sizeof(Half16))));
+};
+
+/// The codes of a group, as stored.
+using HalfCodes = Stored<Half16, LanesFloat>;
+
+/// binary16 of each float of x (to nearest, ties to even).
+[[gnu::always_inline]] inline HalfCodes binary16_of(LanesFloat x) {
+#if defined(__AVX512F__)
+  return __builtin_bit_cast(HalfCodes, _mm512_cvtps_ph(__builtin_bit_cast(__m512, x), _MM_FROUND_TO_NEAREST_INT));
+#elif defined(__AVX__) && defined(__F16C__)
+  return __builtin_bit_cast(HalfCodes, _mm256_cvtps_ph(__builtin_bit_cast(__m256, x), _MM_FROUND_TO_NEAREST_INT));
+#else
+  using U = std::uint32_t __attribute__((vector_size(sizeof(LanesFloat))));
+  return __builtin_convertvector(binary16_bits_of_float_bits<U, LanesFloat>(__builtin_bit_cast(U, x)), HalfCodes);
+#endif
+}
+
+/// The floats of binary16 codes (exact).
+[[gnu::always_inline]] inline LanesFloat float_of(HalfCodes h) {
+#if defined(__AVX512F__)
+  return __builtin_bit_cast(LanesFloat, _mm512_cvtph_ps(__builtin_bit_cast(__m256i, h)));
+#elif defined(__AVX__) && defined(__F16C__)
+  return __builtin_bit_cast(LanesFloat, _mm256_cvtph_ps(__builtin_bit_cast(__m128i, h)));
+#else
+  using U = std::uint32_t __attribute__((vector_size(sizeof(LanesFloat))));
+  return __builtin_bit_cast(LanesFloat, float_bits_of_binary16_bits<U, LanesFloat>(__builtin_convertvector(h, U)));
+#endif
+}
+
+// A population's group in the kernel: loads and stores of population q's values (shift
+// w = its weight, in the arithmetic's type). The double and float stores ignore w (as
+// load_group and store_group: the same bits); the half store decodes f = code 2^-15 + w and
+// encodes (f - w) 2^15, in float.
+
+/// The group as stored.
+template <class T, class V>
+[[gnu::always_inline]] inline Stored<T, V> to_stored_pop(V v, Scalar<V> w) {
+  if constexpr (std::is_same_v<T, Half16>) {
+    static_assert(std::is_same_v<V, LanesFloat>, "the half store computes in float");
+    return binary16_of((v - w) * kHalfScale);
+  } else {
+    (void)w;
+    return to_stored<T>(v);
+  }
+}
+
+template <class V, class T>
+[[gnu::always_inline]] inline V from_stored_pop(Stored<T, V> s, Scalar<V> w) {
+  if constexpr (std::is_same_v<T, Half16>) {
+    static_assert(std::is_same_v<V, LanesFloat>, "the half store computes in float");
+    return float_of(s) * kHalfUnscale + w;
+  } else {
+    (void)w;
+    return from_stored<V, T>(s);
+  }
+}
+
+/// A group from any address aligned to sizeof(T).
+template <class V, class T>
+[[gnu::always_inline]] inline V load_pop(const T* p, Scalar<V> w) {
+  Stored<T, V> s;
+  std::memcpy(&s, p, sizeof s);
+  return from_stored_pop<V, T>(s, w);
+}
+
+/// A group to any address aligned to sizeof(T).
+template <class V, class T>
+[[gnu::always_inline]] inline void store_pop(T* p, V v, Scalar<V> w) {
+  const Stored<T, V> s = to_stored_pop<T>(v, w);
+  std::memcpy(p, &s, sizeof s);
+}
+
+/// A group to an address aligned to sizeof(Stored<T, V>).
+template <class V, class T>
+[[gnu::always_inline]] inline void store_pop_aligned(T* p, V v, Scalar<V> w) {
+  *static_cast<Stored<T, V>*>(__builtin_assume_aligned(static_cast<void*>(p), sizeof(Stored<T, V>))) =
+      to_stored_pop<T>(v, w);
+}
+
+/// The first n < lanes_of<V> values from p; the others harmless (load_group_partial: 1; the
+/// half store: w, the rest state's population).
+template <class V, class T>
+inline V load_pop_partial(const T* p, int n, Scalar<V> w) {
+  if constexpr (std::is_same_v<T, Half16>) {
+    Stored<T, V> s{};
+    std::memcpy(&s, p, sizeof(T) * unsigned(n));
+    return from_stored_pop<V, T>(s, w);
+  } else {
+    (void)w;
+    return load_group_partial<V>(p, n);
+  }
+}
+
+/// The first n < lanes_of<V> values of v to p.
+template <class V, class T>
+inline void store_pop_partial(T* p, V v, int n, Scalar<V> w) {
+  const Stored<T, V> s = to_stored_pop<T>(v, w);
+  std::memcpy(p, &s, sizeof(T) * unsigned(n));
+}
+
+/// One 64-byte line of codes from an aligned buffer to an aligned p (store_stream_line).
+inline void store_stream_line(Half16* p, const Half16* line) {
+  store_stream_line(reinterpret_cast<float*>(static_cast<void*>(p)),
+                    reinterpret_cast<const float*>(static_cast<const void*>(line)));
 }
 
 }  // namespace cosim::fluid::COSIM_ISA_NS

@@ -10,6 +10,7 @@ const char* precision_name(Precision p) {
     case Precision::Double: return "double";
     case Precision::Mixed: return "mixed";
     case Precision::Single: return "single";
+    case Precision::Half: return "half";
   }
   return "?";
 }
@@ -41,10 +42,11 @@ BasicPopulationField<T>::BasicPopulationField(const GridLayout& layout) : layout
   T* d = data_.get();
   const std::ptrdiff_t n = std::ptrdiff_t(D3Q19::Q * layout.stride());
 #pragma omp parallel for schedule(static)
-  for (std::ptrdiff_t i = 0; i < n; ++i) d[i] = T(0);
+  for (std::ptrdiff_t i = 0; i < n; ++i) d[i] = T{};
 }
 
 template class BasicPopulationField<double>;
 template class BasicPopulationField<float>;
+template class BasicPopulationField<Half16>;
 
 }  // namespace cosim::fluid

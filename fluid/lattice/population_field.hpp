@@ -1,10 +1,14 @@
 // Aligned structure-of-arrays storage for the 19 populations of one lattice block, as doubles
-// (the default) or as floats (FluidParams::precision: the "mixed" and "single" modes).
+// (the default), as floats (FluidParams::precision: the "mixed" and "single" modes) or as
+// 16-bit codes of f_q - w_q ("half", fluid/lattice/half.hpp).
 #pragma once
 
 #include <cstddef>
 #include <memory>
 #include <string>
+#include <type_traits>
+
+#include "fluid/lattice/half.hpp"
 
 #include "fluid/lattice/d3q19.hpp"
 #include "fluid/lattice/grid_layout.hpp"
@@ -21,15 +25,23 @@ namespace cosim::fluid {
 ///    most LB codes): the kernel collides groups of floats twice as wide as the double ones
 ///    (fluid/collision/stream_collide.hpp, Arithmetic). The cells an immersed boundary forces
 ///    are collided again by the one-cell BgkGuo in double, in every mode (FluidSolver).
-enum class Precision { Double, Mixed, Single };
+///  - Half ("half"): 16-bit store, float arithmetic (FluidX3D's approach): each population is
+///    stored as the shifted f_q - w_q in FP16S, IEEE binary16 of (f_q - w_q) 2^15
+///    (fluid/lattice/half.hpp: the format, its range and its rounding); the kernel is the
+///    single mode's float kernel, its loads and stores converting (F16C on x86-64-v3 and v4,
+///    the same bits by a portable conversion below). 76 bytes moved per update.
+enum class Precision { Double, Mixed, Single, Half };
 /// The modes, in the order of their scene names.
-inline constexpr Precision kPrecisionModes[] = {Precision::Double, Precision::Mixed, Precision::Single};
-/// Its scene name: "double", "mixed", "single".
+inline constexpr Precision kPrecisionModes[] = {Precision::Double, Precision::Mixed, Precision::Single,
+                                                Precision::Half};
+/// Its scene name: "double", "mixed", "single", "half".
 const char* precision_name(Precision p);
 /// Whether the populations are stored as floats (PopulationFieldSingle).
-constexpr bool stores_floats(Precision p) { return p != Precision::Double; }
-/// Whether the kernel computes in float ("single").
-constexpr bool float_arithmetic(Precision p) { return p == Precision::Single; }
+constexpr bool stores_floats(Precision p) { return p == Precision::Mixed || p == Precision::Single; }
+/// Whether the populations are stored as 16-bit codes (PopulationFieldHalf).
+constexpr bool stores_halves(Precision p) { return p == Precision::Half; }
+/// Whether the kernel computes in float ("single", "half").
+constexpr bool float_arithmetic(Precision p) { return p == Precision::Single || p == Precision::Half; }
 /// Why the populations of a checkpoint (fluid_run.cpp) written in the mode named `written`
 /// cannot continue a run in mode `run`; empty if they can. `marked`: the checkpoint names its
 /// arithmetic, as every build since issue 35 does; an unmarked one is an older build's, whose
@@ -38,11 +50,11 @@ constexpr bool float_arithmetic(Precision p) { return p == Precision::Single; }
 /// changes the scene hash the restart checks (protocol/checkpoint_identity.hpp).
 std::string precision_problem(const std::string& written, bool marked, Precision run);
 constexpr std::size_t bytes_per_value(Precision p) {
-  return stores_floats(p) ? sizeof(float) : sizeof(double);
+  return stores_halves(p) ? sizeof(Half16) : stores_floats(p) ? sizeof(float) : sizeof(double);
 }
 
-/// The layout of a population array of a grid in a precision (64-byte lines of 8 doubles or
-/// 16 floats).
+/// The layout of a population array of a grid in a precision (64-byte lines of 8 doubles,
+/// 16 floats or 32 halves).
 inline GridLayout layout_of(const GridShape& shape, Precision p) {
   return GridLayout(shape, GridLayout::kLineBytes / int(bytes_per_value(p)));
 }
@@ -81,8 +93,26 @@ class BasicPopulationField {
 
 using PopulationField = BasicPopulationField<double>;
 using PopulationFieldSingle = BasicPopulationField<float>;
+using PopulationFieldHalf = BasicPopulationField<Half16>;
 
 extern template class BasicPopulationField<double>;
 extern template class BasicPopulationField<float>;
+extern template class BasicPopulationField<Half16>;
 
+/// A stored population as a double and back, for the code outside the kernel that computes
+/// on stored values (boundary fills, the forced cells' collision, moments, initial state):
+/// q is the population (its array, or the opposite one: w_q = w_opp q). The double and float
+/// stores convert as a cast does; the half store decodes f_q = w_q + value and encodes
+/// value = f_q - w_q (half.hpp). Copies of stored values between the slots of q, opp q and
+/// mirror(q) need no conversion: they have the same weight.
+inline double decode_population(double v, int) { return v; }
+inline double decode_population(float v, int) { return static_cast<double>(v); }
+inline double decode_population(Half16 v, int q) { return half_decode(v, D3Q19::w[q]); }
+template <class T>
+inline T encode_population(double v, int q) {
+  if constexpr (std::is_same_v<T, Half16>)
+    return half_encode(v, D3Q19::w[q]);
+  else
+    return static_cast<T>(v);
+}
 }  // namespace cosim::fluid

@@ -137,7 +137,7 @@ StoreShare DistributedFluid::share(bool reading) const {
   // nx and ny: the same rows and planes), at the slab's z0.
   const std::ptrdiff_t plane = block_->layout().plane_stride();
   StoreShare sh;
-  sh.is_double = block_->precision() == Precision::Double;
+  sh.value_bytes = bytes_per_value(block_->precision());
   sh.whole_stride = layout_of(whole_params_.shape, whole_params_.precision).stride();
   sh.local_stride = block_->layout().stride();
   const std::ptrdiff_t whole_stride = std::ptrdiff_t(sh.whole_stride);
@@ -186,14 +186,10 @@ std::string DistributedFluid::write_store(bool kept, const std::string& file, co
   const void* store = nullptr;
   if (!kept) {
     b.fill_wall_ghosts_of_halo_cells(below, above);
-    store = b.precision() == Precision::Double ? static_cast<const void*>(b.state().q(0))
-                                               : static_cast<const void*>(b.state_single().q(0));
-  } else if (b.precision() == Precision::Double) {
-    b.boundaries().fill_wall_ghosts_of_halo_cells(kept_.mutable_field(), below, above);
-    store = kept_.field().q(0);
+    store = b.state_data();
   } else {
-    b.boundaries().fill_wall_ghosts_of_halo_cells(kept_.mutable_field_single(), below, above);
-    store = kept_.field_single().q(0);
+    kept_.with_field([&](auto& f) { b.boundaries().fill_wall_ghosts_of_halo_cells(f, below, above); });
+    store = kept_.data();
   }
   const protocol::WriteGroup group(comm_);
   return write_store_share(path, set, store, share(false), &group);
@@ -202,8 +198,7 @@ std::string DistributedFluid::write_store(bool kept, const std::string& file, co
 std::string DistributedFluid::read_store(const std::string& file, const std::string& name, std::int64_t step) {
   const std::string path = broadcast(comm_, file), set = broadcast(comm_, name);
   FluidSolver& b = *block_;
-  void* store = b.precision() == Precision::Double ? static_cast<void*>(b.mutable_state().q(0))
-                                                   : static_cast<void*>(b.mutable_state_single().q(0));
+  void* store = b.mutable_state_data();
   const std::string error = protocol::WriteGroup(comm_).first_error(read_store_share(path, set, store, share(true)));
   if (error.empty()) b.set_step_count(step);
   return error;

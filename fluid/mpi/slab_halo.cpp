@@ -23,7 +23,8 @@ void SlabHalo::start(BasicPopulationField<T>& f) {
   const GridLayout& lay = f.layout();
   const std::ptrdiff_t plane = lay.plane_stride();
   const int nz = lay.nz();
-  const MPI_Datatype type = std::is_same_v<T, double> ? MPI_DOUBLE : MPI_FLOAT;
+  // The half store's codes travel as their bits.
+  const MPI_Datatype type = std::is_same_v<T, double> ? MPI_DOUBLE : std::is_same_v<T, float> ? MPI_FLOAT : MPI_UINT16_T;
   // Offset of the first value of plane z (its x and y ghosts included).
   const auto at = [&](int z) { return std::ptrdiff_t(z + 1) * plane; };
   constexpr int kUp = 100, kDown = 200;  // tags: + q
@@ -66,5 +67,6 @@ void SlabHalo::wait() {
 
 template void SlabHalo::start(PopulationField&);
 template void SlabHalo::start(PopulationFieldSingle&);
+template void SlabHalo::start(PopulationFieldHalf&);
 
 }  // namespace cosim::fluid::mpi

@@ -30,8 +30,13 @@ class SlabHalo final : public HaloExchange {
     post(f);
     wait();
   }
+  void exchange(PopulationFieldHalf& f) override {
+    post(f);
+    wait();
+  }
   void post(PopulationField& f) override { start(f); }
   void post(PopulationFieldSingle& f) override { start(f); }
+  void post(PopulationFieldHalf& f) override { start(f); }
   void wait() override;
   std::array<bool, kHaloFaces> faces() const override;
   /// Bytes this slab sent in its exchanges so far.

@@ -51,7 +51,7 @@ inline Moments pulled_moments(const T* const* s, int x, const double* hF) {
   Moments m;
 #pragma GCC unroll 19
   for (int q = 0; q < L::Q; ++q) {
-    const double v = static_cast<double>(s[q][x]);
+    const double v = decode_population(s[q][x], q);
     m.rho += v;
     m.jx += L::cx[q] * v;
     m.jy += L::cy[q] * v;
@@ -187,6 +187,8 @@ FlowPartials partials_of_field(const FluidSolver& solver, const BasicPopulationF
 FlowPartials partials_of(const FluidSolver& solver, bool previous, std::int64_t first_cell) {
   if (solver.precision() == Precision::Double)
     return partials_of_field(solver, previous ? solver.previous_state() : solver.state(), first_cell);
+  if (stores_halves(solver.precision()))
+    return partials_of_field(solver, previous ? solver.previous_state_half() : solver.state_half(), first_cell);
   return partials_of_field(solver, previous ? solver.previous_state_single() : solver.state_single(), first_cell);
 }
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 #include <utility>
 
 #include "fluid/collision/bgk_guo.hpp"
@@ -111,13 +112,11 @@ FluidSolver::FluidSolver(const FluidParams& params, HaloExchange* halo)
       x_faces_(bc_.in_place_x_faces()) {
   // The in-place propagation needs one grid.
   const bool two = params.propagation == Propagation::TwoGrid;
-  if (params.precision == Precision::Double) {
-    f_ = PopulationField(layout_);
-    if (two) g_ = PopulationField(layout_);
-  } else {
-    fs_ = PopulationFieldSingle(layout_);
-    if (two) gs_ = PopulationFieldSingle(layout_);
-  }
+  with_fields([&](auto& f, auto& g) {
+    using Field = std::remove_reference_t<decltype(f)>;
+    f = Field(layout_);
+    if (two) g = Field(layout_);
+  });
   initialize_uniform(1.0, {0.0, 0.0, 0.0});
 }
 
@@ -132,10 +131,7 @@ void FluidSolver::make_canonical(const char* call) const {
     throw std::logic_error(std::string("FluidSolver::") + call +
                            ": between begin_step() and finish_step() the in-place propagation holds no whole state");
   if (arrangement_ == PopulationLayout::Canonical) return;
-  if (params_.precision == Precision::Double)
-    swap_layout(f_);
-  else
-    swap_layout(fs_);
+  with_fields([](auto& f, auto&) { swap_layout(f); });
   arrangement_ = PopulationLayout::Canonical;
 }
 
@@ -146,10 +142,7 @@ const PopulationField& FluidSolver::state() const {
 }
 void FluidSolver::fill_wall_ghosts_of_halo_cells(bool below, bool above) {
   make_canonical("fill_wall_ghosts_of_halo_cells()");
-  if (params_.precision == Precision::Double)
-    bc_.fill_wall_ghosts_of_halo_cells(f_, below, above);
-  else
-    bc_.fill_wall_ghosts_of_halo_cells(fs_, below, above);
+  with_fields([&](auto& f, auto&) { bc_.fill_wall_ghosts_of_halo_cells(f, below, above); });
 }
 
 PopulationField& FluidSolver::mutable_state() {
@@ -170,6 +163,17 @@ PopulationFieldSingle& FluidSolver::mutable_state_single() {
   have_previous_ = mid_step_ = false;
   return fs_;
 }
+const PopulationFieldHalf& FluidSolver::state_half() const {
+  if (!stores_halves(params_.precision)) wrong_precision("state_half()", params_.precision);
+  make_canonical("state_half()");
+  return fh_;
+}
+PopulationFieldHalf& FluidSolver::mutable_state_half() {
+  if (!stores_halves(params_.precision)) wrong_precision("mutable_state_half()", params_.precision);
+  make_canonical("mutable_state_half()");
+  have_previous_ = mid_step_ = false;
+  return fh_;
+}
 
 const PopulationField& FluidSolver::previous_state() const {
   if (params_.precision != Precision::Double) wrong_precision("previous_state()", params_.precision);
@@ -185,42 +189,52 @@ const PopulationFieldSingle& FluidSolver::previous_state_single() const {
   if (!have_previous_) throw std::logic_error("FluidSolver::previous_state_single(): no step() since the state was set");
   return gs_;
 }
+const PopulationFieldHalf& FluidSolver::previous_state_half() const {
+  if (!stores_halves(params_.precision)) wrong_precision("previous_state_half()", params_.precision);
+  if (params_.propagation == Propagation::InPlace)
+    throw std::logic_error("FluidSolver::previous_state_half(): the in-place propagation keeps no previous state");
+  if (!have_previous_) throw std::logic_error("FluidSolver::previous_state_half(): no step() since the state was set");
+  return gh_;
+}
+
+const void* FluidSolver::state_data() const {
+  make_canonical("state_data()");
+  const void* p = nullptr;
+  with_fields([&](const auto& f, const auto&) { p = f.q(0); });
+  return p;
+}
+void* FluidSolver::mutable_state_data() {
+  make_canonical("mutable_state_data()");
+  have_previous_ = mid_step_ = false;
+  void* p = nullptr;
+  with_fields([&](auto& f, auto&) { p = f.q(0); });
+  return p;
+}
 
 void FluidSolver::refresh_ghosts() {
   make_canonical("refresh_ghosts()");
-  if (params_.precision == Precision::Double)
-    bc_.fill_ghosts(f_, halo_);
-  else
-    bc_.fill_ghosts(fs_, halo_);
+  with_fields([&](auto& f, auto&) { bc_.fill_ghosts(f, halo_); });
 }
 
 void FluidSolver::initialize(const InitialState& state) {
   const GridShape& s = layout_.shape();
-  const bool dbl = params_.precision == Precision::Double;
   have_previous_ = mid_step_ = false;
   arrangement_ = PopulationLayout::Canonical;
   // One thread, x fastest: the callback may keep state (e.g. a random generator). Once per
   // run; a few tens of milliseconds on the paper's grid.
-  for (int z = 0; z < s.nz; ++z)
-    for (int y = 0; y < s.ny; ++y)
-      for (int x = 0; x < s.nx; ++x) {
-        const CellState c = state(x, y, z);
-        const std::ptrdiff_t i = layout_.index(x, y, z);
-        for (int q = 0; q < D3Q19::Q; ++q) {
-          const double feq = equilibrium(q, c.rho, c.ux, c.uy, c.uz);  // Eq. 11
-          if (dbl)
-            f_.q(q)[i] = feq;
-          else
-            fs_.q(q)[i] = static_cast<float>(feq);
+  with_fields([&](auto& f, auto& g) {
+    using T = typename std::remove_reference_t<decltype(f)>::value_type;
+    for (int z = 0; z < s.nz; ++z)
+      for (int y = 0; y < s.ny; ++y)
+        for (int x = 0; x < s.nx; ++x) {
+          const CellState c = state(x, y, z);
+          const std::ptrdiff_t i = layout_.index(x, y, z);
+          for (int q = 0; q < D3Q19::Q; ++q)
+            f.q(q)[i] = encode_population<T>(equilibrium(q, c.rho, c.ux, c.uy, c.uz), q);  // Eq. 11
         }
-      }
-  if (dbl) {
-    bc_.fill_ghosts(f_, halo_);
-    if (!g_.empty()) bc_.fill_static_ghosts(g_);
-  } else {
-    bc_.fill_ghosts(fs_, halo_);
-    if (!gs_.empty()) bc_.fill_static_ghosts(gs_);
-  }
+    bc_.fill_ghosts(f, halo_);
+    if (!g.empty()) bc_.fill_static_ghosts(g);
+  });
 }
 
 void FluidSolver::initialize_uniform(double rho, const std::array<double, 3>& u) {
@@ -234,21 +248,13 @@ void FluidSolver::set_inlet_scale(double s) {
   if (params_.propagation == Propagation::InPlace) {
     // The kernel writes the x faces' ghosts from the table; otherwise every fill is a whole
     // one (Fill::All) and reads the scale itself. A Canonical state's pulled ghosts now.
-    if (arrangement_ == PopulationLayout::Canonical) {
-      if (params_.precision == Precision::Double)
-        bc_.fill_static_ghosts(f_);
-      else
-        bc_.fill_static_ghosts(fs_);
-    }
+    if (arrangement_ == PopulationLayout::Canonical) with_fields([&](auto& f, auto&) { bc_.fill_static_ghosts(f); });
     return;
   }
-  if (params_.precision == Precision::Double) {
-    bc_.fill_static_ghosts(f_);
-    bc_.fill_static_ghosts(g_);
-  } else {
-    bc_.fill_static_ghosts(fs_);
-    bc_.fill_static_ghosts(gs_);
-  }
+  with_fields([&](auto& f, auto& g) {
+    bc_.fill_static_ghosts(f);
+    bc_.fill_static_ghosts(g);
+  });
 }
 
 void FluidSolver::add_force(int x, int y, int z, double fx, double fy, double fz) {
@@ -276,10 +282,7 @@ void FluidSolver::step() {
   // A block's two-grid step sends its edge planes while it collides its interior ones; the
   // in-place step has one grid, whose edge planes the interior's collision would overwrite.
   if (halo_ != nullptr && bc_.has_halo() && layout_.nz() >= 3 && params_.propagation == Propagation::TwoGrid) {
-    if (params_.precision == Precision::Double)
-      step_overlapped(f_, g_);
-    else
-      step_overlapped(fs_, gs_);
+    with_fields([&](auto& f, auto& g) { step_overlapped(f, g); });
     return;
   }
   begin_step();
@@ -288,24 +291,24 @@ void FluidSolver::step() {
 
 void FluidSolver::begin_step() {
   if (mid_step_) throw std::logic_error("FluidSolver::begin_step(): the step begun before is not finished");
-  if (params_.propagation == Propagation::InPlace)
-    params_.precision == Precision::Double ? begin_in_place(f_) : begin_in_place(fs_);
-  else if (params_.precision == Precision::Double)
-    begin_fields(f_, g_);
-  else
-    begin_fields(fs_, gs_);
+  with_fields([&](auto& f, auto& g) {
+    if (params_.propagation == Propagation::InPlace)
+      begin_in_place(f);
+    else
+      begin_fields(f, g);
+  });
   mid_step_ = true;
   have_previous_ = false;  // the second grid now holds the bulk of the new state
 }
 
 void FluidSolver::finish_step() {
   if (!mid_step_) throw std::logic_error("FluidSolver::finish_step(): no step begun");
-  if (params_.propagation == Propagation::InPlace)
-    params_.precision == Precision::Double ? finish_in_place(f_) : finish_in_place(fs_);
-  else if (params_.precision == Precision::Double)
-    finish_fields(f_, g_);
-  else
-    finish_fields(fs_, gs_);
+  with_fields([&](auto& f, auto& g) {
+    if (params_.propagation == Propagation::InPlace)
+      finish_in_place(f);
+    else
+      finish_fields(f, g);
+  });
   mid_step_ = false;
   ++steps_;
 }
@@ -338,6 +341,10 @@ void FluidSolver::restore_state(const PopulationField& from, std::int64_t steps)
 void FluidSolver::restore_state(const PopulationFieldSingle& from, std::int64_t steps) {
   restore_state_of(from, mutable_state_single(), steps);
 }
+void FluidSolver::copy_state(PopulationFieldHalf& to) const { copy_state_of(state_half(), to); }
+void FluidSolver::restore_state(const PopulationFieldHalf& from, std::int64_t steps) {
+  restore_state_of(from, mutable_state_half(), steps);
+}
 
 template <class T>
 void FluidSolver::begin_fields(const BasicPopulationField<T>& f, BasicPopulationField<T>& g) {
@@ -369,9 +376,9 @@ void FluidSolver::apply_local_forces(const BasicPopulationField<T>& f,
     const std::ptrdiff_t i = forced_[k];
     double fc[D3Q19::Q];
     for (int q = 0; q < D3Q19::Q; ++q)
-      fc[q] = f.q(q)[i - layout_.offset(D3Q19::cx[q], D3Q19::cy[q], D3Q19::cz[q])];
+      fc[q] = decode_population(f.q(q)[i - layout_.offset(D3Q19::cx[q], D3Q19::cy[q], D3Q19::cz[q])], q);
     bgk.collide(fc, F[0] + fx_[i], F[1] + fy_[i], F[2] + fz_[i]);
-    for (int q = 0; q < D3Q19::Q; ++q) g.q(q)[i] = static_cast<T>(fc[q]);
+    for (int q = 0; q < D3Q19::Q; ++q) g.q(q)[i] = encode_population<T>(fc[q], q);
   }
   // The kernel wrote the x-outflow ghosts from the cells as it collided them.
   const std::ptrdiff_t sx = layout_.row_stride(), plane = layout_.plane_stride();
@@ -398,7 +405,7 @@ void FluidSolver::begin_in_place(BasicPopulationField<T>& f) {
     const std::ptrdiff_t i = forced_[k];
     for (int q = 0; q < D3Q19::Q; ++q)
       saved_inputs_[k * D3Q19::Q + q] =
-          canonical ? f.q(q)[i - shift(layout_, q)] : f.q(D3Q19::opp[q])[i];
+          decode_population(canonical ? f.q(q)[i - shift(layout_, q)] : f.q(D3Q19::opp[q])[i], q);
   }
   stream_collide_in_place(f, arrangement_, params_.tau, params_.body_force, &extrema_, schedule_, &x_faces_,
                           arithmetic_of(params_.precision));
@@ -420,9 +427,9 @@ void FluidSolver::finish_in_place(BasicPopulationField<T>& f) {
       bgk.collide(fc, F[0] + fx_[i], F[1] + fy_[i], F[2] + fz_[i]);
       for (int q = 0; q < D3Q19::Q; ++q) {
         if (swapped)
-          f.q(D3Q19::opp[q])[i + shift(layout_, q)] = static_cast<T>(fc[q]);
+          f.q(D3Q19::opp[q])[i + shift(layout_, q)] = encode_population<T>(fc[q], q);
         else
-          f.q(q)[i] = static_cast<T>(fc[q]);
+          f.q(q)[i] = encode_population<T>(fc[q], q);
       }
     }
     if (x_faces_.all()) {
@@ -488,19 +495,16 @@ void FluidSolver::populations_of(const BasicPopulationField<T>& f, int x, int y,
   const std::ptrdiff_t i = layout_.index(x, y, z);
   if (arrangement_ == PopulationLayout::Swapped) {
     // f_q(x) = f*_q(x - c_q), kept at A[opp q](x) (ghosts included: fill_swapped_ghosts).
-    for (int q = 0; q < D3Q19::Q; ++q) out[q] = f.q(D3Q19::opp[q])[i];
+    for (int q = 0; q < D3Q19::Q; ++q) out[q] = decode_population(f.q(D3Q19::opp[q])[i], q);
     return;
   }
   for (int q = 0; q < D3Q19::Q; ++q)
-    out[q] = f.q(q)[i - layout_.offset(D3Q19::cx[q], D3Q19::cy[q], D3Q19::cz[q])];
+    out[q] = decode_population(f.q(q)[i - layout_.offset(D3Q19::cx[q], D3Q19::cy[q], D3Q19::cz[q])], q);
 }
 
 void FluidSolver::populations_at(int x, int y, int z, double* f) const {
   if (mid_step_ && params_.propagation == Propagation::InPlace) make_canonical("populations_at()");  // throws
-  if (params_.precision == Precision::Double)
-    populations_of(f_, x, y, z, f);
-  else
-    populations_of(fs_, x, y, z, f);
+  with_fields([&](const auto& field, const auto&) { populations_of(field, x, y, z, f); });
 }
 
 CellState FluidSolver::cell(int x, int y, int z) const {
@@ -545,5 +549,6 @@ void FluidSolver::macroscopic(MacroscopicFields& out, int z_at) const {
 // For the overlapped step of a block (fluid/solver/overlapped_step.cpp).
 template void FluidSolver::apply_local_forces(const PopulationField&, PopulationField&);
 template void FluidSolver::apply_local_forces(const PopulationFieldSingle&, PopulationFieldSingle&);
+template void FluidSolver::apply_local_forces(const PopulationFieldHalf&, PopulationFieldHalf&);
 
 }  // namespace cosim::fluid

@@ -148,6 +148,13 @@ class FluidSolver {
   /// The same for the float store. @pre stores_floats(precision())
   const PopulationFieldSingle& state_single() const;
   PopulationFieldSingle& mutable_state_single();
+  /// The same for the half store (codes of f_q - w_q, decode_population). @pre stores_halves(precision())
+  const PopulationFieldHalf& state_half() const;
+  PopulationFieldHalf& mutable_state_half();
+  /// The state's first value (population 0's) in the precision's store, for checkpoints
+  /// (Canonical, as state()).
+  const void* state_data() const;
+  void* mutable_state_data();
   /// How the kernel shares the rows among the threads (RowSchedule; default Static).
   void set_row_schedule(RowSchedule s) { schedule_ = s; }
   /// What the last kernel saw of the state it read: extrema of rho and u.u and whether all
@@ -159,6 +166,7 @@ class FluidSolver {
   /// previous_state_single()), else std::logic_error
   const PopulationField& previous_state() const;
   const PopulationFieldSingle& previous_state_single() const;
+  const PopulationFieldHalf& previous_state_half() const;
   /// Call after changing mutable_state() or mutable_state_single() by hand.
   void refresh_ghosts();
   /// A block's wall ghosts that the neighbour blocks' cells fill in the undivided grid
@@ -174,13 +182,35 @@ class FluidSolver {
   /// precision (std::logic_error for the other).
   void copy_state(PopulationField& to) const;
   void copy_state(PopulationFieldSingle& to) const;
+  void copy_state(PopulationFieldHalf& to) const;
   /// Back to a state kept by copy_state(), at step count `steps`.
   /// @throws std::invalid_argument for a field of another layout
   void restore_state(const PopulationField& from, std::int64_t steps);
   void restore_state(const PopulationFieldSingle& from, std::int64_t steps);
+  void restore_state(const PopulationFieldHalf& from, std::int64_t steps);
 
  private:
   static GridLayout solver_layout(const FluidParams& p, const HaloExchange* halo);
+  /// fn(f, g) with the current field and the second grid of the precision's store (the
+  /// second grid empty in place): f_, g_ (double), fs_, gs_ (float) or fh_, gh_ (half).
+  template <class Fn>
+  void with_fields(Fn&& fn) const {
+    switch (params_.precision) {
+      case Precision::Double: fn(f_, g_); return;
+      case Precision::Mixed:
+      case Precision::Single: fn(fs_, gs_); return;
+      case Precision::Half: fn(fh_, gh_); return;
+    }
+  }
+  template <class Fn>
+  void with_fields(Fn&& fn) {
+    switch (params_.precision) {
+      case Precision::Double: fn(f_, g_); return;
+      case Precision::Mixed:
+      case Precision::Single: fn(fs_, gs_); return;
+      case Precision::Half: fn(fh_, gh_); return;
+    }
+  }
   template <class T>
   void copy_state_of(const BasicPopulationField<T>& f, BasicPopulationField<T>& to) const;
   template <class T>
@@ -219,6 +249,8 @@ class FluidSolver {
   PopulationField g_;
   mutable PopulationFieldSingle fs_;
   PopulationFieldSingle gs_;
+  mutable PopulationFieldHalf fh_;
+  PopulationFieldHalf gh_;
   mutable PopulationLayout arrangement_ = PopulationLayout::Canonical;
   // InPlace: the pulled populations of the forced cells (forced_ order), kept by begin_step().
   std::vector<double> saved_inputs_;

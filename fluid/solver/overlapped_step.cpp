@@ -23,6 +23,7 @@ class AlreadyExchanged final : public HaloExchange {
   explicit AlreadyExchanged(const HaloExchange& h) : faces_(h.faces()) {}
   void exchange(PopulationField&) override {}
   void exchange(PopulationFieldSingle&) override {}
+  void exchange(PopulationFieldHalf&) override {}
   std::array<bool, kHaloFaces> faces() const override { return faces_; }
 
  private:
@@ -89,5 +90,6 @@ void FluidSolver::step_overlapped(BasicPopulationField<T>& f, BasicPopulationFie
 
 template void FluidSolver::step_overlapped(PopulationField&, PopulationField&);
 template void FluidSolver::step_overlapped(PopulationFieldSingle&, PopulationFieldSingle&);
+template void FluidSolver::step_overlapped(PopulationFieldHalf&, PopulationFieldHalf&);
 
 }  // namespace cosim::fluid
