@@ -5,17 +5,17 @@
 # once before its rows), then per level, grid and mode the median and range of the step's MLUPS
 # and of step / roofline. Needs build/fluid/bench.
 #
-#   bash launch/bench-precision.sh [--reps N] [--levels "x86-64-v4 x86-64-v3"] [--modes "double mixed single"]
+#   bash launch/bench-precision.sh [--reps N] [--levels "x86-64-v4 x86-64-v3"] [--modes "double mixed single half"]
 #                                  [--grids "paper box"] [--steps N] [--out DIR]
 #
-# Defaults: 5 repetitions, every level the bench runs among x86-64-v4 and x86-64-v3, the three
+# Defaults: 5 repetitions, every level the bench runs among x86-64-v4 and x86-64-v3, the four
 # modes, the paper grid and the 128^3 box, 60 steps, DIR = a new temporary folder (the raw bench
 # outputs). Exit status: 0 done, 1 a bench run failed, 2 bad arguments.
 set -euo pipefail
 . "$(dirname "${BASH_SOURCE[0]}")/help.sh" && answer_help "${BASH_SOURCE[0]}" "$@"
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 . "$root/launch/folders.sh"
-reps=5 levels="x86-64-v4 x86-64-v3" modes="double mixed single" grids="paper box" steps=60 out=""
+reps=5 levels="x86-64-v4 x86-64-v3" modes="double mixed single half" grids="paper box" steps=60 out=""
 while [ $# -gt 0 ]; do
   case "$1" in
     --reps) reps="$2"; shift ;;
@@ -24,7 +24,7 @@ while [ $# -gt 0 ]; do
     --grids) grids="$2"; shift ;;
     --steps) steps="$2"; shift ;;
     --out) out="$2"; shift ;;
-    *) echo "bench-precision: unknown argument $1 (--reps N, --levels \"x86-64-v4 x86-64-v3\", --modes \"double mixed single\", --grids \"paper box\", --steps N, --out DIR)" >&2; exit 2 ;;
+    *) echo "bench-precision: unknown argument $1 (--reps N, --levels \"x86-64-v4 x86-64-v3\", --modes \"double mixed single half\", --grids \"paper box\", --steps N, --out DIR)" >&2; exit 2 ;;
   esac
   shift
 done

@@ -838,13 +838,18 @@ def population_mib(log: Path) -> str:
     return m.group(1) if m else "?"
 
 
+# The fluid's precision modes ([run] precision), the reference first.
+PRECISION_MODES = ("double", "mixed", "single", "half")
+
+
 def knob_precision(plan: Plan) -> Knob:
     sizes = [32] if plan.short else [32, 64]
     knob = Knob(
         key="precision", title="Floating-point precision of the fluid's population store", kind="other",
         setup=("The fluid's precision modes (`[run] precision`, issue 35): \"double\" (the default), \"mixed\" "
-               "(32-bit float storage, the arithmetic double; called \"single\" before issue 35) and \"single\" "
-               "(float storage and float arithmetic); the solid is double only. The case is "
+               "(32-bit float storage, the arithmetic double; called \"single\" before issue 35), \"single\" "
+               "(float storage and float arithmetic) and \"half\" (16-bit storage of f_q - w_q, FP16S, float "
+               "arithmetic); the solid is double only. The case is "
                "the Poiseuille start-up of the resolution row (tau = 0.8, U = "
                f"{POISEUILLE_U_MAX}, compared at t nu / H^2 = {POISEUILLE_T_STAR}) on an N x N x N box (x and z "
                "periodic, so the flow is the same as on 8 x N x 8; the larger grid makes the population memory "
@@ -853,13 +858,14 @@ def knob_precision(plan: Plan) -> Knob:
                    "\"vs double\" is the relative L2 difference of u_x between a float mode's run and the double run "
                    "of the same N: the round-off that its store and arithmetic add (`SinglePrecisionWithinTolerance` "
                    "bounds mixed's by (steps + 1) 2^-24 (1/3 + 2 U) per velocity component; "
-                   "`FloatArithmeticWithinTolerance` holds single's to its measured tolerance)."),
+                   "`FloatArithmeticWithinTolerance` and `HalfStoreWithinTolerance` hold single's and half's to "
+                   "their measured tolerances)."),
         error_name="relative L2 error of u_x", settings=[], memory_columns=["process"], ref_short="analytic",
         extra_columns=[("steps", "steps"), ("populations", "populations MiB"), ("vs_double", "vs double")])
     for n in sizes:
         case = PoiseuilleCase(n, 0.8)
         runs: dict[str, Path] = {}
-        for i, precision in enumerate(("double", "mixed", "single")):
+        for i, precision in enumerate(PRECISION_MODES):
             st = Setting(f"{precision}, N = {n}", n + 0.25 * i)
             out = plan.out / "runs" / knob.key / f"{precision}_n{n:03d}"
             scene = poiseuille_scene(case, out, f"precision {precision}, Poiseuille start-up on {n}^3",
@@ -873,21 +879,25 @@ def knob_precision(plan: Plan) -> Knob:
             runs[precision] = out
             knob.settings.append(st)
         u_d = poiseuille_ux(runs["double"], case)
-        knob.settings[-3].extra["vs_double"] = "-"
-        for k, mode in ((-2, "mixed"), (-1, "single")):
+        knob.settings[-len(PRECISION_MODES)].extra["vs_double"] = "-"
+        for k, mode in enumerate(PRECISION_MODES[1:], start=1 - len(PRECISION_MODES)):
             u_s = poiseuille_ux(runs[mode], case)
             knob.settings[k].extra["vs_double"] = f"{float(np.sqrt(np.mean((u_s - u_d) ** 2) / np.mean(u_d ** 2))):.2e}"
     def remarks(k: Knob) -> list[str]:
-        triples = [k.settings[i:i + 3] for i in range(0, len(k.settings) - 2, 3)]
-        times = "; ".join(f"N = {int(d.value)}: mixed {m.measurement.wall_s / d.measurement.wall_s:.2f}, "
-                          f"single {s.measurement.wall_s / d.measurement.wall_s:.2f}"
-                          for d, m, s in triples if d.measurement and m.measurement and s.measurement)
+        m = len(PRECISION_MODES)
+        groups = [k.settings[i:i + m] for i in range(0, len(k.settings) - m + 1, m)]
+        times = "; ".join(f"N = {int(g[0].value)}: " + ", ".join(
+                              f"{mode} {s.measurement.wall_s / g[0].measurement.wall_s:.2f}"
+                              for mode, s in zip(PRECISION_MODES[1:], g[1:]))
+                          for g in groups if all(s.measurement for s in g))
         return [
             "The mixed mode rounds every population to float once per step (unit round-off 2^-24 = 6e-8); the "
             "single mode also computes the collision in float. \"vs double\" is their difference from the double "
             "run, to be read against the scheme's own error against the analytic solution (measured in issue 35: "
             "mixed stays far below it; single's float arithmetic raised the N = 64 error from 1.2e-4 to 2.1e-4). "
-            "Both halve the population memory (\"populations MiB\"; the peak RSS also holds the process, its "
+            "The half mode rounds every stored f_q - w_q to 11 significant bits per step (FP16S, "
+            "fluid/lattice/half.hpp). Mixed and single halve the population memory, half quarters it "
+            "(\"populations MiB\"; the peak RSS also holds the process, its "
             "libraries, the output buffers and the macroscopic fields). "
             f"Wall time of each float mode's run over the double run's: {times} (one thread; the whole command, "
             "start-up and output included; the kernel's own speed in each mode: `docs/performance.md`)."]
