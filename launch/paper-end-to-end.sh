@@ -38,7 +38,7 @@ for s in $schemes; do
   case "$s" in serial|parallel|implicit) ;; *) echo "paper-end-to-end: --schemes: \"$s\" is not one of serial, parallel, implicit" >&2; exit 2 ;; esac
 done
 for p in $precisions; do
-  case "$p" in double|mixed|single) ;; *) echo "paper-end-to-end: --precisions: \"$p\" is not one of double, mixed, single" >&2; exit 2 ;; esac
+  case "$p" in double|mixed|single|half) ;; *) echo "paper-end-to-end: --precisions: \"$p\" is not one of double, mixed, single, half" >&2; exit 2 ;; esac
 done
 for p in $propagations; do
   case "$p" in two-grid|in-place) ;; *) echo "paper-end-to-end: --propagations: \"$p\" is not one of two-grid, in-place" >&2; exit 2 ;; esac
