@@ -491,8 +491,8 @@ TEST(Precision, HalfConversionMatchesF16c) {
 /// The "half" mode (16-bit store of f_q - w_q, float arithmetic: fluid/lattice/half.hpp)
 /// against the same runs in double, as FloatArithmeticWithinTolerance. Its tolerance is
 /// measured: each step rounds every stored f_q - w_q to 11 significant bits (to nearest: a
-/// relative 2^-12), and Poiseuille's driving force adds only w_q 3 c.F = 6.5e-6 per step to
-/// populations whose f_q - w_q are 1e-3 to 5e-3 (a rounding step of 2.4e-7 to 1.2e-6): the
+/// relative error up to 2^-11), and Poiseuille's driving force adds only w_q 3 c.F = 6.5e-6 per
+/// step to populations whose f_q - w_q are 1e-3 to 5e-3 (codes 9.5e-7 to 3.8e-6 apart): the
 /// error is far above float's and far below a linear sum over the steps would allow.
 /// Measured on the AMD EPYC of docs/performance.md (every level gives the same bits:
 /// PrecisionModesAreBitIdenticalPerLevel), this test's own printout:

@@ -4,12 +4,14 @@
 // 015308, 2022): a population f_q is stored as the IEEE binary16 of (f_q - w_q) 2^15.
 //
 // Why the shift: f_q is w_q rho (1 + O(u)), so f_q itself needs the 11 significant bits of
-// binary16 for its leading w_q, leaving an absolute step of 2^-12 w_q (up to 8e-5 for
+// binary16 for its leading w_q, leaving a rounding error of up to 2^-11 w_q (1.6e-4 for
 // w_0 = 1/3), larger than the velocity part w_q 3 c.u of a flow at u = 1e-3. The shifted
 // f_q - w_q = w_q (rho - 1) + w_q 3 c.u + ... is small, and binary16 keeps 11 bits of it.
 // Why the scale 2^15: binary16 is normal only from 2^-14 = 6.1e-5 on; below, its absolute
-// step is 2^-24 = 6e-8, a relative error of 1e-3 to 1e-1 on the f_q - w_q of the project's
-// flows (they span 1e-8 to 1e-1: docs/performance.md, Precision modes). Scaled by 2^15 the
+// step is 2^-24 = 6e-8, a relative error up to 3e-8 / |f_q - w_q|: 75 % for the smallest
+// values of the project's test flows, whose |f_q - w_q| span 4e-8 to 1.1e-2 (measured:
+// docs/performance.md, Precision modes; there the scale changed their error little, most
+// values lying above 6.1e-5; it matters for slower flows). Scaled by 2^15 the
 // normal range is 2^-29 (1.9e-9) to 65504 2^-15 (1.999): every f_q - w_q of a flow with
 // rho < 7 (w_0 (rho - 1) < 2) keeps 11 significant bits, a relative rounding error of at most
 // 2^-11 = 4.9e-4 of f_q - w_q; beyond 1.999 it overflows to infinity, which the watchdog
@@ -19,7 +21,8 @@
 // vcvtps2ph / vcvtph2ps, 8 or 16 values an instruction), FP16C needs integer code at every
 // level. The baseline level (no F16C) uses the portable conversion below, which rounds as
 // vcvtps2ph does (to nearest, ties to even, subnormals and infinities included), so every
-// level stores the same bits (test_precision: HalfConversionMatchesF16c, over every float).
+// level stores the same bits (test_precision: HalfConversionMatchesF16c; all 2^32 floats
+// checked once).
 //
 // The conversions are written once for a std::uint32_t or a GCC vector of them (the kernel's
 // groups at the baseline level): elementwise integer and float operations only.
