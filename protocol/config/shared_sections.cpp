@@ -160,8 +160,8 @@ CouplingSettings read_coupling(const SceneReader& scene) {
   if (const auto v = sec.string("lcm_url")) {
     if (const auto why = protocol::lcm_url_problem(*v)) {
       // One rule, two wordings that tests pin: the fluid's message starts with the rule, the
-      // solid's with what is wrong (tests/test_scene.cpp coupling_ttl,
-      // tests/test_solid_scene.cpp coupling_ttl_one).
+      // solid's with what is wrong (tests/fluid/test_scene.cpp coupling_ttl,
+      // tests/solid/test_solid_scene.cpp coupling_ttl_one).
       if (scene.process() == Process::Fluid)
         sec.bad("lcm_url", "must be a udpm:// URL with ttl=0 or memq://; " + *why);
       sec.bad("lcm_url", *why);
