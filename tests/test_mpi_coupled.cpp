@@ -173,9 +173,8 @@ TEST(MpiCoupled, MpiCheckpointRestartIsBitIdentical) {
 
 /// How many markers of the run's first sheet snapshot have a kernel (4 nodes along y from
 /// floor(y) - 1, the lattice y = y_um / dx - 1/2: the plate at y = 0) that reaches nodes of
-/// two blocks of `py` along y.
-int straddling_y(const fs::path& run, int py) {
-  constexpr int kNy = 30;  // scenes/coupled_small.toml's ny
+/// two blocks of `py` along a grid of kNy rows.
+int straddling_y(const fs::path& run, int py, int kNy) {
   const auto d = read_datasets(run / "sheets_000000.h5");
   const auto it = d.find("position_um");
   if (it == d.end()) return -1;
@@ -195,8 +194,9 @@ int straddling_y(const fs::path& run, int py) {
   return n;
 }
 
-// Blocks along y and z (fluid/mpi/block_halo.cpp) in a coupled run: the sheet's markers
-// have kernels across the block edge along y (at row 15 of 2 blocks) and along z (plane 15),
+// Blocks along y and z (fluid/mpi/block_halo.cpp) in a coupled run: the channel 16 rows high
+// (the sheet's markers at y = -0.5 .. 8.5 cells), so that the markers have kernels across the
+// block edge along y (at row 8 of 2 blocks) and along z (plane 15),
 // so rank 0 sums samples of nodes of up to four ranks and each rank spreads onto its own.
 // Every output of the fluid and of the solid on the process grids 2 x 2 (each coupling
 // scheme) and 1 x 2 (y only; the serial scheme) is the serial run's, bit for bit; the
@@ -208,9 +208,14 @@ TEST(MpiCoupled, MpiBlocksInYAndZMatchSerialBitForBit) {
   for (const std::string scheme : {"serial", "parallel", "implicit"}) {
     SCOPED_TRACE(scheme + " scheme");
     const fs::path scene = write_scene(dir / scheme, scheme, "checkpoint_every = 20");
+    {
+      std::string text = slurp(scene);
+      replace_in(text, "ny = 30", "ny = 16");
+      std::ofstream(scene) << text;
+    }
     const fs::path serial = dir / scheme / "serial";
     expect_run_done(serial, run_launcher(kSource, scene, serial, "", kOneThread));
-    EXPECT_GT(straddling_y(serial, 2), 0) << "no marker's kernel crosses the block edge along y";
+    EXPECT_GT(straddling_y(serial, 2, 16), 0) << "no marker's kernel crosses the block edge along y";
     EXPECT_GT(straddling(serial, 2), 0) << "no marker's kernel crosses the block edge along z";
     std::vector<std::pair<int, int>> grids{{2, 2}};
     if (scheme == "serial") grids.push_back({2, 1});
