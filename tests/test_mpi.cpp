@@ -126,14 +126,15 @@ TEST(Mpi, MpiFluidMatchesSerialBitForBit) {
 
 /// Every output of `scene` on the process grids [1, 2, 1], [1, 1, 2] and [1, 2, 2] ([run]
 /// blocks) against the serial run's: identical bits.
-void expect_blocks_match_serial(const fs::path& scene, const fs::path& dir) {
+void expect_blocks_match_serial(const fs::path& scene, const fs::path& dir,
+                                std::vector<std::pair<int, int>> grids = {{2, 1}, {1, 2}, {2, 2}}) {
   fs::create_directories(dir);
   const fs::path serial = dir / "serial";
   const RunResult s = run_command(quoted(kFluid) + " " + quoted(scene.string()) + " --quiet --output " +
                                       quoted(serial.string()),
                                   dir / "serial_log");
   ASSERT_EQ(s.status, 0) << s.err;
-  for (const auto& [py, pz] : {std::pair{2, 1}, std::pair{1, 2}, std::pair{2, 2}}) {
+  for (const auto& [py, pz] : grids) {
     const std::string name = "blocks_1_" + std::to_string(py) + "_" + std::to_string(pz);
     fs::create_directories(dir / name);
     const fs::path blocked = variant(scene, dir / name,
@@ -161,7 +162,8 @@ void expect_blocks_match_serial(const fs::path& scene, const fs::path& dir) {
 // block of two). The channel's every boundary kind, in place, double store (the inlet's
 // Blasius profile across the blocks along y; the plate and free slip at the ends along y);
 // then y periodic across the ranks, walls along z (a moving one), two grids, the mixed
-// mode's float store; then the single mode in place with periodic x and y.
+// mode's float store (1 x 2 and 2 x 2; slabs alone: MpiFluidMatchesSerialBitForBit);
+// then the single mode (float arithmetic) in place, compact rows (nx = 32), on 2 x 2 blocks.
 TEST(Mpi, MpiBlocksInYAndZMatchSerialBitForBit) {
   if (!have_mpirun()) GTEST_SKIP() << "mpirun is not installed (launch/bootstrap.sh)";
   const fs::path dir = scratch("mpi_blocks_yz");
@@ -189,7 +191,14 @@ TEST(Mpi, MpiBlocksInYAndZMatchSerialBitForBit) {
                                    {"z_max = \"periodic\"", "z_max = \"free_slip\""},
                                    {"threads = 1", "threads = 1\nprecision = \"mixed\"\npropagation = \"two-grid\""},
                                    {"[output]", "[wall_velocity]\nz_min = [0.02, 0.0, 0.0]\n\n[output]"}});
-    expect_blocks_match_serial(variant(channel, dir / "periodic_y", replace), dir / "periodic_y");
+    expect_blocks_match_serial(variant(channel, dir / "periodic_y", replace), dir / "periodic_y", {{2, 1}, {2, 2}});
+  }
+  {
+    SCOPED_TRACE("single mode, in place, compact rows");
+    fs::create_directories(dir / "single");
+    auto replace = short_run;
+    replace.insert(replace.end(), {{"nx = 24", "nx = 32"}, {"threads = 1", "threads = 1\nprecision = \"single\""}});
+    expect_blocks_match_serial(variant(channel, dir / "single", replace), dir / "single", {{2, 2}});
   }
   if (!HasFailure()) fs::remove_all(dir);
 }
