@@ -229,6 +229,74 @@ inline void write_rows(hid_t file, const std::string& name, hid_t mem_type, hsiz
   h5_check(H5Dwrite(set.get(), mem_type, mem_space.get(), file_space.get(), dxpl.get(), data), what);
 }
 
+/// write_rows of the box [first, first + count) x [first1, first1 + count1) of the first two
+/// dimensions (every value of the others): a block of a grid cut along z and y (DESIGN 8).
+/// `data` holds the box in the dataset's order; `count` = 0 for a process that has none.
+inline void write_box(hid_t file, const std::string& name, hid_t mem_type, hsize_t first, hsize_t count,
+                      hsize_t first1, hsize_t count1, const void* data, const WriteGroup& group,
+                      const std::string& what) {
+  const H5Id set(H5Dopen2(file, name.c_str(), H5P_DEFAULT), H5Dclose, what);
+  const H5Id file_space(H5Dget_space(set.get()), H5Sclose, what);
+  const int rank = H5Sget_simple_extent_ndims(file_space.get());
+  if (rank < 2) h5_fail(what);
+  std::vector<hsize_t> dims(std::size_t(rank), 0), start(std::size_t(rank), 0);
+  h5_check(H5Sget_simple_extent_dims(file_space.get(), dims.data(), nullptr), what);
+  if (count == 0 || count1 == 0) count = count1 = 0;
+  if (first + count > dims[0] || first1 + count1 > dims[1])
+    throw std::runtime_error(what + ": rows " + std::to_string(first) + " + " + std::to_string(count) + ", " +
+                             std::to_string(first1) + " + " + std::to_string(count1) + " of " +
+                             std::to_string(dims[0]) + " x " + std::to_string(dims[1]));
+  dims[0] = count;
+  dims[1] = count1;
+  start[0] = first;
+  start[1] = first1;
+  const H5Id mem_space(H5Screate_simple(rank, dims.data(), nullptr), H5Sclose, what);
+  if (count == 0) {
+    h5_check(H5Sselect_none(file_space.get()), what);
+    h5_check(H5Sselect_none(mem_space.get()), what);
+  } else {
+    h5_check(H5Sselect_hyperslab(file_space.get(), H5S_SELECT_SET, start.data(), nullptr, dims.data(), nullptr),
+             what);
+  }
+  const H5Id dxpl = group.transfer(what);
+  h5_check(H5Dwrite(set.get(), mem_type, mem_space.get(), file_space.get(), dxpl.get(), data), what);
+}
+
+/// Values of the one-dimensional dataset `name` in `chunks` runs of `block` values, the
+/// first at `first` and each `stride` after the one before, to or from memory where they
+/// lie `mem_stride` apart from `data`: a block's share of a checkpoint's store, a run of
+/// rows of each of its planes (DESIGN 8). Writing is collective over `group` (chunks = 0 for
+/// a process that has none); reading is each process's own.
+inline void strided_values(hid_t file, const std::string& name, hid_t mem_type, hsize_t first, hsize_t stride,
+                           hsize_t chunks, hsize_t block, hsize_t mem_stride, void* data, const WriteGroup* group,
+                           const std::string& what) {
+  const H5Id set(H5Dopen2(file, name.c_str(), H5P_DEFAULT), H5Dclose, what);
+  const H5Id file_space(H5Dget_space(set.get()), H5Sclose, what);
+  if (H5Sget_simple_extent_ndims(file_space.get()) != 1) throw std::runtime_error(what + ": not one-dimensional");
+  hsize_t n = 0;
+  h5_check(H5Sget_simple_extent_dims(file_space.get(), &n, nullptr), what);
+  if (chunks == 0 || block == 0) chunks = block = 0;
+  if (chunks > 0 && first + (chunks - 1) * stride + block > n)
+    throw std::runtime_error(what + ": values to " + std::to_string(first + (chunks - 1) * stride + block) + " of " +
+                             std::to_string(n));
+  const hsize_t mem_n = chunks == 0 ? 1 : (chunks - 1) * mem_stride + block;
+  const H5Id mem_space(H5Screate_simple(1, &mem_n, nullptr), H5Sclose, what);
+  if (chunks == 0) {
+    h5_check(H5Sselect_none(file_space.get()), what);
+    h5_check(H5Sselect_none(mem_space.get()), what);
+  } else {
+    const hsize_t fs = chunks > 1 ? stride : 1, ms = chunks > 1 ? mem_stride : 1, zero = 0;
+    h5_check(H5Sselect_hyperslab(file_space.get(), H5S_SELECT_SET, &first, &fs, &chunks, &block), what);
+    h5_check(H5Sselect_hyperslab(mem_space.get(), H5S_SELECT_SET, &zero, &ms, &chunks, &block), what);
+  }
+  if (group != nullptr) {
+    const H5Id dxpl = group->transfer(what);
+    h5_check(H5Dwrite(set.get(), mem_type, mem_space.get(), file_space.get(), dxpl.get(), data), what);
+  } else if (chunks > 0) {
+    h5_check(H5Dread(set.get(), mem_type, mem_space.get(), file_space.get(), H5P_DEFAULT, data), what);
+  }
+}
+
 /// Reads values [first, first + count) of the one-dimensional dataset `name` into `data`
 /// (a restart's share of a checkpoint's store, read by each process on its own).
 inline void read_values(hid_t file, const std::string& name, hid_t mem_type, hsize_t first, hsize_t count,

@@ -57,6 +57,9 @@ void FieldPart::whole(const FluidSolver& solver, FieldPart& into) {
   into.ghosts = 0;
   into.z0 = 0;
   into.nz_whole = solver.shape().nz;
+  into.y_ghosts = 0;
+  into.y0 = 0;
+  into.ny_whole = solver.shape().ny;
   into.step = solver.step_count();
 }
 
@@ -107,11 +110,12 @@ void FieldWriter::write(const FieldPart& part, const protocol::WriteGroup* group
   const protocol::WriteGroup alone;
   const protocol::WriteGroup& g = group != nullptr ? *group : alone;
   const std::int64_t step = part.step;
-  grid_ = GridShape{part.m.shape.nx, part.m.shape.ny, part.nz_whole};
+  grid_ = GridShape{part.m.shape.nx, part.ny_whole, part.nz_whole};
   if (y_plane_ >= grid_.ny)
     throw std::invalid_argument("FieldWriter: plane y = " + std::to_string(y_plane_) +
                                 " outside a grid of ny = " + std::to_string(grid_.ny));
-  vorticity(part.m, part.periodic, part.ghosts, part.z0, part.nz_whole, wx_, wy_, wz_);
+  vorticity(part.m, part.periodic, part.y_ghosts, part.y0, part.ny_whole, part.ghosts, part.z0, part.nz_whole, wx_,
+            wy_, wz_);
 
   // Whole or not at all (protocol::write_atomically): the part file, renamed when every
   // process has written its rows.
@@ -187,19 +191,23 @@ void FieldWriter::write_rows(const fs::path& file, const FieldPart& part, const 
   const H5Quiet quiet;
   const std::string name = file.string();
   H5Id f = protocol::open_for_hyperslabs(name, g, "cannot open the HDF5 file " + name);
-  // This part's cells in file order (x fastest): its planes, whole or their row y_plane.
+  // This part's cells in file order (x fastest): its rows of its planes, all of them or
+  // the row y_plane (none where the part does not hold it).
   const MacroscopicFields& m = part.m;
-  const int ny = y_plane_ >= 0 ? 1 : m.shape.ny;
+  const bool holds_plane = y_plane_ >= part.y0 && y_plane_ < part.y0 + part.ny();
+  const int ny = y_plane_ >= 0 ? (holds_plane ? 1 : 0) : part.ny();
   std::vector<std::size_t> cells;
   cells.reserve(std::size_t(m.shape.nx) * std::size_t(ny) * std::size_t(part.nz()));
   for (int z = part.ghosts; z < part.ghosts + part.nz(); ++z)
     for (int y = 0; y < ny; ++y)
-      for (int x = 0; x < m.shape.nx; ++x) cells.push_back(m.index(x, y_plane_ >= 0 ? y_plane_ : y, z));
+      for (int x = 0; x < m.shape.nx; ++x)
+        cells.push_back(m.index(x, part.y_ghosts + (y_plane_ >= 0 ? y_plane_ - part.y0 : y), z));
   const std::size_t n = cells.size();
-  const hsize_t first = hsize_t(part.z0), rows = hsize_t(part.nz());
+  const hsize_t first = hsize_t(part.z0), rows = ny == 0 ? 0 : hsize_t(part.nz());
+  const hsize_t first_y = y_plane_ >= 0 ? 0 : hsize_t(part.y0), count_y = hsize_t(ny);
   std::vector<double> rho(n);
   for (std::size_t i = 0; i < n; ++i) rho[i] = m.rho[cells[i]];
-  protocol::write_rows(f.get(), "rho", H5T_NATIVE_DOUBLE, first, rows, rho.data(), g, "cannot write " + name + ":/rho");
+  protocol::write_box(f.get(), "rho", H5T_NATIVE_DOUBLE, first, rows, first_y, count_y, rho.data(), g, "cannot write " + name + ":/rho");
 
   // Vectors interleaved per cell, [nz][ny][nx][3], in physical units.
   vec_.resize(3 * n);
@@ -209,14 +217,14 @@ void FieldWriter::write_rows(const fs::path& file, const FieldPart& part, const 
     vec_[3 * i + 1] = u_scale * m.uy[cells[i]];
     vec_[3 * i + 2] = u_scale * m.uz[cells[i]];
   }
-  protocol::write_rows(f.get(), "u", H5T_NATIVE_DOUBLE, first, rows, vec_.data(), g, "cannot write " + name + ":/u");
+  protocol::write_box(f.get(), "u", H5T_NATIVE_DOUBLE, first, rows, first_y, count_y, vec_.data(), g, "cannot write " + name + ":/u");
   const double w_scale = 1.0 / dt_us_;  // 1/us
   for (std::size_t i = 0; i < n; ++i) {
     vec_[3 * i] = w_scale * wx_[cells[i]];
     vec_[3 * i + 1] = w_scale * wy_[cells[i]];
     vec_[3 * i + 2] = w_scale * wz_[cells[i]];
   }
-  protocol::write_rows(f.get(), "vorticity", H5T_NATIVE_DOUBLE, first, rows, vec_.data(), g,
+  protocol::write_box(f.get(), "vorticity", H5T_NATIVE_DOUBLE, first, rows, first_y, count_y, vec_.data(), g,
                        "cannot write " + name + ":/vorticity");
   f.close("cannot close the HDF5 file " + name);
 }

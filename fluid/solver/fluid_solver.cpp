@@ -107,7 +107,7 @@ FluidSolver::FluidSolver(const FluidParams& params, HaloExchange* halo)
     : params_(params),
       layout_(solver_layout(params, halo)),
       halo_(halo),
-      bc_(layout_, params.faces, halo != nullptr ? halo->faces() : std::array<bool, kFaces>{}),
+      bc_(layout_, params.faces, halo != nullptr ? halo->faces() : std::array<bool, kFaces>{}, params.y_origin),
       x_faces_(bc_.in_place_x_faces()) {
   // The in-place propagation needs one grid.
   const bool two = params.propagation == Propagation::TwoGrid;
@@ -144,12 +144,12 @@ const PopulationField& FluidSolver::state() const {
   make_canonical("state()");
   return f_;
 }
-void FluidSolver::fill_wall_ghosts_of_halo_cells(bool below, bool above) {
+void FluidSolver::fill_wall_ghosts_of_halo_cells(const std::array<bool, kFaces>& cells) {
   make_canonical("fill_wall_ghosts_of_halo_cells()");
   if (params_.precision == Precision::Double)
-    bc_.fill_wall_ghosts_of_halo_cells(f_, below, above);
+    bc_.fill_wall_ghosts_of_halo_cells(f_, cells);
   else
-    bc_.fill_wall_ghosts_of_halo_cells(fs_, below, above);
+    bc_.fill_wall_ghosts_of_halo_cells(fs_, cells);
 }
 
 PopulationField& FluidSolver::mutable_state() {
@@ -275,7 +275,11 @@ void FluidSolver::add_force(int x, int y, int z, double fx, double fy, double fz
 void FluidSolver::step() {
   // A block's two-grid step sends its edge planes while it collides its interior ones; the
   // in-place step has one grid, whose edge planes the interior's collision would overwrite.
-  if (halo_ != nullptr && bc_.has_halo() && layout_.nz() >= 3 && params_.propagation == Propagation::TwoGrid) {
+  // A block cut along y too sends its edge rows of every plane first: no overlap (its y
+  // exchange needs the whole sweep).
+  const bool y_halo = bc_.is_halo(YMin) || bc_.is_halo(YMax);
+  if (halo_ != nullptr && bc_.has_halo() && !y_halo && layout_.nz() >= 3 &&
+      params_.propagation == Propagation::TwoGrid) {
     if (params_.precision == Precision::Double)
       step_overlapped(f_, g_);
     else
@@ -524,9 +528,15 @@ void FluidSolver::macroscopic(MacroscopicFields& out) const {
 }
 
 void FluidSolver::macroscopic(MacroscopicFields& out, int z_at) const {
+  if (out.shape.ny != layout_.ny()) throw std::invalid_argument("FluidSolver::macroscopic: fields of another shape");
+  macroscopic(out, 0, z_at);
+}
+
+void FluidSolver::macroscopic(MacroscopicFields& out, int y_at, int z_at) const {
   const GridShape& s = layout_.shape();
   const std::size_t n = std::size_t(out.shape.cells());
-  if (out.shape.nx != s.nx || out.shape.ny != s.ny || z_at < 0 || out.shape.nz < z_at + s.nz || out.rho.size() != n ||
+  if (out.shape.nx != s.nx || y_at < 0 || out.shape.ny < y_at + s.ny || z_at < 0 || out.shape.nz < z_at + s.nz ||
+      out.rho.size() != n ||
       out.ux.size() != n || out.uy.size() != n || out.uz.size() != n)
     throw std::invalid_argument("FluidSolver::macroscopic: fields of another shape");
 #pragma omp parallel for collapse(2) schedule(static)
@@ -534,7 +544,7 @@ void FluidSolver::macroscopic(MacroscopicFields& out, int z_at) const {
     for (int y = 0; y < s.ny; ++y)
       for (int x = 0; x < s.nx; ++x) {
         const CellState c = cell(x, y, z);
-        const std::size_t i = out.index(x, y, z + z_at);
+        const std::size_t i = out.index(x, y + y_at, z + z_at);
         out.rho[i] = c.rho;
         out.ux[i] = c.ux;
         out.uy[i] = c.uy;

@@ -34,6 +34,10 @@ struct FluidParams {
   /// How the populations are stored (fluid/lattice/population_field.hpp); arithmetic is double.
   Precision precision = Precision::Double;
   Propagation propagation = Propagation::InPlace;  ///< the default: half the memory, faster, same bits
+  /// The row y = 0 of this grid in the whole grid's rows: 0, or a block's first row (a grid
+  /// cut along y over MPI ranks, DESIGN 8); the inlet profiles are functions of the whole
+  /// grid's y.
+  int y_origin = 0;
 };
 
 /// The paper's channel (DESIGN 3): a Blasius inlet of speed `inlet_speed` (c) and boundary
@@ -122,6 +126,8 @@ class FluidSolver {
   /// more planes (a block's fields with room for its neighbours' planes); the other planes
   /// are left as they are. @pre out.shape: nx and ny this grid's, nz >= z_at + this nz
   void macroscopic(MacroscopicFields& out, int z_at) const;
+  /// The same into rows y_at .. y_at + ny - 1 of those planes (a block cut along y too).
+  void macroscopic(MacroscopicFields& out, int y_at, int z_at) const;
 
   const GridShape& shape() const { return layout_.shape(); }
   const GridLayout& layout() const { return layout_; }
@@ -130,6 +136,8 @@ class FluidSolver {
   double viscosity() const { return (params_.tau - 0.5) / 3.0; }  ///< Eq. 13
   const std::array<double, 3>& body_force() const { return params_.body_force; }
   std::int64_t step_count() const { return steps_; }
+  /// The whole grid's row of this grid's row 0 (FluidParams::y_origin).
+  int y_origin() const { return params_.y_origin; }
 
   Precision precision() const { return params_.precision; }
   Propagation propagation() const { return params_.propagation; }
@@ -162,10 +170,10 @@ class FluidSolver {
   /// Call after changing mutable_state() or mutable_state_single() by hand.
   void refresh_ghosts();
   /// A block's wall ghosts that the neighbour blocks' cells fill in the undivided grid
-  /// (BoundaryConditions::fill_wall_ghosts_of_halo_cells), in the current state, which is
-  /// otherwise unchanged (this block's steps never read them): before its share of a
-  /// checkpoint is written.
-  void fill_wall_ghosts_of_halo_cells(bool below, bool above);
+  /// (BoundaryConditions::fill_wall_ghosts_of_halo_cells: the halo layers `cells` marks),
+  /// in the current state, which is otherwise unchanged (this block's steps never read
+  /// them): before its share of a checkpoint is written.
+  void fill_wall_ghosts_of_halo_cells(const std::array<bool, kFaces>& cells);
   /// A restart from a checkpoint (DESIGN 2.4): the step count the restored state is at.
   void set_step_count(std::int64_t steps) { steps_ = steps; }
 

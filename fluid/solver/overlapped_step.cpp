@@ -21,8 +21,8 @@ namespace {
 class AlreadyExchanged final : public HaloExchange {
  public:
   explicit AlreadyExchanged(const HaloExchange& h) : faces_(h.faces()) {}
-  void exchange(PopulationField&) override {}
-  void exchange(PopulationFieldSingle&) override {}
+  void exchange_axis(PopulationField&, int) override {}
+  void exchange_axis(PopulationFieldSingle&, int) override {}
   std::array<bool, kHaloFaces> faces() const override { return faces_; }
 
  private:

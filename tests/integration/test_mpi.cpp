@@ -124,6 +124,85 @@ TEST(Mpi, MpiFluidMatchesSerialBitForBit) {
   }
 }
 
+/// Every output of `scene` on the process grids [1, 2, 1], [1, 1, 2] and [1, 2, 2] ([run]
+/// blocks) against the serial run's: identical bits.
+void expect_blocks_match_serial(const fs::path& scene, const fs::path& dir,
+                                std::vector<std::pair<int, int>> grids = {{2, 1}, {1, 2}, {2, 2}}) {
+  fs::create_directories(dir);
+  const fs::path serial = dir / "serial";
+  const RunResult s = run_command(quoted(kFluid) + " " + quoted(scene.string()) + " --quiet --output " +
+                                      quoted(serial.string()),
+                                  dir / "serial_log");
+  ASSERT_EQ(s.status, 0) << s.err;
+  for (const auto& [py, pz] : grids) {
+    const std::string name = "blocks_1_" + std::to_string(py) + "_" + std::to_string(pz);
+    fs::create_directories(dir / name);
+    const fs::path blocked = variant(scene, dir / name,
+                                     {{"threads = 1", "threads = 1\nblocks = [1, " + std::to_string(py) + ", " +
+                                                          std::to_string(pz) + "]"}});
+    const fs::path out = dir / name / "out";
+    const RunResult m = run_command(mpirun(py * pz) + quoted(kFluid) + " " + quoted(blocked.string()) +
+                                        " --quiet --output " + quoted(out.string()),
+                                    dir / name / "log");
+    ASSERT_EQ(m.status, 0) << name << ":\n" << m.out << m.err;
+    if (py > 1) {
+      EXPECT_TRUE(contains(m.out, "blocks along y and z over " + std::to_string(py * pz) + " MPI ranks")) << m.out;
+    }
+    std::size_t files = 0;
+    EXPECT_EQ(compare_outputs(serial, out, &files), "") << name;
+    // monitor.h5, 3 field snapshots, 5 snapshots of each of the 2 y planes.
+    EXPECT_EQ(files, 14u) << name;
+  }
+}
+
+// Blocks along y and z (fluid/mpi/block_halo.cpp: the rows along y, then the planes along z
+// with the rows' ghosts, so that the y-z edge ghosts get the diagonal block's cells): the
+// process grids 1 x 2, 2 x 1 and 2 x 2 write the serial run's outputs bit for bit (monitor
+// rows, field snapshots with the vorticity across the block edges, y planes held by one
+// block of two). The channel's every boundary kind, in place, double store (the inlet's
+// Blasius profile across the blocks along y; the plate and free slip at the ends along y);
+// then y periodic across the ranks, walls along z (a moving one), two grids, the mixed
+// mode's float store (1 x 2 and 2 x 2; slabs alone: MpiFluidMatchesSerialBitForBit);
+// then the single mode (float arithmetic) in place, compact rows (nx = 32), on 2 x 2 blocks.
+TEST(Mpi, MpiBlocksInYAndZMatchSerialBitForBit) {
+  if (!have_mpirun()) GTEST_SKIP() << "mpirun is not installed (launch/bootstrap.sh)";
+  const fs::path dir = scratch("mpi_blocks_yz");
+  const fs::path channel = kSource / "tests" / "scenes" / "mpi_channel.toml";
+  const std::vector<std::pair<std::string, std::string>> short_run{{"steps = 40", "steps = 20"},
+                                                                    {"fields_every = 20", "fields_every = 10"},
+                                                                    {"planes_every = 10", "planes_every = 5"}};
+  {
+    SCOPED_TRACE("channel, in place, double store");
+    fs::create_directories(dir / "channel");
+    expect_blocks_match_serial(variant(channel, dir / "channel", short_run), dir / "channel");
+  }
+  {
+    SCOPED_TRACE("periodic y across ranks, walls along z, two-grid, mixed");
+    fs::create_directories(dir / "periodic_y");
+    auto replace = short_run;
+    replace.insert(replace.end(), {{"[inlet]\nu_max = 0.05\nprofile = \"blasius\"\nboundary_layer_um = 0.5\n",
+                                    "[body_force]\nx = 0.00002\ny = 0.00001\nz = 0.000005\n"},
+                                   {"reynolds = 5\nreference_length_um = 1.0", "tau = 0.8"},
+                                   {"x_min = \"inlet\"", "x_min = \"periodic\""},
+                                   {"x_max = \"outflow\"", "x_max = \"periodic\""},
+                                   {"y_min = \"wall\"", "y_min = \"periodic\""},
+                                   {"y_max = \"free_slip\"", "y_max = \"periodic\""},
+                                   {"z_min = \"periodic\"", "z_min = \"wall\""},
+                                   {"z_max = \"periodic\"", "z_max = \"free_slip\""},
+                                   {"threads = 1", "threads = 1\nprecision = \"mixed\"\npropagation = \"two-grid\""},
+                                   {"[output]", "[wall_velocity]\nz_min = [0.02, 0.0, 0.0]\n\n[output]"}});
+    expect_blocks_match_serial(variant(channel, dir / "periodic_y", replace), dir / "periodic_y", {{2, 1}, {2, 2}});
+  }
+  {
+    SCOPED_TRACE("single mode, in place, compact rows");
+    fs::create_directories(dir / "single");
+    auto replace = short_run;
+    replace.insert(replace.end(), {{"nx = 24", "nx = 32"}, {"threads = 1", "threads = 1\nprecision = \"single\""}});
+    expect_blocks_match_serial(variant(channel, dir / "single", replace), dir / "single", {{2, 2}});
+  }
+  if (!HasFailure()) fs::remove_all(dir);
+}
+
 // Parallel HDF5 (fluid/io/field_writer.cpp, common/hdf5/hdf5_handle.hpp): every rank writes
 // its own planes of each snapshot into the file one process writes. 4 ranks hold slabs of
 // 2 planes between walls (8 planes, the fewest a wall allows: the one-sided differences
@@ -198,7 +277,7 @@ TEST(Mpi, MpiBlocksThatCannotBeBuiltAreRefusedInOneLine) {
   const fs::path along_x = variant(channel, dir / "x", {{"threads = 1", "threads = 1\nblocks = [2, 1, 1]"}});
   const RunResult x = run_command(quoted(kFluid) + " " + quoted(along_x.string()) + " --check", dir / "log_x");
   EXPECT_EQ(x.status, 2);
-  EXPECT_TRUE(contains(x.err, "run.blocks = [2, 1, 1]: only slabs along z are built")) << x.err;
+  EXPECT_TRUE(contains(x.err, "run.blocks = [2, 1, 1]: blocks along y and z only: [1, py, pz]")) << x.err;
   EXPECT_EQ(lines(x.err), 1u) << x.err;
   // A coupled scene's grid the same (its fluid ends before it waits for a solid).
   fs::create_directories(dir / "coupled");

@@ -171,6 +171,84 @@ TEST(MpiCoupled, MpiCheckpointRestartIsBitIdentical) {
   if (!HasFailure()) fs::remove_all(dir);
 }
 
+/// How many markers of the run's first sheet snapshot have a kernel (4 nodes along y from
+/// floor(y) - 1, the lattice y = y_um / dx - 1/2: the plate at y = 0) that reaches nodes of
+/// two blocks of `py` along a grid of kNy rows.
+int straddling_y(const fs::path& run, int py, int kNy) {
+  const auto d = read_datasets(run / "sheets_000000.h5");
+  const auto it = d.find("position_um");
+  if (it == d.end()) return -1;
+  std::vector<int> owner(kNy);
+  for (int r = 0; r < py; ++r) {
+    const fluid::Slab s = fluid::slab_of(kNy, py, r);
+    for (int y = s.z0; y < s.z0 + s.nz; ++y) owner[std::size_t(y)] = r;
+  }
+  int n = 0;
+  for (std::size_t k = 1; k < it->second.values.size(); k += 3) {
+    const int first = int(std::floor(it->second.values[k] / kDxUm - 0.5)) - 1;
+    std::set<int> ranks;
+    for (int i = 0; i < 4; ++i)
+      if (first + i >= 0 && first + i < kNy) ranks.insert(owner[std::size_t(first + i)]);
+    n += ranks.size() > 1;
+  }
+  return n;
+}
+
+// Blocks along y and z (fluid/mpi/block_halo.cpp) in a coupled run: the channel 16 rows high
+// (the sheet's markers at y = -0.5 .. 8.5 cells), so that the markers have kernels across the
+// block edge along y (at row 8 of 2 blocks) and along z (plane 15),
+// so rank 0 sums samples of nodes of up to four ranks and each rank spreads onto its own.
+// Every output of the fluid and of the solid on the process grids 2 x 2 (each coupling
+// scheme) and 1 x 2 (y only; the serial scheme) is the serial run's, bit for bit; the
+// checkpoint that the 2 x 2 blocks write (each its rows of its planes, parallel HDF5) holds
+// the serial run's store, and restarts on 2 x 2 blocks as the run straight through.
+TEST(MpiCoupled, MpiBlocksInYAndZMatchSerialBitForBit) {
+  if (!have_mpirun()) GTEST_SKIP() << "mpirun is not installed (launch/bootstrap.sh)";
+  const fs::path dir = scratch("mpi_coupled_blocks");
+  for (const std::string scheme : {"serial", "parallel", "implicit"}) {
+    SCOPED_TRACE(scheme + " scheme");
+    const fs::path scene = write_scene(dir / scheme, scheme, "checkpoint_every = 20");
+    {
+      std::string text = slurp(scene);
+      replace_in(text, "ny = 30", "ny = 16");
+      std::ofstream(scene) << text;
+    }
+    const fs::path serial = dir / scheme / "serial";
+    expect_run_done(serial, run_launcher(kSource, scene, serial, "", kOneThread));
+    EXPECT_GT(straddling_y(serial, 2, 16), 0) << "no marker's kernel crosses the block edge along y";
+    EXPECT_GT(straddling(serial, 2), 0) << "no marker's kernel crosses the block edge along z";
+    std::vector<std::pair<int, int>> grids{{2, 2}};
+    if (scheme == "serial") grids.push_back({2, 1});
+    for (const auto& [py, pz] : grids) {
+      const std::string name = "blocks_1_" + std::to_string(py) + "_" + std::to_string(pz);
+      std::string text = slurp(scene);
+      replace_in(text, "[run]\n", "[run]\nblocks = [1, " + std::to_string(py) + ", " + std::to_string(pz) + "]\n");
+      const fs::path blocked = dir / scheme / (name + ".toml");
+      std::ofstream(blocked) << text;
+      const fs::path out = dir / scheme / name;
+      expect_run_done(out, run_launcher(kSource, blocked, out, "--ranks " + std::to_string(py * pz), kOneThread));
+      EXPECT_TRUE(contains(slurp(out / "fluid.log"), "blocks along y and z over " + std::to_string(py * pz)))
+          << logs(out);
+      std::size_t files = 0;
+      EXPECT_EQ(compare_outputs(serial, out, &files), "") << name;
+      const std::string step = "00000040";
+      const std::vector<unsigned char> written = populations(out / "checkpoints" / ("fluid_" + step + ".h5"));
+      EXPECT_FALSE(written.empty());
+      EXPECT_TRUE(written == populations(serial / "checkpoints" / ("fluid_" + step + ".h5")))
+          << name << ": the checkpoint written by the blocks is not the serial run's store";
+      if (scheme != "serial" || py * pz != 4) continue;
+      const fs::path from = pair_of(out, step, dir / scheme / (name + "_from40"));
+      const fs::path restarted = dir / scheme / (name + "_restarted");
+      expect_run_done(restarted,
+                      run_launcher(kSource, blocked, restarted, "--restart " + quoted(from.string()) + " --ranks 4",
+                                   kOneThread));
+      EXPECT_TRUE(contains(slurp(restarted / "fluid.log"), "restarted from")) << logs(restarted);
+      for (const std::string& f : h5_files(restarted)) EXPECT_EQ(compare_h5(out, restarted, f), "") << f;
+    }
+  }
+  if (!HasFailure()) fs::remove_all(dir);
+}
+
 // Parallel HDF5 (each rank writes its own range of the store, no rank gathers it): a
 // checkpoint written on 3 ranks restarts on 2, on 1 and in one process, and one written in
 // one process restarts on 3, 2 and 1 ranks, each ending with the outputs of the run straight
