@@ -742,7 +742,7 @@ class Peer {
     s.sender = peer_role();
     s.step = next_ > 0 ? feed_[next_ - 1]->step : 0;
     s.exit_code = 4;
-    s.reason = "cosim-replay: " + log_gap;
+    s.reason = replay_log().prefix() + log_gap;
     link_.publish(ch_.stop, s);
   }
 
@@ -794,7 +794,7 @@ class Peer {
         s.sender = peer_role();
         s.step = next_ > 0 ? feed_[next_ - 1]->step : -1;
         s.exit_code = 1;
-        s.reason = "cosim-replay: " + failure;
+        s.reason = replay_log().prefix() + failure;
         link_.publish(ch_.stop, s);
       }
     }
@@ -805,8 +805,8 @@ class Peer {
     const Clock::time_point now = Clock::now();
     if (now - last_progress_ < kProgressEvery) return;
     last_progress_ = now;
-    err_ << "cosim-replay: step " << step << " of " << run_.welcome->total_steps << ", "
-         << compared << " compared, " << differing << " differ\n";
+    replay_log().info(err_) << "step " << step << " of " << run_.welcome->total_steps << ", "
+         << compared << " compared, " << differing << " differ";
     err_.flush();
   }
 
@@ -911,9 +911,8 @@ class Replay {
     }
     const int threads = fluid && fscene->threads > 0 ? fscene->threads : omp_get_max_threads();
 
-    out_ << "cosim-replay: the " << side_name(o_.side) << " of run " << sel.token << " from "
-         << o_.log_path << "\n"
-         << "  log: " << s.events << " events, " << run.messages << " of the run on " << sel.prefix
+    replay_log().info(out_) << "the " << side_name(o_.side) << " of run " << sel.token << " from " << o_.log_path;
+    out_ << "  log: " << s.events << " events, " << run.messages << " of the run on " << sel.prefix
          << "*; solid_state_t " << describe_states(run.solid_states) << ", fluid_state_t "
          << describe_states(run.fluid_states) << "; " << run.copies << " resent or duplicate copies skipped\n"
          << "  scene " << o_.scene_path << "; server output " << output.string();
@@ -1005,20 +1004,20 @@ class Replay {
     const char* server = side_name(o_.side);
     const std::string reason = last_line(server_err);
     if (!p.failure.empty()) {
-      err_ << "cosim-replay: " << p.failure << "\n";
+      replay_log().error(err_) << p.failure;
       return exit_code::system;
     }
     if (p.refused) {
-      err_ << "cosim-replay: " << o_.scene_path << " does not match the logged run: "
+      replay_log().error(err_) << o_.scene_path << " does not match the logged run: "
            << (fluid ? "the fluid's coordinator refused the logged solid hello_t: "
                      : "the coordinator's check of the solid's hello_t against the logged fluid's: ")
-           << one_line(*p.refused) << "\n";
+           << one_line(*p.refused);
       cleanup(output, true);
       return exit_code::bad_input;
     }
     if (!p.welcomed) {  // the server ended before the handshake
-      err_ << "cosim-replay: the " << server << " server exited " << code << " before the handshake: "
-           << reason << " (its output: " << server_log.string() << ")\n";
+      replay_log().error(err_) << "the " << server << " server exited " << code << " before the handshake: "
+           << reason << " (its output: " << server_log.string() << ")";
       return code == exit_code::bad_input ? exit_code::bad_input : exit_code::server_failed;
     }
 
@@ -1073,10 +1072,10 @@ class Replay {
     out_.flush();
     if (different) return exit_code::different;
     if (!p.log_gap.empty()) {
-      err_ << "cosim-replay: " << o_.log_path << ": incomplete log: " << p.log_gap << "\n";
+      replay_log().error(err_) << o_.log_path << ": incomplete log: " << p.log_gap;
       return exit_code::bad_input;
     }
-    err_ << "cosim-replay: the " << server << " server exited " << code << ": " << reason << "\n";
+    replay_log().error(err_) << "the " << server << " server exited " << code << ": " << reason;
     return exit_code::server_failed;
   }
 
@@ -1116,11 +1115,11 @@ int run_replay(const ReplayOptions& options, std::ostream& out, std::ostream& er
     return r.run();
   } catch (const ReplayError& e) {
     out.flush();
-    err << "cosim-replay: " << one_line(e.what()) << "\n";
+    replay_log().error(err) << one_line(e.what());
     return exit_code::bad_input;
   } catch (const std::exception& e) {
     out.flush();
-    err << "cosim-replay: " << one_line(e.what()) << "\n";
+    replay_log().error(err) << one_line(e.what());
     return exit_code::system;
   }
 }

@@ -17,9 +17,13 @@
 
 #include <optional>
 
+#include "common/log/logger.hpp"
 #include "protocol/message_auth.hpp"
 
 namespace cosim::replay {
+
+/// The tool's lines: "cosim-replay: ...".
+inline log::Logger replay_log() { return log::Logger("cosim-replay"); }
 
 /// Exit codes of cosim-replay (docs/replay.md).
 namespace exit_code {
