@@ -43,6 +43,8 @@ class ReplayError : public std::runtime_error {
 
 enum class Side { Fluid, Solid };
 
+inline const char* side_name(Side s) { return s == Side::Fluid ? "fluid" : "solid"; }
+
 struct ReplayOptions {
   std::string log_path;        ///< the run's LCM log (lcm-logger), e.g. OUTPUT/traffic.lcmlog
   Side side = Side::Fluid;     ///< the server to replay
