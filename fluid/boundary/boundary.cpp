@@ -72,6 +72,20 @@ std::string BoundaryConditions::check(const std::array<FaceSpec, kFaces>& faces,
 
 namespace {
 
+/// The populations a face's ghost plane feeds into the domain: c along the face's axis
+/// pointing inward, and of those, where `along_axis` >= 0, the ones whose c along that axis
+/// is `c_along` (a wall's ghosts of a halo layer's cells: those that leave the layer towards
+/// the block). The one selection of the copy faces, the walls (Eq. 14) and the free-slip faces.
+struct EnteringPopulations {
+  explicit EnteringPopulations(int face, int along_axis = -1, int c_along = 0) {
+    const int axis = face_axis(face), inward = face_side(face) == 0 ? 1 : -1;
+    for (int q = 0; q < D3Q19::Q; ++q)
+      if (D3Q19::c(q, axis) == inward && (along_axis < 0 || D3Q19::c(q, along_axis) == c_along)) qs[nq++] = q;
+  }
+  int qs[D3Q19::Q];
+  int nq = 0;
+};
+
 bool is_copy(FaceKind k) {
   return k == FaceKind::Periodic || k == FaceKind::Inlet || k == FaceKind::Outflow;
 }
@@ -435,9 +449,9 @@ void BoundaryConditions::fill_copy_face(const PopulationSlots<T>& f, int face) c
   r.lo[axis] = r.hi[axis] = ghost;
 
   // Populations pulled from this ghost plane into the interior.
-  int qs[D3Q19::Q], nq = 0;
-  for (int q = 0; q < D3Q19::Q; ++q)
-    if (D3Q19::c(q, axis) == inward) qs[nq++] = q;
+  const EnteringPopulations entering(face);
+  const int* const qs = entering.qs;
+  const int nq = entering.nq;
 
   // Source cell for copy-type fills.
   int src_shift[3] = {0, 0, 0};
@@ -477,11 +491,8 @@ void BoundaryConditions::fill_wall(const PopulationSlots<T>& f, int face, int ce
   const FaceSpec& spec = faces_[face];
   const int axis = face_axis(face), side = face_side(face);
   const int n[3] = {layout_.nx(), layout_.ny(), layout_.nz()};
-  const int inward = side == 0 ? 1 : -1;
   const int c_axis = cells_of < 0 ? -1 : face_axis(cells_of);
-  int qs[D3Q19::Q], nq = 0;
-  for (int q = 0; q < D3Q19::Q; ++q)
-    if (D3Q19::c(q, axis) == inward && (c_axis < 0 || D3Q19::c(q, c_axis) == c_along)) qs[nq++] = q;
+  const EnteringPopulations entering(face, c_axis, c_along);
   PlaneRange r = plane_range(layout_, axis, false);
   for (int b = 0; b < 3; ++b)
     if (b != axis) r.lo[b] = 0, r.hi[b] = n[b] - 1;
@@ -489,8 +500,8 @@ void BoundaryConditions::fill_wall(const PopulationSlots<T>& f, int face, int ce
   if (c_axis >= 0)  // the boundary cells of the halo layer: the neighbour block's
     r.lo[c_axis] = r.hi[c_axis] = face_side(cells_of) == 0 ? -1 : n[c_axis];
   const auto& U = spec.wall_velocity;
-  for (int i = 0; i < nq; ++i) {
-    const int q = qs[i], o = D3Q19::opp[q];
+  for (int i = 0; i < entering.nq; ++i) {
+    const int q = entering.qs[i], o = D3Q19::opp[q];
     const double moving = 6.0 * D3Q19::w[q] *
                           (D3Q19::cx[q] * U[0] + D3Q19::cy[q] * U[1] + D3Q19::cz[q] * U[2]);
     const std::ptrdiff_t back = layout_.offset(-D3Q19::cx[q], -D3Q19::cy[q], -D3Q19::cz[q]);
@@ -513,10 +524,6 @@ void BoundaryConditions::fill_reflect_face(const PopulationSlots<T>& f, int face
   const int n[3] = {layout_.nx(), layout_.ny(), layout_.nz()};
   const int inward = side == 0 ? 1 : -1;
 
-  int qs[D3Q19::Q], nq = 0;
-  for (int q = 0; q < D3Q19::Q; ++q)
-    if (D3Q19::c(q, axis) == inward) qs[nq++] = q;
-
   if (spec.kind == FaceKind::Wall) {
     fill_wall(f, face, -1, 0);
   } else {  // FreeSlip
@@ -525,8 +532,9 @@ void BoundaryConditions::fill_reflect_face(const PopulationSlots<T>& f, int face
     int in[3] = {0, 0, 0};
     in[axis] = inward;
     const std::ptrdiff_t in_off = layout_.offset(in[0], in[1], in[2]);
-    for (int i = 0; i < nq; ++i) {
-      const int q = qs[i], m = D3Q19::mirror(q, axis);
+    const EnteringPopulations entering(face);
+    for (int i = 0; i < entering.nq; ++i) {
+      const int q = entering.qs[i], m = D3Q19::mirror(q, axis);
       T* fq = f.q(q);
       const T* fm = f.q(m);
 #pragma omp for collapse(2) schedule(static) nowait

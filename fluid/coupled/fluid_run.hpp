@@ -16,6 +16,7 @@
 #include "fluid/domain/fluid_domain.hpp"
 #include "fluid/ib/held_body.hpp"
 #include "fluid/ib/immersed_boundary.hpp"
+#include "fluid/io/fluid_log.hpp"
 #include "fluid/io/held_body_log.hpp"
 #include "fluid/io/monitor_log.hpp"
 #include "fluid/config/scene_config.hpp"
@@ -130,7 +131,8 @@ class FluidRun {
   const std::string restart_;
   const std::string run_id_;   ///< the launcher's run id (checkpoints; a restart's check)
   const bool new_time_ratio_;  ///< a restart may change A_T
-  const bool quiet_;
+  /// The fluid's lines; --quiet: no progress line.
+  const log::Logger logger_;
   Coordinator& coord_;
   const FluidScheme& scheme_;
   FluidDomain& domain_;

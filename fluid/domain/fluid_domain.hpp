@@ -116,8 +116,8 @@ class FluidDomain {
 /// without one. The fluid-only loop and the coupled run alike.
 void ramp_inlet(FluidDomain& domain, const FluidScene& scene, std::int64_t step);
 
-/// The servers' end-of-run line for `peaks` (FluidDomain::peak_memory_mib): "fluid: peak
-/// memory X MiB (largest resident set)", X the leading process's, and with several processes
+/// The servers' end-of-run line for `peaks` (FluidDomain::peak_memory_mib), without the
+/// logger's prefix: "peak memory X MiB (largest resident set)", X the leading process's, and with several processes
 /// "; per rank: A B C ... MiB" (no rank holds the whole grid, docs/scaling.md).
 std::string peak_memory_line(const std::vector<double>& peaks);
 

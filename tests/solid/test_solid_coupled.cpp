@@ -93,7 +93,7 @@ struct FakeFluid {
   FakeFluid(lcm::LCM& bus_, const SolidScene& scene, std::int64_t total_steps_)
       : bus(bus_), ch(scene.coupling->channel_prefix), link("fluid", kToken, scene.coupling->channel_prefix, bus_),
         total_steps(total_steps_), rigid_steps(scene.coupling->rigid_steps),
-        parallel(scene.coupling->scheme.parallel_scheme()) {
+        parallel((scene.coupling->scheme.scheme == cosim::protocol::CouplingScheme::Parallel)) {
     const UnitConverter u(scene.unit_inputs());
     own.token = kToken;
     own.role = "fluid";
@@ -410,7 +410,7 @@ TEST(SolidCoupled, ParallelSchemeOrder) {
     const fs::path dir = scratch_dir("parallel" + std::to_string(rigid));
     const SolidScene scene =
         cosim::solid::load_solid_scene(write_scene(dir, rigid, 3.0, 3.0, "rcgp", "parallel").string());
-    ASSERT_TRUE(scene.coupling->scheme.parallel_scheme());
+    ASSERT_TRUE((scene.coupling->scheme.scheme == cosim::protocol::CouplingScheme::Parallel));
     lcm::LCM bus("memq://");
     FakeFluid fluid(bus, scene, 5);
     if (rigid == 0) fluid.lose_first_copy = {0};
