@@ -17,7 +17,9 @@
 #include <utility>
 #include <vector>
 
+#include "tests/support/h5_read.hpp"
 #include "tests/support/run_compare.hpp"
+#include "tests/support/scene_edit.hpp"
 
 namespace cosim::test::run_data {
 
@@ -29,9 +31,12 @@ using cosim::test::flip_bit;
 using cosim::test::expect_run_done;
 using cosim::test::logs;
 using cosim::test::quoted;
+using cosim::test::root_attribute;
 using cosim::test::read_datasets;
 using cosim::test::run_launcher;
 using cosim::test::scratch;
+using cosim::test::SceneEdits;
+using cosim::test::write_edited_scene;
 using cosim::test::slurp;
 
 inline const fs::path kSource = COSIM_SOURCE_DIR;
@@ -40,26 +45,17 @@ inline const fs::path kShim = FULL_DISK_SHIM;
 /// scenes/coupled_small.toml with `steps` LB steps (20 rigid), monitor rows every 10 steps,
 /// field and sheet snapshots every 20, checkpoints every 20, a 3 s peer timeout; `edits`
 /// (text -> text) after those. Written as dir/NAME.toml.
-inline fs::path small_scene(const fs::path& dir, int steps, const std::vector<std::pair<std::string, std::string>>& edits = {},
-                     const std::string& name = "small") {
-  std::string s = slurp(kSource / "scenes" / "coupled_small.toml");
-  std::vector<std::pair<std::string, std::string>> all = {
-      {"steps = 200", "steps = " + std::to_string(steps)},
-      {"rigid_steps = 50", "rigid_steps = 20"},
-      {"monitor_every = 50", "monitor_every = 10"},
-      {"fields_every = 50", "fields_every = 20"},
-      {"sheets_every = 50", "sheets_every = 20"},
-      {"peer_timeout_s = 10", "peer_timeout_s = 3\ncheckpoint_every = 20"},
-      {"resend_after_s = 0.5", "resend_after_s = 0.05"}};
+inline fs::path small_scene(const fs::path& dir, int steps, const SceneEdits& edits = {},
+                            const std::string& name = "small") {
+  SceneEdits all = {{"steps = 200", "steps = " + std::to_string(steps)},
+                    {"rigid_steps = 50", "rigid_steps = 20"},
+                    {"monitor_every = 50", "monitor_every = 10"},
+                    {"fields_every = 50", "fields_every = 20"},
+                    {"sheets_every = 50", "sheets_every = 20"},
+                    {"peer_timeout_s = 10", "peer_timeout_s = 3\ncheckpoint_every = 20"},
+                    {"resend_after_s = 0.5", "resend_after_s = 0.05"}};
   all.insert(all.end(), edits.begin(), edits.end());
-  for (const auto& [from, to] : all) {
-    const std::size_t at = s.find(from);
-    if (at == std::string::npos) throw std::runtime_error("scene template lacks " + from);
-    s.replace(at, from.size(), to);
-  }
-  const fs::path scene = dir / (name + ".toml");
-  std::ofstream(scene) << s;
-  return scene;
+  return write_edited_scene(kSource / "scenes" / "coupled_small.toml", all, dir / (name + ".toml"));
 }
 
 /// run-coupled.sh SCENE ARGS --no-build [--quiet], its lines into `log`; the exit status.

@@ -158,24 +158,6 @@ TEST(RunData, DeadRecorderIsReported) {
   if (!HasFailure()) fs::remove_all(dir);
 }
 
-/// A string attribute of an HDF5 file's root group ("" if it cannot be read).
-std::string root_attribute(const fs::path& file, const char* name) {
-  std::string value;
-  const hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
-  if (f < 0) return value;
-  if (H5Aexists(f, name) > 0) {
-    const hid_t a = H5Aopen(f, name, H5P_DEFAULT);
-    const hid_t t = H5Aget_type(a);
-    value.resize(H5Tget_size(t));
-    if (H5Aread(a, t, value.data()) < 0) value.clear();
-    while (!value.empty() && value.back() == '\0') value.pop_back();
-    H5Tclose(t);
-    H5Aclose(a);
-  }
-  H5Fclose(f);
-  return value;
-}
-
 // A scene file over 64 KiB (HDF5's limit for an attribute in its default file format): it
 // runs, and every output keeps its text (the scene_toml attribute, common/hdf5/hdf5_handle.hpp).
 TEST(RunData, LongSceneRunsOrIsRefused) {

@@ -40,7 +40,9 @@
 #include "solid/coupled/coupled_solid.hpp"
 #include "solid/model/sheet_spec.hpp"
 #include "solid/config/solid_scene.hpp"
+#include "tests/support/h5_read.hpp"
 #include "tests/support/run_command.hpp"
+#include "tests/support/valid_messages.hpp"
 
 namespace cosim::test::solid_coupled {
 
@@ -51,8 +53,9 @@ using cosim::protocol::UnitConverter;
 using cosim::solid::CoupledSolidOptions;
 using cosim::solid::SolidScene;
 
-inline constexpr const char* kToken = "0123456789abcdef";
-inline constexpr int kTimeRatio = 150;
+using cosim::test::dataset_rows;
+using cosim::test::messages::kTimeRatio;
+using cosim::test::messages::kToken;
 inline constexpr double kU = 0.01;  // the fake fluid's velocity at every marker, lattice units
 
 inline fs::path scratch_dir(const std::string& name) { return cosim::test::fresh_scratch("cosim_test_solid_coupled_" + name); }
@@ -281,22 +284,5 @@ inline Eigen::Vector3d row(const std::vector<std::vector<double>>& rows, std::si
   return {rows[l][0], rows[l][1], rows[l][2]};
 }
 
-/// Rows of a dataset of an HDF5 file; -1 if it cannot be read.
-inline long long dataset_rows(const fs::path& file, const char* name) {
-  const hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
-  if (f < 0) return -1;
-  long long rows = -1;
-  const hid_t d = H5Dopen2(f, name, H5P_DEFAULT);
-  if (d >= 0) {
-    const hid_t space = H5Dget_space(d);
-    hsize_t dims[3] = {0, 0, 0};
-    if (space >= 0 && H5Sget_simple_extent_dims(space, dims, nullptr) >= 1)
-      rows = static_cast<long long>(dims[0]);
-    if (space >= 0) H5Sclose(space);
-    H5Dclose(d);
-  }
-  H5Fclose(f);
-  return rows;
-}
 
 }  // namespace cosim::test::solid_coupled

@@ -9,6 +9,7 @@
 namespace {
 
 using namespace cosim::test::solid_coupled;
+using cosim::test::messages::encode;
 
 // No fluid at all: hello_t every 200 ms, then exit 4 after handshake_timeout_s, with stop_t(4)
 // published three times.
@@ -195,13 +196,6 @@ std::map<std::string, std::vector<double>> solid_h5(const fs::path& file) {
   return out;
 }
 
-template <class M>
-std::vector<std::uint8_t> encoded(const M& m) {
-  std::vector<std::uint8_t> b(static_cast<std::size_t>(m.getEncodedSize()));
-  m.encode(b.data(), 0, static_cast<int>(b.size()));
-  return b;
-}
-
 // Message security (protocol/README.md section 8a): malformed fluid_state_t copies mixed with
 // the valid ones (a NaN, rho = 0, a step far ahead; bytes with a hostile num_cgps, a token
 // length of 0, a truncation) are counted, logged once, never applied: the run completes with
@@ -217,23 +211,23 @@ TEST(SolidCoupled, MalformedMessagesAreRejected) {
     std::vector<std::vector<std::uint8_t>> out;
     cosimlcm::fluid_state_t m = good;
     m.velocity_lb[4][1] = std::nan("");
-    out.push_back(encoded(m));
+    out.push_back(encode(m));
     m = good;
     m.rho_lb[0] = 0.0;
-    out.push_back(encoded(m));
+    out.push_back(encode(m));
     m = good;
     m.step += 20;
-    out.push_back(encoded(m));
-    std::vector<std::uint8_t> hostile = encoded(good);
+    out.push_back(encode(m));
+    std::vector<std::uint8_t> hostile = encode(good);
     // num_cgps after the hash (8), the token (4 + 17), seq, step, iteration,
     // bulk_velocity_lb (28).
     const std::size_t at = 8 + 4 + 17 + 28;
     hostile[at] = 0x7f, hostile[at + 1] = hostile[at + 2] = hostile[at + 3] = 0xff;
     out.push_back(hostile);
-    std::vector<std::uint8_t> no_token = encoded(good);
+    std::vector<std::uint8_t> no_token = encode(good);
     no_token[8] = no_token[9] = no_token[10] = no_token[11] = 0;
     out.push_back(no_token);
-    std::vector<std::uint8_t> cut = encoded(good);
+    std::vector<std::uint8_t> cut = encode(good);
     cut.resize(cut.size() - 9);
     out.push_back(cut);
     return out;
@@ -261,7 +255,7 @@ TEST(SolidCoupled, MalformedMessagesAreRejected) {
   for (const auto& m : noisy.states) first.emplace(m.step, &m);
   ASSERT_EQ(first.size(), 5u);
   for (const auto& m : clean.states)
-    EXPECT_EQ(encoded(m), encoded(*first[m.step])) << "solid_state_t of step " << m.step;
+    EXPECT_EQ(encode(m), encode(*first[m.step])) << "solid_state_t of step " << m.step;
   const auto a = solid_h5(clean_dir / "out" / "solid.h5"), b = solid_h5(noisy_dir / "out" / "solid.h5");
   ASSERT_EQ(a.size(), 12u);
   for (const auto& [name, values] : a) {
