@@ -30,15 +30,12 @@ const fs::path kSource = COSIM_SOURCE_DIR;
 /// scenes/coupled_small.toml with 120 LB steps (40 rigid, 80 free), no field or sheet
 /// snapshots, and the given coupling scheme.
 fs::path small_scene(const fs::path& dir, const std::string& scheme) {
-  std::string s = slurp(kSource / "scenes" / "coupled_small.toml");
-  const auto set = [&s](const std::string& from, const std::string& to) { replace_in(s, from, to); };
-  set("steps = 200", "steps = 120");
-  set("rigid_steps = 50", "rigid_steps = 40\nscheme = \"" + scheme + "\"");
-  set("fields_every = 50", "fields_every = 0");
-  set("sheets_every = 50", "sheets_every = 0");
-  const fs::path scene = dir / (scheme + ".toml");
-  std::ofstream(scene) << s;
-  return scene;
+  return cosim::test::write_edited_scene(kSource / "scenes" / "coupled_small.toml",
+                                         {{"steps = 200", "steps = 120"},
+                                          {"rigid_steps = 50", "rigid_steps = 40\nscheme = \"" + scheme + "\""},
+                                          {"fields_every = 50", "fields_every = 0"},
+                                          {"sheets_every = 50", "sheets_every = 0"}},
+                                         dir / (scheme + ".toml"));
 }
 
 /// A per-step series of 3-vectors of solid.h5 (the first sheet): `name` [rows, sheets, 3].

@@ -22,11 +22,14 @@
 #include "solid/model/sheet_spec.hpp"
 #include "solid/model/solid_config.hpp"
 #include "solid/config/solid_scene.hpp"
+#include "tests/support/h5_read.hpp"
 #include "tests/support/run_command.hpp"
 
 namespace {
 
 namespace fs = std::filesystem;
+using cosim::test::read_attribute;
+using cosim::test::read_dataset;
 using cosim::test::slurp;
 using cosim::protocol::PhysicalConstants;
 using cosim::protocol::UnitConverter;
@@ -40,43 +43,6 @@ std::size_t occurrences(const std::string& text, const std::string& what) {
   std::size_t n = 0;
   for (std::size_t at = text.find(what); at != std::string::npos; at = text.find(what, at + 1)) ++n;
   return n;
-}
-
-/// A dataset of a file, its dimensions and its values converted to T (HDF5 converts).
-template <class T>
-std::vector<T> read_dataset(const fs::path& file, const char* name, hid_t mem_type,
-                            std::vector<hsize_t>* dims) {
-  std::vector<T> out;
-  const hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
-  if (f < 0) return out;
-  const hid_t d = H5Dopen2(f, name, H5P_DEFAULT);
-  if (d >= 0) {
-    const hid_t s = H5Dget_space(d);
-    dims->assign(std::size_t(H5Sget_simple_extent_ndims(s)), 0);
-    H5Sget_simple_extent_dims(s, dims->data(), nullptr);
-    hsize_t n = 1;
-    for (const hsize_t k : *dims) n *= k;
-    out.resize(n);
-    if (H5Dread(d, mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, out.data()) < 0) out.clear();
-    H5Sclose(s);
-    H5Dclose(d);
-  }
-  H5Fclose(f);
-  return out;
-}
-
-template <class T>
-T read_attribute(const fs::path& file, const char* name, hid_t mem_type) {
-  T v{};
-  const hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
-  if (f < 0) return v;
-  const hid_t a = H5Aopen(f, name, H5P_DEFAULT);
-  if (a >= 0) {
-    H5Aread(a, mem_type, &v);
-    H5Aclose(a);
-  }
-  H5Fclose(f);
-  return v;
 }
 
 TEST(SheetSnapshots, SnapshotsAreDueAtTheFirstEveryNAndTheLast) {

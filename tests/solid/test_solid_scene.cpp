@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "tests/support/h5_read.hpp"
 #include "tests/support/run_command.hpp"
 #include "protocol/units.hpp"
 #include "solid/model/model_registry.hpp"
@@ -26,6 +27,7 @@
 namespace {
 
 namespace fs = std::filesystem;
+using cosim::test::dataset_rows;
 using cosim::test::lines;
 using cosim::test::RunResult;
 using cosim::test::slurp;
@@ -422,23 +424,6 @@ RunResult run_solid(const std::string& args, const fs::path& scratch, bool with_
 }
 
 fs::path scratch_dir(const std::string& name) { return cosim::test::fresh_scratch("cosim_test_solid_scene_" + name); }
-
-/// Rows of a one-dimensional dataset of an HDF5 file; -1 if it cannot be read.
-long long dataset_rows(const fs::path& file, const char* name) {
-  const hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
-  if (f < 0) return -1;
-  long long rows = -1;
-  const hid_t d = H5Dopen2(f, name, H5P_DEFAULT);
-  if (d >= 0) {
-    const hid_t space = H5Dget_space(d);
-    hsize_t dims[3] = {0, 0, 0};
-    if (space >= 0 && H5Sget_simple_extent_dims(space, dims, nullptr) >= 1) rows = (long long)dims[0];
-    if (space >= 0) H5Sclose(space);
-    H5Dclose(d);
-  }
-  H5Fclose(f);
-  return rows;
-}
 
 TEST(SolidExecutable, BadSolidSceneExitsTwoWithOneLine) {
   const fs::path scratch = scratch_dir("bad");

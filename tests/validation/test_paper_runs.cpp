@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "tests/support/h5_read.hpp"
 #include "tests/support/run_command.hpp"
 
 namespace {
@@ -46,21 +47,7 @@ struct Series {
 
 Series read(const fs::path& file, const char* name) {
   Series s;
-  const hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
-  if (f < 0) return s;
-  const hid_t d = H5Dopen2(f, name, H5P_DEFAULT);
-  if (d >= 0) {
-    const hid_t sp = H5Dget_space(d);
-    s.dims.resize(static_cast<std::size_t>(H5Sget_simple_extent_ndims(sp)));
-    H5Sget_simple_extent_dims(sp, s.dims.data(), nullptr);
-    hsize_t n = 1;
-    for (const hsize_t k : s.dims) n *= k;
-    s.data.resize(n);
-    H5Dread(d, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, s.data.data());
-    H5Sclose(sp);
-    H5Dclose(d);
-  }
-  H5Fclose(f);
+  s.data = cosim::test::read_dataset<double>(file, name, H5T_NATIVE_DOUBLE, &s.dims);
   return s;
 }
 
