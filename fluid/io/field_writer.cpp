@@ -13,23 +13,12 @@
 #include "fluid/io/hdf5_handle.hpp"
 #include "fluid/io/hdf5_quiet.hpp"
 #include "common/run/atomic_file.hpp"
+#include "common/hdf5/h5_writer.hpp"
 #include "common/run/provenance_h5.hpp"
 
 namespace cosim::fluid {
 
 namespace fs = std::filesystem;
-
-namespace {
-
-template <class T>
-void write_scalar_attribute(hid_t obj, const char* name, hid_t file_type, hid_t mem_type, T value) {
-  const H5Id space(H5Screate(H5S_SCALAR), H5Sclose, "cannot make an HDF5 dataspace");
-  const H5Id attr(H5Acreate2(obj, name, file_type, space.get(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose,
-                  std::string("cannot create the HDF5 attribute ") + name);
-  h5_check(H5Awrite(attr.get(), mem_type, &value), std::string("cannot write the HDF5 attribute ") + name);
-}
-
-}  // namespace
 
 FieldWriter::FieldWriter(std::string dir, double dx_um, double dt_us, std::string prefix,
                          int y_plane)
@@ -158,16 +147,16 @@ void FieldWriter::create_hdf5(const fs::path& file, std::int64_t step) const {
   const H5Quiet quiet;
   const std::string name = file.string();
   H5Id f = protocol::create_output_file(name, "cannot create the HDF5 file " + name);
-  write_scalar_attribute(f.get(), "step", H5T_STD_I64LE, H5T_NATIVE_INT64, std::int64_t(step));
-  write_scalar_attribute(f.get(), "time_us", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, double(step) * dt_us_);
-  write_scalar_attribute(f.get(), "dx_um", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, dx_um_);
-  write_scalar_attribute(f.get(), "dt_us", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, dt_us_);
+  protocol::put_attribute(f.get(), "step", std::int64_t(step));
+  protocol::put_attribute(f.get(), "time_us", double(step) * dt_us_);
+  protocol::put_attribute(f.get(), "dx_um", dx_um_);
+  protocol::put_attribute(f.get(), "dt_us", dt_us_);
 
   if (y_plane_ >= 0) {
     // Node j sits at (j + 1/2) dx in the sheets' frame (plate at y = 0), like the XDMF geometry.
-    write_scalar_attribute(f.get(), "y_um", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, (y_plane_ + 0.5) * dx_um_);
-    write_scalar_attribute(f.get(), "y_cell", H5T_STD_I64LE, H5T_NATIVE_INT64, std::int64_t(y_plane_));
-    write_scalar_attribute(f.get(), "grid_ny", H5T_STD_I64LE, H5T_NATIVE_INT64, std::int64_t(grid_.ny));
+    protocol::put_attribute(f.get(), "y_um", (y_plane_ + 0.5) * dx_um_);
+    protocol::put_attribute(f.get(), "y_cell", std::int64_t(y_plane_));
+    protocol::put_attribute(f.get(), "grid_ny", std::int64_t(grid_.ny));
   }
   // float64 datasets [nz][ny][nx] (rho) and [nz][ny][nx][3] (u, vorticity in physical units).
   const GridShape s = written_shape();
@@ -175,9 +164,9 @@ void FieldWriter::create_hdf5(const fs::path& file, std::int64_t step) const {
   const std::vector<hsize_t> vector{hsize_t(s.nz), hsize_t(s.ny), hsize_t(s.nx), 3};
   const std::array<std::pair<const char*, const char*>, 3> sets{{{"rho", "1 (rho / rho_0)"}, {"u", "m/s"}, {"vorticity", "1/us"}}};
   for (const auto& [set, units] : sets) {
-    const H5Id d = protocol::create_dataset(f.get(), set, H5T_IEEE_F64LE, std::string(set) == "rho" ? scalar : vector,
-                                            "cannot create " + name + ":/" + set);
-    protocol::put_string_attribute(d.get(), "units", units);
+    const H5Id d = protocol::reserve_dataset(f.get(), set, H5T_IEEE_F64LE, std::string(set) == "rho" ? scalar : vector,
+                                             "cannot create " + name + ":/" + set);
+    protocol::put_units(d.get(), set, units);
   }
   protocol::stamp_file(f.get());
   f.close("cannot close the HDF5 file " + name);

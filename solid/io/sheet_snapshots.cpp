@@ -17,7 +17,8 @@
 #include "protocol/units.hpp"
 #include "solid/models/elastic_sheet/elastic_sheet_model.hpp"
 #include "solid/model/sheet_spec.hpp"
-#include "solid/io/solid_h5.hpp"
+#include "common/hdf5/h5_writer.hpp"
+#include "common/run/provenance_h5.hpp"
 
 namespace cosim::solid {
 
@@ -37,14 +38,6 @@ constexpr const char* kStrainDefinition =
     "area strain eps_l = (|dA_l| - |dA_l0|) / |dA_l0|, dA_l = t_a x t_b from central "
     "differences along the width and height (one-sided at edges), 0 for the flat sheet "
     "(the paper's section 3.2 and Fig. 11)";
-
-void write_int64_attribute(hid_t obj, const char* name, std::int64_t value) {
-  const std::string what = std::string("cannot write the attribute ") + name;
-  const H5Id space(H5Screate(H5S_SCALAR), H5Sclose, what);
-  const H5Id attr(H5Acreate2(obj, name, H5T_STD_I64LE, space.get(), H5P_DEFAULT, H5P_DEFAULT),
-                  H5Aclose, what);
-  protocol::h5_check(H5Awrite(attr.get(), H5T_NATIVE_INT64, &value), what);
-}
 
 }  // namespace
 
@@ -137,20 +130,20 @@ void SheetSnapshotWriter::write_hdf5(const fs::path& file, std::int64_t step, do
   const hid_t h = f.get();
   const hsize_t n = static_cast<hsize_t>(n_), q = quads_.size() / 4, ns = grid_.size() / 2;
   try {
-    write_dataset(h, "position_um", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n, 3}, position_um.data());
-    write_dataset(h, "displacement_um", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n, 3},
+    protocol::write_dataset(h, "position_um", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n, 3}, position_um.data());
+    protocol::write_dataset(h, "displacement_um", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n, 3},
                   displacement_um.data());
-    write_dataset(h, "velocity_m_s", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n, 3},
+    protocol::write_dataset(h, "velocity_m_s", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n, 3},
                   velocity_m_s.data());
-    write_dataset(h, "area_strain", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n}, strain.data());
-    write_dataset(h, "sheet", H5T_STD_I32LE, H5T_NATIVE_INT32, {n}, sheet_of_.data());
-    write_dataset(h, "quads", H5T_STD_I64LE, H5T_NATIVE_INT64, {q, 4}, quads_.data());
-    write_dataset(h, "sheet_grid", H5T_STD_I32LE, H5T_NATIVE_INT32, {ns, 2}, grid_.data());
-    write_int64_attribute(h, "step", step);
-    write_attribute(h, "time_s", time_s);
-    write_attribute(h, "time_us", time_s / kMicrometre);
-    write_attribute(h, "frame", kFrame);
-    write_attribute(h, "area_strain", kStrainDefinition);
+    protocol::write_dataset(h, "area_strain", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n}, strain.data());
+    protocol::write_dataset(h, "sheet", H5T_STD_I32LE, H5T_NATIVE_INT32, {n}, sheet_of_.data());
+    protocol::write_dataset(h, "quads", H5T_STD_I64LE, H5T_NATIVE_INT64, {q, 4}, quads_.data());
+    protocol::write_dataset(h, "sheet_grid", H5T_STD_I32LE, H5T_NATIVE_INT32, {ns, 2}, grid_.data());
+    protocol::put_attribute(h, "step", step);
+    protocol::put_attribute(h, "time_s", time_s);
+    protocol::put_attribute(h, "time_us", time_s / kMicrometre);
+    protocol::put_attribute(h, "frame", kFrame);
+    protocol::put_attribute(h, "area_strain", kStrainDefinition);
     protocol::stamp_file(h);
   } catch (const std::runtime_error& e) {
     throw std::runtime_error(name + ": " + e.what());
