@@ -3,15 +3,13 @@
 #include <algorithm>
 #include <array>
 #include <cstdio>
-#include <fstream>
-#include <iomanip>
-#include <sstream>
 #include <stdexcept>
 #include <system_error>
 #include <utility>
 
 #include "fluid/io/hdf5_handle.hpp"
 #include "fluid/io/hdf5_quiet.hpp"
+#include "common/hdf5/xdmf.hpp"
 #include "common/run/atomic_file.hpp"
 #include "common/hdf5/h5_writer.hpp"
 #include "common/run/provenance_h5.hpp"
@@ -211,48 +209,29 @@ void FieldWriter::write_rows(const fs::path& file, const FieldPart& part, const 
 }
 
 void FieldWriter::write_xdmf() const {
-  std::ostringstream x;
-  x << std::setprecision(12);
-  x << "<?xml version=\"1.0\" ?>\n"
-    << "<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n"
-    << "<Xdmf Version=\"3.0\" xmlns:xi=\"http://www.w3.org/2001/XInclude\">\n"
-    << "  <Domain>\n"
-    << "    <Grid Name=\"" << prefix_ << "\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
+  namespace xdmf = protocol::xdmf;
+  std::vector<xdmf::Grid> grids;
   for (const Snapshot& snap : snapshots_) {
     const GridShape& s = snap.shape;
     const std::string file = snapshot_name(snap.step);
-    std::ostringstream dims, dims3;
-    dims << s.nz << ' ' << s.ny << ' ' << s.nx;
-    dims3 << dims.str() << " 3";
-    const auto attribute = [&](const char* name, const char* type, const std::string& d) {
-      x << "        <Attribute Name=\"" << name << "\" AttributeType=\"" << type << "\" Center=\"Node\">\n"
-        << "          <DataItem Format=\"HDF\" NumberType=\"Float\" Precision=\"8\" Dimensions=\"" << d
-        << "\">" << file << ":/" << name << "</DataItem>\n"
-        << "        </Attribute>\n";
-    };
-    x << "      <Grid Name=\"step_" << snap.step << "\" GridType=\"Uniform\">\n"
-      << "        <Time Value=\"" << double(snap.step) * dt_us_ << "\"/>\n"
-      << "        <Topology TopologyType=\"3DCoRectMesh\" Dimensions=\"" << dims.str() << "\"/>\n"
-      // ORIGIN_DXDYDZ lists z, y, x (slowest first), like the topology's Dimensions. Node
-      // (i, j, k) sits at (i, j + 1/2, k) dx, the frame of the sheets (sheets.xmf: the plate,
-      // the half-way bounce-back wall at lattice y = -1/2, is y = 0; protocol/README.md
-      // section 4; XdmfGeometryMatchesSheets).
-      << "        <Geometry GeometryType=\"ORIGIN_DXDYDZ\">\n"
-      << "          <DataItem Format=\"XML\" NumberType=\"Float\" Precision=\"8\" Dimensions=\"3\">0 "
-      << ((y_plane_ >= 0 ? y_plane_ : 0) + 0.5) * dx_um_ << " 0</DataItem>\n"
-      << "          <DataItem Format=\"XML\" NumberType=\"Float\" Precision=\"8\" Dimensions=\"3\">" << dx_um_ << ' '
-      << dx_um_ << ' ' << dx_um_ << "</DataItem>\n"
-      << "        </Geometry>\n";
-    attribute("rho", "Scalar", dims.str());
-    attribute("u", "Vector", dims3.str());
-    attribute("vorticity", "Vector", dims3.str());
-    x << "      </Grid>\n";
+    const std::string dims = std::to_string(s.nz) + ' ' + std::to_string(s.ny) + ' ' + std::to_string(s.nx);
+    xdmf::Grid g;
+    g.name = "step_" + std::to_string(snap.step);
+    g.time = double(snap.step) * dt_us_;
+    g.topology = {"3DCoRectMesh", {{"Dimensions", dims}}, {}};
+    // ORIGIN_DXDYDZ lists z, y, x (slowest first), like the topology's Dimensions. Node
+    // (i, j, k) sits at (i, j + 1/2, k) dx, the frame of the sheets (sheets.xmf: the plate,
+    // the half-way bounce-back wall at lattice y = -1/2, is y = 0; protocol/README.md
+    // section 4; XdmfGeometryMatchesSheets).
+    g.geometry = {"ORIGIN_DXDYDZ",
+                  {xdmf::xml({0.0, ((y_plane_ >= 0 ? y_plane_ : 0) + 0.5) * dx_um_, 0.0}),
+                   xdmf::xml({dx_um_, dx_um_, dx_um_})}};
+    g.attributes = {{"rho", "Scalar", xdmf::hdf(file, "rho", "Float", 8, dims)},
+                    {"u", "Vector", xdmf::hdf(file, "u", "Float", 8, dims + " 3")},
+                    {"vorticity", "Vector", xdmf::hdf(file, "vorticity", "Float", 8, dims + " 3")}};
+    grids.push_back(std::move(g));
   }
-  x << "    </Grid>\n"
-    << "  </Domain>\n"
-    << "</Xdmf>\n";
-
-  protocol::write_text_atomically(xdmf_path(), x.str());
+  xdmf::write_temporal_collection(xdmf_path(), prefix_, grids);
 }
 
 }  // namespace cosim::fluid

@@ -4,13 +4,11 @@
 
 #include <algorithm>
 #include <cstdio>
-#include <fstream>
-#include <iomanip>
-#include <sstream>
 #include <stdexcept>
 #include <system_error>
 #include <utility>
 
+#include "common/hdf5/xdmf.hpp"
 #include "common/run/atomic_file.hpp"
 #include "common/hdf5/hdf5_handle.hpp"
 #include "common/hdf5/hdf5_quiet.hpp"
@@ -152,49 +150,26 @@ void SheetSnapshotWriter::write_hdf5(const fs::path& file, std::int64_t step, do
 }
 
 void SheetSnapshotWriter::write_xdmf() const {
+  namespace xdmf = protocol::xdmf;
   const std::size_t n = static_cast<std::size_t>(n_), q = quads_.size() / 4;
-  std::ostringstream x;
-  x << std::setprecision(12);
-  x << "<?xml version=\"1.0\" ?>\n"
-    << "<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n"
-    << "<Xdmf Version=\"3.0\" xmlns:xi=\"http://www.w3.org/2001/XInclude\">\n"
-    << "  <Domain>\n"
-    << "    <Grid Name=\"sheets\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
+  const std::string n1 = std::to_string(n), n3 = n1 + " 3";
+  std::vector<xdmf::Grid> grids;
   for (const Snapshot& snap : snapshots_) {
     const std::string file = snapshot_name(snap.step);
-    const auto item = [&](const char* dataset, const char* type, int precision,
-                          const std::string& dims) {
-      x << "          <DataItem Format=\"HDF\" NumberType=\"" << type << "\" Precision=\""
-        << precision << "\" Dimensions=\"" << dims << "\">" << file << ":/" << dataset
-        << "</DataItem>\n";
-    };
-    const auto attribute = [&](const char* name, const char* kind, const char* type,
-                               int precision, const std::string& dims) {
-      x << "        <Attribute Name=\"" << name << "\" AttributeType=\"" << kind
-        << "\" Center=\"Node\">\n";
-      item(name, type, precision, dims);
-      x << "        </Attribute>\n";
-    };
-    const std::string n1 = std::to_string(n), n3 = n1 + " 3";
-    x << "      <Grid Name=\"step_" << snap.step << "\" GridType=\"Uniform\">\n"
-      << "        <Time Value=\"" << snap.time_us << "\"/>\n"
-      << "        <Topology TopologyType=\"Quadrilateral\" NumberOfElements=\"" << q << "\">\n";
-    item("quads", "Int", 8, std::to_string(q) + " 4");
-    x << "        </Topology>\n"
-      << "        <Geometry GeometryType=\"XYZ\">\n";
-    item("position_um", "Float", 8, n3);
-    x << "        </Geometry>\n";
-    attribute("area_strain", "Scalar", "Float", 8, n1);
-    attribute("displacement_um", "Vector", "Float", 8, n3);
-    attribute("velocity_m_s", "Vector", "Float", 8, n3);
-    attribute("sheet", "Scalar", "Int", 4, n1);
-    x << "      </Grid>\n";
+    xdmf::Grid g;
+    g.name = "step_" + std::to_string(snap.step);
+    g.time = snap.time_us;
+    g.topology = {"Quadrilateral",
+                  {{"NumberOfElements", std::to_string(q)}},
+                  {xdmf::hdf(file, "quads", "Int", 8, std::to_string(q) + " 4")}};
+    g.geometry = {"XYZ", {xdmf::hdf(file, "position_um", "Float", 8, n3)}};
+    g.attributes = {{"area_strain", "Scalar", xdmf::hdf(file, "area_strain", "Float", 8, n1)},
+                    {"displacement_um", "Vector", xdmf::hdf(file, "displacement_um", "Float", 8, n3)},
+                    {"velocity_m_s", "Vector", xdmf::hdf(file, "velocity_m_s", "Float", 8, n3)},
+                    {"sheet", "Scalar", xdmf::hdf(file, "sheet", "Int", 4, n1)}};
+    grids.push_back(std::move(g));
   }
-  x << "    </Grid>\n"
-    << "  </Domain>\n"
-    << "</Xdmf>\n";
-
-  protocol::write_text_atomically(xdmf_path(), x.str());
+  xdmf::write_temporal_collection(xdmf_path(), "sheets", grids);
 }
 
 }  // namespace cosim::solid
