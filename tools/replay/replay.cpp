@@ -37,6 +37,7 @@
 #include "protocol/handshake.hpp"
 #include "protocol/hello_lcm.hpp"
 #include "protocol/session/peer_link.hpp"
+#include "tools/log/lcm_log.hpp"
 #include "common/text/text.hpp"
 #include "solid/coupled/coupled_solid.hpp"
 #include "solid/config/solid_scene.hpp"
@@ -60,45 +61,23 @@ const char* side_name(Side s) { return s == Side::Fluid ? "fluid" : "solid"; }
 /// The message types, by channel: prefix + message name (protocol/channels.hpp).
 using Kind = protocol::MessageKind;
 
-/// An LCM log read with lcm::LogFile, with the file offset of every event so that a logged
+/// The run's LCM log (tools/log/lcm_log.hpp), the servers' MAC trailers kept (message_bytes
+/// checks them): read in file order with the offset of every event, so that a logged
 /// message can be read again when it is due (a long run's log need not fit in memory).
-class LogReader {
- public:
-  explicit LogReader(const std::string& path) : path_(checked(path)), file_(path_, "r") {}
+using logtool::LogEvent;
+using logtool::LogReader;
 
-  /// The next event and the offset it starts at; null at the end of the log.
-  const lcm::LogEvent* next(long& offset) {
-    offset = std::ftell(file_.getFilePtr());
-    return file_.readNextEvent();
+LogReader open_log(const std::string& path) {
+  std::error_code ec;
+  if (!fs::exists(path, ec)) throw ReplayError(path + ": no such log file");
+  if (fs::is_directory(path, ec))
+    throw ReplayError(path + ": is a folder; give the run's LCM log, e.g. OUTPUT/traffic.lcmlog");
+  try {
+    return LogReader(path, logtool::MacTrailers::keep);
+  } catch (const logtool::LogInputError& e) {
+    throw ReplayError(e.what());
   }
-
-  /// The event at `offset` (from next()); valid until the next read.
-  const lcm::LogEvent& at(long offset) {
-    if (std::fseek(file_.getFilePtr(), offset, SEEK_SET) != 0)
-      throw std::runtime_error(path_ + ": cannot seek to byte " + std::to_string(offset) + ": " +
-                               std::strerror(errno));
-    const lcm::LogEvent* e = file_.readNextEvent();
-    if (e == nullptr)
-      throw std::runtime_error(path_ + ": the event at byte " + std::to_string(offset) +
-                               " can no longer be read (was the log changed during the replay?)");
-    return *e;
-  }
-
-  const std::string& path() const { return path_; }
-  bool good() const { return file_.good(); }
-
- private:
-  static const std::string& checked(const std::string& path) {
-    std::error_code ec;
-    if (!fs::exists(path, ec)) throw ReplayError(path + ": no such log file");
-    if (fs::is_directory(path, ec))
-      throw ReplayError(path + ": is a folder; give the run's LCM log, e.g. OUTPUT/traffic.lcmlog");
-    return path;
-  }
-
-  std::string path_;
-  lcm::LogFile file_;
-};
+}
 
 /// The key of the replayed run's MACs (ReplayOptions::key), for the whole replay.
 std::optional<protocol::RunKey> g_log_key;
@@ -107,21 +86,21 @@ std::optional<protocol::RunKey> g_log_key;
 /// verified with the key; without one, removed where the message decodes to exactly the
 /// bytes before it. None: the MAC does not verify (a forger's message), or no decode.
 template <class Message>
-std::optional<std::size_t> message_bytes(const lcm::LogEvent& e) {
-  const auto size = static_cast<std::size_t>(e.datalen);
-  if (g_log_key) return protocol::verified_size(*g_log_key, e.channel, e.data, size);
+std::optional<std::size_t> message_bytes(const LogEvent& e) {
+  const std::size_t size = e.data.size();
+  if (g_log_key) return protocol::verified_size(*g_log_key, e.channel, e.data.data(), size);
   Message m{};
-  const int used = m.decode(e.data, 0, e.datalen);
+  const int used = m.decode(e.data.data(), 0, static_cast<int>(size));
   if (used < 0) return std::nullopt;
   return static_cast<std::size_t>(used) + protocol::kMacBytes == size ? static_cast<std::size_t>(used) : size;
 }
 
 template <class Message>
-std::optional<Message> decode(const lcm::LogEvent& e) {
+std::optional<Message> decode(const LogEvent& e) {
   const std::optional<std::size_t> size = message_bytes<Message>(e);
   if (!size) return std::nullopt;
   Message m{};
-  if (m.decode(e.data, 0, static_cast<int>(*size)) < 0) return std::nullopt;
+  if (m.decode(e.data.data(), 0, static_cast<int>(*size)) < 0) return std::nullopt;
   return m;
 }
 
@@ -173,10 +152,11 @@ struct LogScan {
 
 LogScan scan(LogReader& log) {
   LogScan s;
-  long offset = 0;
-  while (const lcm::LogEvent* e = log.next(offset)) {
+  LogEvent e;
+  while (log.next(e)) {
+    const long offset = static_cast<long>(e.offset);
     ++s.events;
-    const auto what = protocol::classify_channel(e->channel);
+    const auto what = protocol::classify_channel(e.channel);
     if (!what) {
       ++s.other_channels;
       continue;
@@ -190,7 +170,7 @@ LogScan scan(LogReader& log) {
     };
     switch (what->kind) {
       case Kind::Hello:
-        if (const auto m = decode<cosimlcm::hello_t>(*e)) {
+        if (const auto m = decode<cosimlcm::hello_t>(e)) {
           RunTraffic& r = run_of(m->token);
           if (m->role == "fluid" && !r.fluid_hello) r.fluid_hello = *m;
           if (m->role == "solid" && !r.solid_hello) r.solid_hello = *m;
@@ -199,7 +179,7 @@ LogScan scan(LogReader& log) {
         }
         break;
       case Kind::Welcome:
-        if (const auto m = decode<cosimlcm::welcome_t>(*e)) {
+        if (const auto m = decode<cosimlcm::welcome_t>(e)) {
           RunTraffic& r = run_of(m->token);
           if (!r.welcome || (!r.welcome->accepted && m->accepted)) r.welcome = *m;
         } else {
@@ -207,7 +187,7 @@ LogScan scan(LogReader& log) {
         }
         break;
       case Kind::SolidState:
-        if (const auto m = decode<cosimlcm::solid_state_t>(*e)) {
+        if (const auto m = decode<cosimlcm::solid_state_t>(e)) {
           RunTraffic& r = run_of(m->token);
           if (!r.solid_states.emplace(m->seq, r.here(offset, m->step, m->iteration)).second) ++r.copies;
           r.max_solid_seq = std::max(r.max_solid_seq, m->seq);
@@ -216,7 +196,7 @@ LogScan scan(LogReader& log) {
         }
         break;
       case Kind::FluidState:
-        if (const auto m = decode<cosimlcm::fluid_state_t>(*e)) {
+        if (const auto m = decode<cosimlcm::fluid_state_t>(e)) {
           RunTraffic& r = run_of(m->token);
           if (!r.fluid_states.emplace(m->seq, r.here(offset, m->step, m->iteration)).second) ++r.copies;
           r.max_fluid_seq = std::max(r.max_fluid_seq, m->seq);
@@ -225,11 +205,11 @@ LogScan scan(LogReader& log) {
         }
         break;
       case Kind::Resend:
-        if (const auto m = decode<cosimlcm::resend_t>(*e)) run_of(m->token);
+        if (const auto m = decode<cosimlcm::resend_t>(e)) run_of(m->token);
         else ++s.undecodable;
         break;
       case Kind::Stop:
-        if (const auto m = decode<cosimlcm::stop_t>(*e)) {
+        if (const auto m = decode<cosimlcm::stop_t>(e)) {
           RunTraffic& r = run_of(m->token);
           // By sender: the replayed server is given the stop_t of the side it does not run.
           auto& [stop, error_stop] = r.stops[m->sender];
@@ -650,7 +630,7 @@ class Peer {
       not_in_log.push_back({m.seq, m.step, m.iteration});
     } else {
       guarded([&] {
-        const std::optional<Message> l = decode<Message>(log_.at(it->second.offset));
+        const std::optional<Message> l = decode<Message>(log_.at(static_cast<std::uint64_t>(it->second.offset)));
         if (!l) throw std::runtime_error(log_.path() + ": the logged message of seq " + std::to_string(m.seq) +
                                          " (step " + std::to_string(it->second.step) + ") no longer decodes");
         StepResult r;
@@ -771,11 +751,11 @@ class Peer {
   std::string peer_type() const { return side_ == Side::Fluid ? "solid_state_t" : "fluid_state_t"; }
 
   void publish_logged(const std::string& channel, long offset) {
-    const lcm::LogEvent& e = log_.at(offset);
+    const LogEvent& e = log_.at(static_cast<std::uint64_t>(offset));
     // Bit for bit as logged, without the servers' MAC (the replayed server has no key).
     const std::optional<std::size_t> size =
         side_ == Side::Fluid ? message_bytes<cosimlcm::solid_state_t>(e) : message_bytes<cosimlcm::fluid_state_t>(e);
-    link_.publish_bytes(channel, e.data, size.value_or(static_cast<std::size_t>(e.datalen)));
+    link_.publish_bytes(channel, e.data.data(), size.value_or(e.data.size()));
   }
 
   /// Runs `f`; an exception (the log cannot be read again) ends the server with stop_t(1):
@@ -863,9 +843,7 @@ class Replay {
   Replay(const ReplayOptions& o, std::ostream& out, std::ostream& err) : o_(o), out_(out), err_(err) {}
 
   int run() {
-    LogReader log(o_.log_path);
-    if (!log.good())
-      throw ReplayError(o_.log_path + ": cannot be opened as an LCM log: " + std::strerror(errno));
+    LogReader log = open_log(o_.log_path);
     const LogScan s = scan(log);
     const Selected sel = select_run(s, o_, o_.log_path);
     const RunTraffic& run = *sel.run;
