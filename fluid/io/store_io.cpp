@@ -4,6 +4,7 @@
 
 #include "fluid/io/hdf5_handle.hpp"
 #include "fluid/io/hdf5_quiet.hpp"
+#include "common/hdf5/h5_writer.hpp"
 #include "fluid/lattice/d3q19.hpp"
 
 namespace cosim::fluid {

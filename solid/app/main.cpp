@@ -61,7 +61,8 @@
 #include "solid/model/model_registry.hpp"
 #include "solid/io/sheet_snapshots.hpp"
 #include "solid/model/sheet_spec.hpp"
-#include "solid/io/solid_h5.hpp"
+#include "common/hdf5/h5_writer.hpp"
+#include "common/run/provenance_h5.hpp"
 #include "solid/model/solid_model.hpp"
 #include "solid/io/output_units.hpp"
 #include "solid/config/solid_scene.hpp"
@@ -137,19 +138,19 @@ void write_series(const SolidScene& scene, const Series& s) {
   H5Id file = protocol::create_output_file(path, "cannot create " + path);
   const hid_t f = file.get();
   const hsize_t n = s.rows(), ns = hsize_t(s.sheets);
-  write_dataset(f, "substep", H5T_STD_I64LE, H5T_NATIVE_INT64, {n}, s.substep.data());
-  write_dataset(f, "time_s", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n}, s.time_s.data());
-  write_dataset(f, "marked_displacement_um", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n, ns, 3},
+  protocol::write_dataset(f, "substep", H5T_STD_I64LE, H5T_NATIVE_INT64, {n}, s.substep.data());
+  protocol::write_dataset(f, "time_s", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n}, s.time_s.data());
+  protocol::write_dataset(f, "marked_displacement_um", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n, ns, 3},
                 s.displacement_um.data());
-  write_dataset(f, "marked_normal_displacement_um", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n, ns},
+  protocol::write_dataset(f, "marked_normal_displacement_um", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n, ns},
                 s.normal_um.data());
-  write_dataset(f, "kinetic_energy_J", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n}, s.kinetic_J.data());
-  write_dataset(f, "elastic_energy_J", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n}, s.elastic_J.data());
-  write_dataset(f, "total_energy_J", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n}, s.total_J.data());
-  write_attribute(f, "scene", scene.name);
-  write_attribute(f, "model", scene.model);
-  write_attribute(f, "mode", scene.mode == SolidRunMode::Free ? "free" : "static");
-  write_attribute(f, "dt_s", scene.dt_s);
+  protocol::write_dataset(f, "kinetic_energy_J", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n}, s.kinetic_J.data());
+  protocol::write_dataset(f, "elastic_energy_J", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n}, s.elastic_J.data());
+  protocol::write_dataset(f, "total_energy_J", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n}, s.total_J.data());
+  protocol::put_attribute(f, "scene", scene.name);
+  protocol::put_attribute(f, "model", scene.model);
+  protocol::put_attribute(f, "mode", scene.mode == SolidRunMode::Free ? "free" : "static");
+  protocol::put_attribute(f, "dt_s", scene.dt_s);
   protocol::stamp_file(f);
   file.close("cannot close " + path);
 }

@@ -10,6 +10,7 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -26,6 +27,7 @@
 #include "cosimlcm/fluid_state_t.hpp"
 #include "cosimlcm/solid_state_t.hpp"
 #include "tests/support/run_command.hpp"
+#include "tools/log/lcm_log.hpp"
 
 namespace {
 
@@ -48,6 +50,17 @@ std::string fmt(const char* f, double v) {
   char buf[64];
   std::snprintf(buf, sizeof buf, f, v);
   return buf;
+}
+
+/// An event read by the project's reader, as lcm::LogFile writes it (its bytes stay `e`'s).
+lcm::LogEvent as_written(const cosim::logtool::LogEvent& e) {
+  lcm::LogEvent w{};
+  w.eventnum = e.number;
+  w.timestamp = e.utime;
+  w.channel = e.channel;
+  w.datalen = static_cast<std::int32_t>(e.data.size());
+  w.data = const_cast<std::uint8_t*>(e.data.data());
+  return w;
 }
 
 fs::path work_dir() {
@@ -180,14 +193,14 @@ TEST(Replay, ReplayFindsFirstDivergence) {
   double original = 0.0, changed = 0.0;
   int touched = 0;
   {
-    lcm::LogFile in(rec.log.string(), "r");
+    cosim::logtool::LogReader in(rec.log.string(), cosim::logtool::MacTrailers::keep);
     lcm::LogFile out(perturbed.string(), "w");
-    ASSERT_TRUE(in.good() && out.good());
-    while (const lcm::LogEvent* e = in.readNextEvent()) {
-      lcm::LogEvent copy = *e;
+    ASSERT_TRUE(out.good());
+    for (cosim::logtool::LogEvent e; in.next(e);) {
+      lcm::LogEvent copy = as_written(e);
       std::vector<char> bytes;
       cosimlcm::fluid_state_t m{};
-      if (e->channel.ends_with("FLUID_STATE") && m.decode(e->data, 0, e->datalen) >= 0 &&
+      if (e.channel.ends_with("FLUID_STATE") && m.decode(e.data.data(), 0, int(e.data.size())) >= 0 &&
           m.step == kPerturbedStep) {
         double& v = m.velocity_lb.at(kPerturbedCgp).at(kPerturbedComponent);
         original = v;
@@ -309,19 +322,18 @@ struct LoggedStates {
 
 std::map<std::string, LoggedStates> logged_states(const fs::path& log) {
   std::map<std::string, LoggedStates> states;
-  lcm::LogFile in(log.string(), "r");
-  EXPECT_TRUE(in.good()) << log;
-  while (const lcm::LogEvent* e = in.readNextEvent()) {
-    if (e->channel.ends_with("FLUID_STATE")) {
+  cosim::logtool::LogReader in(log.string(), cosim::logtool::MacTrailers::keep);
+  for (cosim::logtool::LogEvent e; in.next(e);) {
+    if (e.channel.ends_with("FLUID_STATE")) {
       cosimlcm::fluid_state_t m{};
-      if (m.decode(e->data, 0, e->datalen) < 0) continue;
+      if (m.decode(e.data.data(), 0, int(e.data.size())) < 0) continue;
       LoggedStates& s = states["fluid"];
       s.seqs.insert(m.seq);
       s.steps.insert(m.step);
       s.max_iteration = std::max(s.max_iteration, m.iteration);
-    } else if (e->channel.ends_with("SOLID_STATE")) {
+    } else if (e.channel.ends_with("SOLID_STATE")) {
       cosimlcm::solid_state_t m{};
-      if (m.decode(e->data, 0, e->datalen) < 0) continue;
+      if (m.decode(e.data.data(), 0, int(e.data.size())) < 0) continue;
       LoggedStates& s = states["solid"];
       s.seqs.insert(m.seq);
       s.steps.insert(m.step);
@@ -382,14 +394,14 @@ TEST(Replay, ReplayReproducesParallelScheme) {
 std::pair<std::int64_t, std::int32_t> perturb_fluid_seq(const fs::path& log, const fs::path& out_path,
                                                          std::int64_t seq, double factor) {
   std::pair<std::int64_t, std::int32_t> where{-1, -1};
-  lcm::LogFile in(log.string(), "r");
+  cosim::logtool::LogReader in(log.string(), cosim::logtool::MacTrailers::keep);
   lcm::LogFile out(out_path.string(), "w");
-  EXPECT_TRUE(in.good() && out.good());
-  while (const lcm::LogEvent* e = in.readNextEvent()) {
-    lcm::LogEvent copy = *e;
+  EXPECT_TRUE(out.good());
+  for (cosim::logtool::LogEvent e; in.next(e);) {
+    lcm::LogEvent copy = as_written(e);
     std::vector<char> bytes;
     cosimlcm::fluid_state_t m{};
-    if (e->channel.ends_with("FLUID_STATE") && m.decode(e->data, 0, e->datalen) >= 0 && m.seq == seq) {
+    if (e.channel.ends_with("FLUID_STATE") && m.decode(e.data.data(), 0, int(e.data.size())) >= 0 && m.seq == seq) {
       m.velocity_lb.at(kPerturbedCgp).at(kPerturbedComponent) *= factor;
       m.velocity_start_lb.at(kPerturbedCgp).at(kPerturbedComponent) *= factor;
       bytes.resize(static_cast<std::size_t>(m.getEncodedSize()));
@@ -405,10 +417,10 @@ std::pair<std::int64_t, std::int32_t> perturb_fluid_seq(const fs::path& log, con
 
 /// The first fluid_state_t seq of a sub-iteration (iteration > 0).
 std::int64_t first_iterated_fluid_seq(const fs::path& log) {
-  lcm::LogFile in(log.string(), "r");
-  while (const lcm::LogEvent* e = in.readNextEvent()) {
+  cosim::logtool::LogReader in(log.string(), cosim::logtool::MacTrailers::keep);
+  for (cosim::logtool::LogEvent e; in.next(e);) {
     cosimlcm::fluid_state_t m{};
-    if (e->channel.ends_with("FLUID_STATE") && m.decode(e->data, 0, e->datalen) >= 0 && m.iteration > 0)
+    if (e.channel.ends_with("FLUID_STATE") && m.decode(e.data.data(), 0, int(e.data.size())) >= 0 && m.iteration > 0)
       return m.seq;
   }
   return -1;

@@ -11,10 +11,12 @@
 #include <fstream>
 #include <lcm/lcm-cpp.hpp>
 #include <string>
+#include <system_error>
 #include <vector>
 
 #include "cosimlcm/solid_state_t.hpp"
 #include "tests/support/run_command.hpp"
+#include "tools/log/lcm_log.hpp"
 #include "tools/record/recorder.hpp"
 
 namespace {
@@ -55,12 +57,10 @@ struct Logged {
 
 std::vector<Logged> read_log(const fs::path& p) {
   std::vector<Logged> out;
-  lcm::LogFile in(p.string(), "r");
-  if (!in.good()) return out;
-  while (const lcm::LogEvent* e = in.readNextEvent()) {
-    const auto* d = static_cast<const std::uint8_t*>(e->data);
-    out.push_back({e->channel, std::vector<std::uint8_t>(d, d + e->datalen)});
-  }
+  std::error_code ec;
+  if (!fs::is_regular_file(p, ec) || fs::file_size(p, ec) == 0) return out;  // none recorded
+  cosim::logtool::LogReader in(p.string(), cosim::logtool::MacTrailers::keep);
+  for (cosim::logtool::LogEvent e; in.next(e);) out.push_back({e.channel, e.data});
   return out;
 }
 
