@@ -182,7 +182,7 @@ CylinderResult check_cylinder_drag(double Re, double C_D_reference, Precision pr
 TEST(ImmersedBoundaryValidation, FixedMarkerCylinderDragRe20) { check_cylinder_drag(20.0, 2.091); }
 
 // The precision modes' C_D at Re 20 against the double run's (issue 35): not in the suite (two
-// more runs of this size; docs/performance.md, "Precision modes", has what they measured);
+// more runs of this size; docs/results/precision-modes-20261206.md has what they measured);
 // run with --gtest_also_run_disabled_tests --gtest_filter='*Precision*'.
 TEST(ImmersedBoundaryValidation, DISABLED_FixedMarkerCylinderDragRe20PrecisionModes) {
   const double d = check_cylinder_drag(20.0, 2.091).C_D;

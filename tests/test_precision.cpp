@@ -234,7 +234,7 @@ TEST(Precision, SingleStoreStreamingMatchesCachedStores) {
 ///   double 4.824e-04, single 4.840e-04;
 ///   channel (400 steps, inlet 0.05, open boundaries): 9.690e-07.
 /// The tolerances are those values rounded up to one significant digit and doubled
-/// (docs/performance.md, "Precision modes").
+/// (docs/results/precision-modes-20261206.md).
 TEST(Precision, FloatArithmeticWithinTolerance) {
   const Poiseuille P;
   FluidSolver dbl(P.params(Precision::Double)), mix(P.params(Precision::Mixed)), sgl(P.params(Precision::Single));

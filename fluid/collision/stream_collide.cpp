@@ -248,7 +248,7 @@ inline void store_outflow_ghost(const V (&f)[L::Q], int lane, T* g, std::ptrdiff
 
 /// How far ahead of its group, in bytes along x, a kernel prefetches each of the 19 slots it
 /// reads (8 cache lines): the cache's own prefetchers leave it waiting on memory. Measured on
-/// the AMD EPYC of docs/performance.md (AVX-512), interleaved runs of `bench --grids paper box
+/// the AMD EPYC of docs/results/in-place-20261202.md (AVX-512), interleaved runs of `bench --grids paper box
 /// --threads 2 --precision double single --no-ib --repeat 3 --propagation ...` with and
 /// without: the in-place step with the double store from 66-84 % of the same-run roofline to
 /// 86-94 % (256 and 128 bytes ahead: 64-104 %), with the single store from 27-48 % to

@@ -64,7 +64,7 @@ struct KernelExtrema {
 /// part (the fastest on cores of its own). Dynamic: 64 chunks of whole rows, handed out as
 /// threads come free, for steps that share the cores with another busy process (the parallel
 /// coupling scheme's solid, protocol/README.md 14): a thread the scheduler holds back no
-/// longer holds up the step. Measured in docs/performance.md (bench --schedule).
+/// longer holds up the step. Measured in docs/results/kernel-step-20261122.md (bench --schedule).
 enum class RowSchedule { Static, Dynamic };
 
 /// The arithmetic the kernel collides in (Precision): Double for the modes "double" and
@@ -141,7 +141,7 @@ void stream_collide_in_place(PopulationFieldSingle& f, PopulationLayout layout, 
 /// with ghosts, either precision) are written with non-temporal stores: they cannot stay in
 /// cache between steps, and skipping the read for ownership cuts the traffic per update from
 /// 456 to 304 bytes. Smaller fields are reused from cache, where ordinary stores are faster
-/// (measured: docs/performance.md, on a CPU with 32 MiB of L3). The L3 size as the Linux
+/// (measured: docs/results/kernel-levels-20261202.md, on a CPU with 32 MiB of L3). The L3 size as the Linux
 /// kernel describes it (sysfs), this where it does not.
 constexpr std::size_t kStreamingStoresFrom = std::size_t(32) << 20;
 /// The threshold in use: the L3 size of this CPU, or kStreamingStoresFrom.
