@@ -124,6 +124,20 @@ TEST(Mpi, MpiFluidMatchesSerialBitForBit) {
   }
 }
 
+/// The in-place propagation named in the scene (it is the default: the runs above that do
+/// not name two-grid step in place): the fluid-only channel on 1 to 4 ranks, each block's one
+/// grid, writes the serial run's outputs bit for bit. The coupled runs in place:
+/// MpiCoupled.MpiInPlaceMatchesSerialBitForBit (test_mpi_coupled.cpp).
+TEST(Mpi, MpiInPlaceMatchesSerialBitForBit) {
+  if (!have_mpirun()) GTEST_SKIP() << "mpirun is not installed (launch/bootstrap.sh)";
+  const fs::path dir = scratch("mpi_in_place");
+  fs::create_directories(dir);
+  const fs::path channel = variant(kSource / "tests" / "scenes" / "mpi_channel.toml", dir,
+                                   {{"threads = 1", "threads = 1\npropagation = \"in-place\""}});
+  expect_ranks_match_serial(channel, dir);
+  if (!HasFailure()) fs::remove_all(dir);
+}
+
 // Parallel HDF5 (fluid/io/field_writer.cpp, common/hdf5/hdf5_handle.hpp): every rank writes
 // its own planes of each snapshot into the file one process writes. 4 ranks hold slabs of
 // 2 planes between walls (8 planes, the fewest a wall allows: the one-sided differences
