@@ -453,7 +453,7 @@ void update_rows(const BasicPopulationField<T>& src, BasicPopulationField<T>& ds
 template <class T, class V, bool kForce>
 void update_in_place(BasicPopulationField<T>& f, bool from_canonical, double tau,
                      const std::array<double, 3>& F, KernelExtrema* extrema, RowSchedule schedule,
-                     const InPlaceXFaces* x_faces) {
+                     const InPlaceXFaces* x_faces, KernelRows some) {
   if (extrema != nullptr) *extrema = KernelExtrema{};
   constexpr int N = lanes_of<V>;
   const GridLayout& lay = f.layout();
@@ -498,7 +498,10 @@ void update_in_place(BasicPopulationField<T>& f, bool from_canonical, double tau
       }
       if (x_faces != nullptr) in_place_x_ghosts(c, wr, nx, y, *x_faces);
     };
-    for_rows(rows, schedule, row);
+    if (some.rows == nullptr)
+      for_rows(rows, schedule, row);
+    else
+      for_rows(some.count, schedule, [&](std::ptrdiff_t i) { row(some.rows[i]); });
     if (extrema != nullptr) {
 #pragma omp critical(cosim_fluid_kernel_extrema)
       ex.merge_into(*extrema);
@@ -510,11 +513,11 @@ void update_in_place(BasicPopulationField<T>& f, bool from_canonical, double tau
 template <class T, class V>
 void run_in_place(BasicPopulationField<T>& f, bool from_canonical, double tau,
                   const std::array<double, 3>& force, KernelExtrema* extrema, RowSchedule schedule,
-                  const InPlaceXFaces* x_faces) {
+                  const InPlaceXFaces* x_faces, KernelRows rows) {
   if (force[0] == 0.0 && force[1] == 0.0 && force[2] == 0.0)
-    update_in_place<T, V, false>(f, from_canonical, tau, force, extrema, schedule, x_faces);
+    update_in_place<T, V, false>(f, from_canonical, tau, force, extrema, schedule, x_faces, rows);
   else
-    update_in_place<T, V, true>(f, from_canonical, tau, force, extrema, schedule, x_faces);
+    update_in_place<T, V, true>(f, from_canonical, tau, force, extrema, schedule, x_faces, rows);
 }
 
 template <class T, class V>

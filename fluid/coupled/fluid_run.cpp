@@ -272,7 +272,7 @@ protocol::Trip FluidRun::blame(const protocol::Trip& t) const {
 }
 
 std::optional<int> FluidRun::step_outputs(std::int64_t now, bool last, bool periodic) {
-  const bool monitor = now % s_.monitor_every == 0 || last;
+  const bool monitor = monitor_due(now) || last;
   const bool snapshot = snapshots_.due(now, last);
   if (monitor || snapshot || periodic) {
     const FlowSummary sum = *domain_.summary();

@@ -66,7 +66,10 @@ class FluidRun {
   /// The grid: the schemes step it, sample and spread at the markers through it.
   FluidDomain& domain() { return domain_; }
   StepTiming& timing() { return timing_; }
+  /// The bulk velocity U_b of the latest monitor row (fluid_state_t carries it).
   double bulk_velocity() const { return bulk_u_; }
+  /// Whether step_outputs(now) writes a monitor row (and so sets bulk_velocity()).
+  bool monitor_due(std::int64_t now) const { return now % s_.monitor_every == 0 || now == s_.steps; }
   std::int64_t total_steps() const { return s_.steps; }
   std::int64_t rigid_steps() const { return s_.coupling->rigid_steps; }
   std::int64_t checkpoint_every() const { return s_.coupling->checkpoint_every; }

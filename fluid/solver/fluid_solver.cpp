@@ -127,6 +127,7 @@ std::size_t FluidSolver::population_bytes() const {
 }
 
 void FluidSolver::make_canonical(const char* call) const {
+  finish_rest();
   if (params_.propagation != Propagation::InPlace) return;
   if (mid_step_)
     throw std::logic_error(std::string("FluidSolver::") + call +
@@ -199,6 +200,8 @@ void FluidSolver::initialize(const InitialState& state) {
   const bool dbl = params_.precision == Precision::Double;
   have_previous_ = mid_step_ = false;
   arrangement_ = PopulationLayout::Canonical;
+  rest_.clear();  // a whole new state
+  rest_row_.clear();
   // One thread, x fastest: the callback may keep state (e.g. a random generator). Once per
   // run; a few tens of milliseconds on the paper's grid.
   for (int z = 0; z < s.nz; ++z)
@@ -229,6 +232,7 @@ void FluidSolver::initialize_uniform(double rho, const std::array<double, 3>& u)
 
 void FluidSolver::set_inlet_scale(double s) {
   if (mid_step_) throw std::logic_error("FluidSolver::set_inlet_scale(): between begin_step() and finish_step()");
+  finish_rest();
   if (s == bc_.inlet_scale()) return;
   bc_.set_inlet_scale(s);
   if (params_.propagation == Propagation::InPlace) {
@@ -292,6 +296,7 @@ void FluidSolver::step() {
 
 void FluidSolver::begin_step() {
   if (mid_step_) throw std::logic_error("FluidSolver::begin_step(): the step begun before is not finished");
+  finish_rest();
   if (params_.propagation == Propagation::InPlace)
     params_.precision == Precision::Double ? begin_in_place(f_) : begin_in_place(fs_);
   else if (params_.precision == Precision::Double)
@@ -393,7 +398,7 @@ void FluidSolver::apply_local_forces(const BasicPopulationField<T>& f,
 // as apply_local_forces, the ghosts the same BoundaryConditions fills: the same bits as the
 // two-grid step (test_lbm_invariants: InPlaceStepMatchesTwoGridStep).
 template <class T>
-void FluidSolver::begin_in_place(BasicPopulationField<T>& f) {
+void FluidSolver::begin_in_place(BasicPopulationField<T>& f, KernelRows rows) {
   // The forced cells' pulled populations, before the bulk overwrites them.
   const std::size_t cells = forced_.size();
   saved_inputs_.resize(cells * D3Q19::Q);
@@ -405,7 +410,7 @@ void FluidSolver::begin_in_place(BasicPopulationField<T>& f) {
           canonical ? f.q(q)[i - shift(layout_, q)] : f.q(D3Q19::opp[q])[i];
   }
   stream_collide_in_place(f, arrangement_, params_.tau, params_.body_force, &extrema_, schedule_, &x_faces_,
-                          arithmetic_of(params_.precision));
+                          arithmetic_of(params_.precision), rows);
   arrangement_ = canonical ? PopulationLayout::Swapped : PopulationLayout::Canonical;
 }
 
@@ -452,6 +457,91 @@ void FluidSolver::finish_in_place(BasicPopulationField<T>& f) {
     bc_.fill_ghosts_but_x(f, halo_);
   else
     bc_.fill_ghosts(f, halo_);
+}
+
+// The split step (step_reading). Why it gives the bits of step(): in an in-place step cell
+// x reads its 19 pulled populations from its own slots and writes its collided ones back to
+// them (stream_collide_in_place), and no two cells share a slot; the slots of the ghosts
+// are no cell's. So the rows the first kernel call leaves still hold the state the step
+// began from, whatever the first call, the forced cells' second collision (their rows are
+// stepped first) and the ghost fill wrote, and finish_rest() collides them as the one
+// call would have: a cell's bits do not depend on which rows share its call (KernelRows).
+// The ghost fill of the faces y and z reads the post-collision values of the cells next to
+// those faces (kRestMargin layers, all stepped first) and writes ghost slots only; the x
+// faces' ghosts are the kernel's, row by row (InPlaceXFaces), so the rows left write
+// theirs themselves. The kernel's extrema are merged from both calls (KernelExtrema::merge:
+// min, max and "and" do not depend on the order).
+void FluidSolver::step_reading(std::span<const std::array<int, 3>> read) {
+  if (mid_step_) throw std::logic_error("FluidSolver::step_reading(): the step begun before is not finished");
+  finish_rest();
+  const int ny = layout_.ny(), nz = layout_.nz(), m = kRestMargin;
+  if (params_.propagation != Propagation::InPlace || halo_ != nullptr || !x_faces_.all() || ny <= 2 * m ||
+      nz <= 2 * m) {
+    step();
+    return;
+  }
+  // Which rows run first: the faces' margins, the rows the reads pull from, the forced cells'.
+  const std::size_t rows = std::size_t(ny) * std::size_t(nz);
+  std::vector<std::uint8_t>& first = rest_row_;
+  first.assign(rows, 0);
+  for (int z = 0; z < nz; ++z)
+    for (int y = 0; y < ny; ++y)
+      if (y < m || y >= ny - m || z < m || z >= nz - m) first[std::size_t(y) + std::size_t(ny) * z] = 1;
+  for (const std::array<int, 3>& c : read)
+    for (int dz = -1; dz <= 1; ++dz)
+      for (int dy = -1; dy <= 1; ++dy) {
+        const int y = c[1] + dy, z = c[2] + dz;  // out of range: a face's row, stepped first
+        if (y >= 0 && y < ny && z >= 0 && z < nz) first[std::size_t(y) + std::size_t(ny) * z] = 1;
+      }
+  const std::ptrdiff_t sx = layout_.row_stride(), plane = layout_.plane_stride();
+  for (const std::ptrdiff_t i : forced_)
+    first[std::size_t(i % plane / sx - 1) + std::size_t(ny) * std::size_t(i / plane - 1)] = 1;
+  near_rows_.clear();
+  std::vector<std::int32_t> rest;
+  rest.reserve(rows);
+  for (std::size_t r = 0; r < rows; ++r) (first[r] ? near_rows_ : rest).push_back(std::int32_t(r));
+  if (rest.empty()) {
+    step();
+    return;
+  }
+  const bool from_canonical = arrangement_ == PopulationLayout::Canonical;
+  const KernelRows near{near_rows_.data(), std::ptrdiff_t(near_rows_.size())};
+  params_.precision == Precision::Double ? begin_in_place(f_, near) : begin_in_place(fs_, near);
+  mid_step_ = true;
+  have_previous_ = false;
+  finish_step();  // the forced cells, the ghosts (they read the rows stepped)
+  rest_ = std::move(rest);
+  rest_from_canonical_ = from_canonical;
+  for (std::size_t r = 0; r < rows; ++r) first[r] = !first[r];  // now: the rows left
+}
+
+void FluidSolver::finish_rest() const {
+  if (rest_.empty()) return;
+  KernelExtrema part;
+  const KernelRows rows{rest_.data(), std::ptrdiff_t(rest_.size())};
+  const PopulationLayout from = rest_from_canonical_ ? PopulationLayout::Canonical : PopulationLayout::Swapped;
+  if (params_.precision == Precision::Double)
+    stream_collide_in_place(f_, from, params_.tau, params_.body_force, &part, schedule_, &x_faces_,
+                            arithmetic_of(params_.precision), rows);
+  else
+    stream_collide_in_place(fs_, from, params_.tau, params_.body_force, &part, schedule_, &x_faces_,
+                            arithmetic_of(params_.precision), rows);
+  extrema_.merge(part);
+  rest_.clear();
+  rest_row_.clear();
+}
+
+void FluidSolver::check_not_left(int x, int y, int z) const {
+  const int ny = layout_.ny(), nz = layout_.nz();
+  for (int dz = -1; dz <= 1; ++dz)
+    for (int dy = -1; dy <= 1; ++dy) {
+      const int yy = y + dy, zz = z + dz;
+      if (yy >= 0 && yy < ny && zz >= 0 && zz < nz && rest_row_[std::size_t(yy) + std::size_t(ny) * zz])
+        throw std::logic_error("FluidSolver::populations_at(" + std::to_string(x) + ", " + std::to_string(y) +
+                               ", " + std::to_string(z) +
+                               "): the cell pulls from a row left for finish_rest() (not among step_reading()'s "
+                               "cells)");
+    }
 }
 
 /// The ghosts of a Swapped state: every slot A[opp q](y) of an interior y whose y - c_q is a
@@ -501,6 +591,7 @@ void FluidSolver::populations_of(const BasicPopulationField<T>& f, int x, int y,
 
 void FluidSolver::populations_at(int x, int y, int z, double* f) const {
   if (mid_step_ && params_.propagation == Propagation::InPlace) make_canonical("populations_at()");  // throws
+  if (!rest_.empty()) check_not_left(x, y, z);
   if (params_.precision == Precision::Double)
     populations_of(f_, x, y, z, f);
   else
@@ -533,6 +624,7 @@ void FluidSolver::macroscopic(MacroscopicFields& out, int z_at) const {
 }
 
 void FluidSolver::macroscopic(MacroscopicFields& out, int y_at, int z_at) const {
+  finish_rest();  // before the threads read
   const GridShape& s = layout_.shape();
   const std::size_t n = std::size_t(out.shape.cells());
   if (out.shape.nx != s.nx || y_at < 0 || out.shape.ny < y_at + s.ny || z_at < 0 || out.shape.nz < z_at + s.nz ||

@@ -45,14 +45,14 @@ fs::path variant(const fs::path& base, const fs::path& dir, const std::vector<st
   return out;
 }
 
-/// Every output of `scene` on 1 to 4 ranks against the serial run's: identical bits.
-void expect_ranks_match_serial(const fs::path& scene, const fs::path& dir) {
+/// Every output of `scene` on 1 to `max_ranks` ranks against the serial run's: identical bits.
+void expect_ranks_match_serial(const fs::path& scene, const fs::path& dir, int max_ranks = 4) {
   const fs::path serial = dir / "serial";
   const RunResult s = run_command(quoted(kFluid) + " " + quoted(scene.string()) + " --quiet --output " +
                                       quoted(serial.string()),
                                   dir / "serial_log");
   ASSERT_EQ(s.status, 0) << s.err;
-  for (int ranks = 1; ranks <= 4; ++ranks) {
+  for (int ranks = 1; ranks <= max_ranks; ++ranks) {
     const fs::path out = dir / ("ranks" + std::to_string(ranks));
     const RunResult m = run_command(mpirun(ranks) + quoted(kFluid) + " " + quoted(scene.string()) +
                                         " --quiet --output " + quoted(out.string()),
@@ -200,6 +200,18 @@ TEST(Mpi, MpiBlocksInYAndZMatchSerialBitForBit) {
     replace.insert(replace.end(), {{"nx = 24", "nx = 32"}, {"threads = 1", "threads = 1\nprecision = \"single\""}});
     expect_blocks_match_serial(variant(channel, dir / "single", replace), dir / "single", {{2, 2}});
   }
+
+/// The in-place propagation named in the scene (it is the default: the runs above that do
+/// not name two-grid step in place): the fluid-only channel on 1 to 3 ranks, each block's one
+/// grid, writes the serial run's outputs bit for bit. The coupled runs in place:
+/// MpiCoupled.MpiInPlaceMatchesSerialBitForBit (test_mpi_coupled.cpp).
+TEST(Mpi, MpiInPlaceMatchesSerialBitForBit) {
+  if (!have_mpirun()) GTEST_SKIP() << "mpirun is not installed (launch/bootstrap.sh)";
+  const fs::path dir = scratch("mpi_in_place");
+  fs::create_directories(dir);
+  const fs::path channel = variant(kSource / "tests" / "scenes" / "mpi_channel.toml", dir,
+                                   {{"threads = 1", "threads = 1\npropagation = \"in-place\""}});
+  expect_ranks_match_serial(channel, dir, 3);
   if (!HasFailure()) fs::remove_all(dir);
 }
 

@@ -120,6 +120,33 @@ TEST(MpiCoupled, MpiCoupledMatchesSerialBitForBit) {
   if (!HasFailure()) fs::remove_all(dir);
 }
 
+/// The in-place propagation named in the scene, in the schemes whose one-process step splits
+/// around its sample (FluidDomain::step_near: the rest of the step after fluid_state_t; a grid
+/// over ranks steps whole): 1, 2 and 3 ranks write the one-process run's outputs bit for bit.
+TEST(MpiCoupled, MpiInPlaceMatchesSerialBitForBit) {
+  if (!have_mpirun()) GTEST_SKIP() << "mpirun is not installed (launch/bootstrap.sh)";
+  const fs::path dir = scratch("mpi_coupled_in_place");
+  for (const std::string scheme : {"serial", "parallel"}) {
+    SCOPED_TRACE(scheme + " scheme");
+    const fs::path scene = write_scene(dir / scheme, scheme);
+    std::string text = slurp(scene);
+    replace_in(text, "steps = 60", "steps = 60\npropagation = \"in-place\"");
+    std::ofstream(scene) << text;
+    const fs::path serial = dir / scheme / "serial";
+    expect_run_done(serial, run_launcher(kSource, scene, serial, "", kOneThread));
+    EXPECT_TRUE(contains(slurp(serial / "fluid.log"), "in-place propagation")) << logs(serial);
+    for (int ranks = 1; ranks <= 3; ++ranks) {
+      const fs::path out = dir / scheme / ("ranks" + std::to_string(ranks));
+      expect_run_done(out, run_launcher(kSource, scene, out, "--ranks " + std::to_string(ranks), kOneThread));
+      EXPECT_TRUE(contains(slurp(out / "fluid.log"), "in-place propagation")) << logs(out);
+      std::size_t files = 0;
+      EXPECT_EQ(compare_outputs(serial, out, &files), "") << ranks << " ranks";
+      EXPECT_EQ(files, 12u) << ranks << " ranks";  // as MpiCoupledMatchesSerialBitForBit
+    }
+  }
+  if (!HasFailure()) fs::remove_all(dir);
+}
+
 /// The populations of a fluid checkpoint (the whole grid's store, ghosts included).
 std::vector<unsigned char> populations(const fs::path& file) {
   const auto d = read_datasets(file);

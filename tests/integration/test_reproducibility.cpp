@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <array>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -18,7 +19,9 @@
 #include <thread>
 #include <vector>
 
+#include "fluid/ib/immersed_boundary.hpp"
 #include "fluid/lattice/grid_layout.hpp"
+#include "fluid/solver/fluid_solver.hpp"
 #include "tests/support/run_compare.hpp"
 
 namespace {
@@ -460,6 +463,143 @@ TEST(Reproducibility, InPlaceCoupledRunWritesTheTwoGridBits) {
       }
     }
   if (!HasFailure()) fs::remove_all(dir);
+}
+
+/// The checkpoint's populations (FluidRun::checkpoint, SerialDomain::write_store: the store
+/// of state()) of an abort of `aborted` now, against `two_grid`'s: the interior values that
+/// differ (the ghosts are the propagation's own, as compare_checkpoints says), or -1 for
+/// another step count.
+template <class T>
+long long abort_checkpoint_differs(const cosim::fluid::FluidSolver& two_grid, const cosim::fluid::FluidSolver& aborted) {
+  using namespace cosim::fluid;
+  if (aborted.step_count() != two_grid.step_count()) return -1;
+  const BasicPopulationField<T>* a;
+  const BasicPopulationField<T>* b;
+  if constexpr (sizeof(T) == sizeof(double)) {
+    a = &two_grid.state();
+    b = &aborted.state();
+  } else {
+    a = &two_grid.state_single();
+    b = &aborted.state_single();
+  }
+  const GridShape& s = two_grid.shape();
+  long long differ = 0;
+  for (int q = 0; q < 19; ++q)
+    for (int z = 0; z < s.nz; ++z)
+      for (int y = 0; y < s.ny; ++y)
+        for (int x = 0; x < s.nx; ++x) {
+          const std::ptrdiff_t i = two_grid.layout().index(x, y, z);
+          differ += std::memcmp(a->q(q) + i, b->q(q) + i, sizeof(T)) != 0;
+        }
+  return differ;
+}
+
+/// The coupled step in place is split around its sample (FluidSolver::step_reading,
+/// FluidDomain::step_near; fluid/schemes/scheme_context.cpp): the cells the sample at the
+/// markers reads, the forced ones and the faces' margins first, fluid_state_t out, then the
+/// rest while the solid computes. A run that ends at any phase of that step (waiting for
+/// solid_state_t, the watchdog on its positions after the spread, fluid_state_t out with the
+/// rest not run, the step done) writes the populations of the checkpoint a two-grid run
+/// writes there, bit for bit, for the state of the committed step; the sample published
+/// before the rest and the kernel's extrema (the health check) are the two-grid run's too.
+/// An abort reads the state as a checkpoint does: `probe` is read so at every phase (the
+/// rows left run at the read), `run` beside it only at the end, its sample every step (its
+/// steps alternate between the two arrangements; probe's begin Canonical, after the reads).
+/// Markers that move from step to step (the rows left change; some wrap around a periodic
+/// face), both stores, the paper's channel and grids with outflow, inlet, wall and free slip
+/// faces on y and z next to the rows left.
+TEST(Reproducibility, SplitStepInPlaceKeepsAbortCheckpointWhole) {
+  using namespace cosim::fluid;
+  std::vector<FluidParams> grids;
+  grids.push_back(blasius_channel({23, 15, 14}, 0.62, 0.05, 3.0));
+  {
+    FluidParams p;  // outflow at x_min, inlet at x_max; a wall, free slip on z, outflows on y
+    p.shape = {17, 13, 12};
+    p.faces[XMin].kind = FaceKind::Outflow;
+    p.faces[XMin].outflow_density = 1.01;
+    p.faces[XMax].kind = FaceKind::Inlet;
+    p.faces[XMax].inlet_speed = 0.04;
+    p.faces[YMin].kind = p.faces[YMax].kind = FaceKind::Outflow;
+    p.faces[ZMin].kind = FaceKind::Wall;
+    p.faces[ZMin].wall_velocity = {0.01, 0.0, 0.0};
+    p.faces[ZMax].kind = FaceKind::FreeSlip;
+    grids.push_back(p);
+    FluidParams box;  // periodic every way (the kernel's x faces)
+    box.shape = {16, 14, 15};
+    grids.push_back(box);
+  }
+  for (FluidParams& p : grids) p.body_force = {2e-6, 0.0, -1e-6};
+  int split = 0;
+  for (std::size_t g = 0; g < grids.size(); ++g)
+    for (const Precision precision : {Precision::Double, Precision::Mixed}) {
+      SCOPED_TRACE("grid " + std::to_string(g) + ", " + precision_name(precision));
+      FluidParams p = grids[g];
+      p.precision = precision;
+      p.propagation = Propagation::TwoGrid;
+      FluidSolver two_grid(p);
+      p.propagation = Propagation::InPlace;
+      FluidSolver probe(p), run(p);
+      const auto flow = [](int x, int y, int z) {
+        return CellState{1.0 + 0.01 * std::sin(0.7 * x + 0.3 * z), 0.03 + 0.005 * std::cos(0.5 * y),
+                         0.004 * std::sin(0.4 * z + 0.2 * x), -0.003 * std::cos(0.3 * x)};
+      };
+      two_grid.initialize(flow);
+      probe.initialize(flow);
+      run.initialize(flow);
+      const ImmersedBoundary ib_two(two_grid), ib_in(probe);
+      const bool kernels_x_faces = probe.boundaries().in_place_x_faces().all();
+      const auto same_checkpoint = [&](const FluidSolver& aborted, const std::string& phase) {
+        const long long d = precision == Precision::Double ? abort_checkpoint_differs<double>(two_grid, aborted)
+                                                           : abort_checkpoint_differs<float>(two_grid, aborted);
+        EXPECT_EQ(d, 0) << "an abort " << phase << " (-1: another step count)";
+      };
+      for (int n = 0; n < 8; ++n) {
+        SCOPED_TRACE("step " + std::to_string(n));
+        // A 2 x 3 patch of markers that moves; at odd steps it sits across z = 0.
+        std::vector<Vec3> X, J;
+        for (int a = 0; a < 2; ++a)
+          for (int b = 0; b < 3; ++b) {
+            const double z = (n % 2 == 1 ? -0.6 : 5.2) + 0.8 * b + 0.1 * std::sin(n);
+            X.push_back({7.3 + 0.9 * a + 0.2 * n, 4.1 + 0.7 * b + 0.3 * std::cos(n), z < 0 ? z + p.shape.nz : z});
+            J.push_back({1e-3 * std::sin(n + a + b), -5e-4 * std::cos(n + b), 3e-4 * (a - b)});
+          }
+        // Awaiting solid_state_t(n): the two-grid bulk has run.
+        two_grid.begin_step();
+        same_checkpoint(probe, "waiting for solid_state_t");
+        // solid_state_t(n) read, its impulses spread (the markers' watchdog checkpoints here).
+        ib_two.spread(two_grid, X, J);
+        ib_in.spread(probe, X, J);
+        ib_in.spread(run, X, J);
+        same_checkpoint(probe, "after the spread");
+        two_grid.finish_step();
+        const std::vector<std::array<int, 3>> read = ib_in.marker_nodes(X).cells;
+        probe.step_reading(read);
+        run.step_reading(read);
+        if (kernels_x_faces) {
+          EXPECT_TRUE(probe.rest_pending() && run.rest_pending()) << "the step did not split";
+        }
+        split += run.rest_pending();
+        // fluid_state_t(n + 1) carries the sample taken before the rest.
+        std::vector<MarkerSample> s_two(X.size()), s_probe(X.size()), s_run(X.size());
+        ib_two.sample(two_grid, X, s_two);
+        ib_in.sample(probe, X, s_probe);
+        ib_in.sample(run, X, s_run);
+        for (std::size_t l = 0; l < X.size(); ++l) {
+          EXPECT_EQ(std::memcmp(&s_two[l], &s_probe[l], sizeof(MarkerSample)), 0) << "marker " << l;
+          EXPECT_EQ(std::memcmp(&s_two[l], &s_run[l], sizeof(MarkerSample)), 0) << "marker " << l;
+        }
+        same_checkpoint(probe, "after fluid_state_t, the rest not run");
+        run.finish_rest();
+        same_checkpoint(probe, "after the step");
+        const KernelExtrema &e_two = two_grid.last_step_extrema(), &e_in = run.last_step_extrema();
+        EXPECT_EQ(std::memcmp(&e_two.rho_min, &e_in.rho_min, sizeof(double)), 0);
+        EXPECT_EQ(std::memcmp(&e_two.rho_max, &e_in.rho_max, sizeof(double)), 0);
+        EXPECT_EQ(std::memcmp(&e_two.u2_max, &e_in.u2_max, sizeof(double)), 0);
+        EXPECT_EQ(e_two.finite, e_in.finite);
+      }
+      same_checkpoint(run, "after the last step");
+    }
+  EXPECT_GE(split, 8 * 2 * 2);  // the channel and the box split at every step, in both stores
 }
 
 /// The solid is killed (SIGKILL) after its checkpoint of step 100: the fluid notices within
