@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The fluid's precision modes in place against the bench's same-run roofline (issue 35 item 3;
-# docs/performance.md, "Precision modes"): REPS interleaved repetitions, each one run of
+# docs/results/precision-modes-20261206.md): REPS interleaved repetitions, each one run of
 # build/fluid/bench per kernel level (--repeat 1, so every repetition measures its own roofline
 # once before its rows), then per level, grid and mode the median and range of the step's MLUPS
 # and of step / roofline. Needs build/fluid/bench.

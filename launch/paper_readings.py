@@ -37,7 +37,7 @@ import tomllib
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import plot  # noqa: E402
+import plot_run as plot  # noqa: E402  (reading a run, crossings: launch/plot_run.py)
 import sader  # noqa: E402
 
 ROOT = sader.ROOT

@@ -5,7 +5,7 @@
                                         [--from-bytes FLUID SOLID] [--solid-pid PID]
 
 Follows OUTPUT_DIR/fluid.log and OUTPUT_DIR/solid.log while the fluid (FLUID_PID) runs. Both
-servers write a "progress" line every second (common/run/progress.hpp); they are shown merged
+servers write a "progress" line every second (common/log/logger.hpp); they are shown merged
 as one line:
 
     run 2 of 5  free  step 9000/30000 (30 %)  t = 31.2 us  4.1 MLUPS  fluid compute 58 % wait 41 %

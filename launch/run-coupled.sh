@@ -285,7 +285,7 @@ export COSIM_SOLID_CMD=${solid_cmd:-$solid_exe}
 export COSIM_EXTRA_CMD=$extra
 # The fluid's OpenMP threads sleep while they wait (unless OMP_WAIT_POLICY is set): the solid
 # computes on the same cores, and a thread that spins between parallel regions (libgomp's
-# default) takes the core the solid needs (docs/performance.md, "The coupled step").
+# default) takes the core the solid needs (docs/results/wait-policy-20261206-0042.md).
 export OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-passive}
 inner=(bash "$root/launch/coupled-inner.sh" "$root" "$scene" "$output" "$prefix" "$log" "$quiet")
 retries=0; retried=""

@@ -45,10 +45,9 @@ struct ImplicitSettings {
 struct SchemeSettings {
   CouplingScheme scheme = CouplingScheme::Serial;
   ImplicitSettings implicit;
-  bool implicit_scheme() const { return scheme == CouplingScheme::Implicit; }
-  bool parallel_scheme() const { return scheme == CouplingScheme::Parallel; }
-  /// What the message checks allow for a state message's iteration: [0, this).
-  int iterations_allowed() const { return implicit_scheme() ? implicit.max_iterations : 1; }
+  /// What the message checks allow for a state message's iteration: [0, this) (defined
+  /// below, from the scheme's row of the name table).
+  int iterations_allowed() const;
 };
 
 /// The parallel scheme (protocol/README.md section 14), with N = run.steps and
@@ -73,8 +72,12 @@ struct MessageOrder {
   const char* name;  ///< [coupling] scheme, hello_t.scheme
   CouplingScheme scheme;
   /// Several state messages per LB step (iterates): both sides order them by the peer's seq,
-  /// and reports name a message by its step and iteration.
+  /// and reports name a message by its step and iteration. Such a scheme sub-iterates: the
+  /// [coupling] keys max_iterations, tolerance and relaxation (ImplicitSettings) are its.
   bool several_per_step;
+  /// Every [reaction] law runs under it; false: momentum_exchange only (the implicit
+  /// scheme's backward-Euler drag is that law's, protocol/config/reaction_section.hpp).
+  bool any_reaction_law;
   /// The step of the first fluid_state_t the solid awaits, with `rigid_steps`.
   std::int64_t (*first_fluid_step)(std::int64_t rigid_steps);
   /// The last step of any state message of a run of N = `total_steps` LB steps: N - 1, or N
@@ -92,11 +95,12 @@ struct MessageOrder {
 
 /// The name table: one row per scheme, in the order of the enum.
 inline constexpr MessageOrder kMessageOrders[] = {
-    {"serial", CouplingScheme::Serial, false, [](std::int64_t) -> std::int64_t { return 1; },
+    {"serial", CouplingScheme::Serial, false, true, [](std::int64_t) -> std::int64_t { return 1; },
      [](std::int64_t n) { return n - 1; }, [](std::int64_t m, std::int64_t n, std::int64_t) { return m >= 1 && m < n; }},
-    {"implicit", CouplingScheme::Implicit, true, [](std::int64_t) -> std::int64_t { return 1; },
+    {"implicit", CouplingScheme::Implicit, true, false, [](std::int64_t) -> std::int64_t { return 1; },
      [](std::int64_t n) { return n; }, [](std::int64_t m, std::int64_t n, std::int64_t) { return m >= 1 && m <= n; }},
-    {"parallel", CouplingScheme::Parallel, false, &parallel_first_fluid_state, [](std::int64_t n) { return n - 1; },
+    {"parallel", CouplingScheme::Parallel, false, true, &parallel_first_fluid_state,
+     [](std::int64_t n) { return n - 1; },
      &parallel_fluid_state_needed},
 };
 
@@ -108,6 +112,10 @@ inline const MessageOrder& message_order(CouplingScheme scheme) {
 }
 
 inline const char* scheme_name(CouplingScheme s) { return message_order(s).name; }
+
+inline int SchemeSettings::iterations_allowed() const {
+  return message_order(scheme).several_per_step ? implicit.max_iterations : 1;
+}
 
 /// "serial", "implicit" or "parallel" (the table's names); empty for anything else.
 inline std::optional<CouplingScheme> scheme_from_name(std::string_view name) {

@@ -13,6 +13,8 @@
 #include <random>
 #include <stdexcept>
 
+#include "protocol/coupling_scheme.hpp"
+
 namespace cosim::protocol {
 
 namespace {
@@ -96,7 +98,10 @@ HandshakeResult check_handshake(const Hello& fluid, const Hello& solid,
     return refuse("scene_hash mismatch: the fluid read a scene with hash '" + fluid.scene_hash +
                   "', the solid one with hash '" + solid.scene_hash +
                   "'; start both servers on the same scene file");
-  const auto scheme_of = [](const Hello& h) { return h.scheme.empty() ? std::string("serial") : h.scheme; };
+  // An empty name is the default scheme (SchemeSettings), by its name in the table.
+  const auto scheme_of = [](const Hello& h) {
+    return h.scheme.empty() ? std::string(scheme_name(SchemeSettings{}.scheme)) : h.scheme;
+  };
   if (scheme_of(fluid) != scheme_of(solid))
     return refuse("coupling scheme mismatch: the fluid runs the '" + scheme_of(fluid) +
                   "' scheme ([coupling] scheme of the scene), the solid announced '" + scheme_of(solid) +

@@ -35,6 +35,7 @@
 #include "protocol/units.hpp"
 #include "common/run/provenance.hpp"
 #include "sdk/energy_balance.hpp"
+#include "solid/io/solid_log.hpp"
 #include "sdk/energy_balance_checkpoint.hpp"
 #include "sdk/solid_series.hpp"
 #include "solid/coupled/coupled_solid.hpp"
@@ -51,6 +52,7 @@ namespace cosim::sdk {
 namespace {
 
 namespace exit_code = protocol::exit_code;
+using solid::solid_log;
 using protocol::Ending;
 using protocol::fmt;
 using protocol::one_line;
@@ -172,9 +174,9 @@ class SdkRun final : public solid::SchemeSolid {
     if (!(stable > 0.0))
       return report(Ending{exit_code::bad_input, solid_.model() + ": stable_dt_cg_s() = " + fmt("%g", stable) +
                                                      "; allowed: > 0 (+infinity: no limit)"});
-    std::cout << "solid: " << solid_.model() << " on the solid library, scene " << s_.name << " (" << s_.path
-              << "), " << n_ << " markers, A_T = " << s_.coupling->time_ratio << ", channels "
-              << peer_.channel_prefix() << "*\n";
+    solid_log().info() << solid_.model() << " on the solid library, scene " << s_.name << " (" << s_.path << "), "
+                       << n_ << " markers, A_T = " << s_.coupling->time_ratio << ", channels "
+                       << peer_.channel_prefix() << "*";
     if (const auto e = peer_.open(n_)) return report(*e);
     cosimlcm::hello_t hello{};
     try {
@@ -186,9 +188,8 @@ class SdkRun final : public solid::SchemeSolid {
     hello.stable_dt_cg_s = std::isfinite(stable) ? stable : std::numeric_limits<double>::max();
     hello.num_cgps = static_cast<std::int32_t>(n_);
     if (const auto e = peer_.handshake(hello)) return finish(*e);
-    std::cout << "solid: handshake accepted: " << peer_.total_steps() << " LB steps (" << peer_.rigid_steps()
-              << " rigid)" << scheme_->announcement() << "\n";
-    std::cout.flush();
+    solid_log().info() << "handshake accepted: " << peer_.total_steps() << " LB steps (" << peer_.rigid_steps()
+                       << " rigid)" << scheme_->announcement();
     peer_.await_from(scheme_->first_key(peer_.rigid_steps()));
     series_.emplace(units_, solid_.model(), n_);
     if (!o_.restart.empty()) {
@@ -199,8 +200,9 @@ class SdkRun final : public solid::SchemeSolid {
       } catch (const std::exception& e) {
         return finish(Ending{exit_code::bad_input, "--restart " + o_.restart + ": " + one_line(e.what()), true});
       }
-      std::cout << "solid: restarted from " << o_.restart << " at step " << peer_.last_step() << " (solid.h5 with its "
-                << series_->rows() << " rows is written once the fluid has accepted its checkpoint too)\n";
+      solid_log().info() << "restarted from " << o_.restart << " at step " << peer_.last_step()
+                         << " (solid.h5 with its " << series_->rows()
+                         << " rows is written once the fluid has accepted its checkpoint too)";
       // A restart that either side refuses writes nothing (write_series).
       restart_pending_ = true;
     } else {
@@ -394,8 +396,8 @@ class SdkRun final : public solid::SchemeSolid {
     sent.token = o_.token;
     saved_balance_ = read_balance(r, n_);
     if (!series_->restore(r))
-      std::cout << "solid: " << path << " holds no solid.h5 rows (an older library's checkpoint): solid.h5 starts at step "
-                << step << "\n";
+      solid_log().info() << path << " holds no solid.h5 rows (an older library's checkpoint): solid.h5 starts at step "
+                         << step;
     total_substeps_ = r.int64_attr("total_substeps");
     // The scheme's part (what it awaits; the implicit scheme's first iterate again).
     peer_.await_from(scheme_->restore(r, step, false, sent, ctx_));
@@ -415,13 +417,13 @@ class SdkRun final : public solid::SchemeSolid {
     peer_.stop(e);
     write_series();
     const double wall = std::chrono::duration<double>(Clock::now() - start_).count();
-    std::cout << "solid: coupled run " << (e.code == exit_code::ok ? "done" : "stopped") << " at step "
-              << peer_.last_step() << " of " << peer_.total_steps() << ", " << total_substeps_ << " substeps in "
-              << fmt("%.1f", wall) << " s; " << peer_.counters() << "\n";
+    solid_log().info() << "coupled run " << (e.code == exit_code::ok ? "done" : "stopped") << " at step "
+                       << peer_.last_step() << " of " << peer_.total_steps() << ", " << total_substeps_
+                       << " substeps in " << fmt("%.1f", wall) << " s; " << peer_.counters();
     scheme_->report(std::cout);
     if (computed_ > 0)
-      std::cout << "solid: per LB step: step() " << fmt("%.4g", 1e3 * compute_s_ / double(computed_)) << " ms over "
-                << computed_ << " steps\n";
+      solid_log().info() << "per LB step: step() " << fmt("%.4g", 1e3 * compute_s_ / double(computed_))
+                         << " ms over " << computed_ << " steps";
     return report(e);
   }
 
@@ -435,15 +437,15 @@ class SdkRun final : public solid::SchemeSolid {
   void write_series() {
     if (!series_ || restart_pending_) return;
     if (balance_)
-      std::cout << "solid: energy balance: the largest unexplained energy " << fmt("%.3g", balance_->max_ratio())
-                << " of the energy scale (limit " << fmt("%g", EnergyBalance::kGrowth) << "); the fluid's work "
-                << fmt("%.4g", balance_->work()) << " rho_air dx^3 c^2\n";
+      solid_log().info() << "energy balance: the largest unexplained energy " << fmt("%.3g", balance_->max_ratio())
+                         << " of the energy scale (limit " << fmt("%g", EnergyBalance::kGrowth)
+                         << "); the fluid's work " << fmt("%.4g", balance_->work()) << " rho_air dx^3 c^2";
     const std::filesystem::path file = std::filesystem::path(s_.output_dir) / "solid.h5";
     try {
       std::filesystem::create_directories(s_.output_dir);
       series_->write(file.string());
     } catch (const std::exception& x) {
-      std::cout << "solid: " << file.string() << " not written: " << one_line(x.what()) << "\n";
+      solid_log().info() << file.string() << " not written: " << one_line(x.what());
     }
   }
 
@@ -457,14 +459,14 @@ class SdkRun final : public solid::SchemeSolid {
     if (unread.empty()) return;
     std::string list;
     for (const std::string& u : unread) list += (list.empty() ? "" : ", ") + u;
-    std::cout << "solid: warning: " << s_.path << ": " << list << " not read: " << solid_.model()
-              << " is a solid on the library, which reads [scene], [grid], [output], [coupling] and the [[sheet]] "
-                 "markers (the solid server's model sections are for build/solid/solid)\n";
+    solid_log().warning() << s_.path << ": " << list << " not read: " << solid_.model()
+                          << " is a solid on the library, which reads [scene], [grid], [output], [coupling] and the "
+                             "[[sheet]] markers (the solid server's model sections are for build/solid/solid)";
   }
 
   int report(const Ending& e) {
     std::cout.flush();
-    if (e.code != exit_code::ok) std::cerr << "solid: " << one_line(e.reason) << "\n" << std::flush;
+    if (e.code != exit_code::ok) solid_log().error() << one_line(e.reason);
     return e.code;
   }
 
@@ -656,7 +658,7 @@ int run(Solid& solid, const std::vector<std::string>& args) {
     return run_impl(solid, args);
   } catch (const std::exception& e) {
     std::cout.flush();
-    std::cerr << "solid: " << one_line(e.what()) << "\n";
+    solid_log().error() << one_line(e.what());
     return protocol::exit_code::system;
   }
 }

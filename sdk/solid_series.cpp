@@ -8,8 +8,8 @@
 #include "common/hdf5/hdf5_handle.hpp"
 #include "common/hdf5/hdf5_quiet.hpp"
 #include "common/run/checkpoint_file.hpp"
+#include "common/hdf5/h5_writer.hpp"
 #include "common/run/provenance_h5.hpp"
-#include "solid/io/solid_h5.hpp"
 
 namespace cosim::sdk {
 
@@ -38,16 +38,16 @@ void SolidSeries::write(const std::string& path) const {
   const std::string what = "cannot write " + path;
   H5Id file = protocol::create_output_file(path, what);
   const hsize_t n = steps_.size(), m = static_cast<hsize_t>(n_);
-  solid::write_dataset(file.get(), "step", H5T_STD_I64LE, H5T_NATIVE_INT64, {n}, steps_.data());
-  solid::write_dataset(file.get(), "time_s", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n}, time_s_.data());
-  solid::write_dataset(file.get(), "marker_position_um", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n, m, 3}, x_um_.data());
-  solid::write_dataset(file.get(), "marker_force_N", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n, m, 3}, force_N_.data());
+  protocol::write_dataset(file.get(), "step", H5T_STD_I64LE, H5T_NATIVE_INT64, {n}, steps_.data());
+  protocol::write_dataset(file.get(), "time_s", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n}, time_s_.data());
+  protocol::write_dataset(file.get(), "marker_position_um", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n, m, 3}, x_um_.data());
+  protocol::write_dataset(file.get(), "marker_force_N", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n, m, 3}, force_N_.data());
   if (energy_) {
-    solid::write_dataset(file.get(), "total_energy_J", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n}, energy_J_.data());
-    solid::write_dataset(file.get(), "fluid_work_J", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n}, work_J_.data());
+    protocol::write_dataset(file.get(), "total_energy_J", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n}, energy_J_.data());
+    protocol::write_dataset(file.get(), "fluid_work_J", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n}, work_J_.data());
   }
-  solid::write_attribute(file.get(), "model", model_);
-  solid::write_attribute(file.get(), "num_markers", static_cast<double>(n_));
+  protocol::put_attribute(file.get(), "model", model_);
+  protocol::put_attribute(file.get(), "num_markers", static_cast<double>(n_));
   protocol::stamp_file(file.get());
   file.close(what);
 }

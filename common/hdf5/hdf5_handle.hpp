@@ -1,4 +1,5 @@
-// Ownership of HDF5 C API identifiers, with HDF5 errors turned into one-line exceptions.
+// Ownership of HDF5 C API identifiers, with HDF5 errors turned into one-line exceptions;
+// the processes that write one file (WriteGroup). Writing is common/hdf5/h5_writer.hpp's.
 // Internal to the .cpp files of the fluid and solid libraries: their headers do not expose
 // HDF5.
 #pragma once
@@ -94,26 +95,14 @@ class H5Id {
 /// write is closed by its owner (H5Id) before exit.
 inline void hdf5_no_exit_cleanup() { H5dont_atexit(); }
 
-/// Creates (or truncates) an HDF5 output file that carries the run's provenance
-/// (common/run/provenance_h5.hpp). It is written in the HDF5 1.8 file format, whose object
-/// headers keep attributes of any size (dense attribute storage): the `scene_toml`
-/// attribute holds a scene file of any length (the 1.6 format, HDF5's default, refuses an
-/// attribute over 64 KiB). Datasets are stored as before.
-inline H5Id create_output_file(const std::string& path, const std::string& what) {
-  const H5Id fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose, what);
-  h5_check(H5Pset_libver_bounds(fapl.get(), H5F_LIBVER_V18, H5F_LIBVER_V18), what);
-  return H5Id(H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl.get()), H5Fclose, what);
-}
-
-
 // ---- Files written by several processes, each its own hyperslab (DESIGN 8) ----
 //
 // A file of a run over MPI ranks is written in three phases, the same in one process: the
 // leading process creates it (attributes, small datasets, and each large dataset created
-// with its space allocated but nothing in it: create_dataset); every process of the group
-// opens it (open_for_hyperslabs: MPI-IO under parallel HDF5) and writes its own rows of the
-// large datasets (write_rows, collective); the leading process finishes it (checksums,
-// rename). The file's layout is the one a single process writes: every reader is unchanged.
+// with its space allocated but nothing in it: reserve_dataset, common/hdf5/h5_writer.hpp);
+// every process of the group opens it (open_for_hyperslabs: MPI-IO under parallel HDF5) and
+// writes its own rows of the large datasets (write_rows, h5_writer.hpp, collective); the
+// leading process finishes it (checksums, rename). The file's layout is the one a single process writes: every reader is unchanged.
 // Built against the serial library (H5_HAVE_PARALLEL unset) a group is one process.
 
 /// The processes that write one file together.
@@ -180,20 +169,6 @@ class WriteGroup {
   int rank_ = 0, size_ = 1;
 };
 
-/// Creates dataset `name` of `dims` (dims[0] the rows the processes share out) and
-/// `file_type` in `loc`, its space allocated now and never filled (the rows are written
-/// later by write_rows): the leading process, before the others open the file. Returns it
-/// open (for attributes).
-inline H5Id create_dataset(hid_t loc, const std::string& name, hid_t file_type, const std::vector<hsize_t>& dims,
-                           const std::string& what) {
-  const H5Id space(H5Screate_simple(int(dims.size()), dims.data(), nullptr), H5Sclose, what);
-  const H5Id dcpl(H5Pcreate(H5P_DATASET_CREATE), H5Pclose, what);
-  h5_check(H5Pset_alloc_time(dcpl.get(), H5D_ALLOC_TIME_EARLY), what);
-  h5_check(H5Pset_fill_time(dcpl.get(), H5D_FILL_TIME_NEVER), what);
-  return H5Id(H5Dcreate2(loc, name.c_str(), file_type, space.get(), H5P_DEFAULT, dcpl.get(), H5P_DEFAULT),
-              H5Dclose, what);
-}
-
 /// The file the leading process created, opened for writing by every process of `group`
 /// (collective under MPI-IO).
 inline H5Id open_for_hyperslabs(const std::string& path, const WriteGroup& group, const std::string& what) {
@@ -201,22 +176,27 @@ inline H5Id open_for_hyperslabs(const std::string& path, const WriteGroup& group
   return H5Id(H5Fopen(path.c_str(), H5F_ACC_RDWR, fapl.get()), H5Fclose, what);
 }
 
-/// Writes rows [first, first + count) of dataset `name` (along its first dimension, every
-/// value of the others) from `data` (`count` rows, contiguous, of `mem_type`); every
-/// process of the group calls it (collective), `count` = 0 for one that has no rows.
-inline void write_rows(hid_t file, const std::string& name, hid_t mem_type, hsize_t first, hsize_t count,
-                       const void* data, const WriteGroup& group, const std::string& what) {
+/// write_rows of the box [first, first + count) x [first1, first1 + count1) of the first two
+/// dimensions (every value of the others): a block of a grid cut along z and y (DESIGN 8).
+/// `data` holds the box in the dataset's order; `count` = 0 for a process that has none.
+inline void write_box(hid_t file, const std::string& name, hid_t mem_type, hsize_t first, hsize_t count,
+                      hsize_t first1, hsize_t count1, const void* data, const WriteGroup& group,
+                      const std::string& what) {
   const H5Id set(H5Dopen2(file, name.c_str(), H5P_DEFAULT), H5Dclose, what);
   const H5Id file_space(H5Dget_space(set.get()), H5Sclose, what);
   const int rank = H5Sget_simple_extent_ndims(file_space.get());
-  if (rank < 1) h5_fail(what);
+  if (rank < 2) h5_fail(what);
   std::vector<hsize_t> dims(std::size_t(rank), 0), start(std::size_t(rank), 0);
   h5_check(H5Sget_simple_extent_dims(file_space.get(), dims.data(), nullptr), what);
-  if (first + count > dims[0])
-    throw std::runtime_error(what + ": rows " + std::to_string(first) + " to " + std::to_string(first + count) +
-                             " of " + std::to_string(dims[0]));
+  if (count == 0 || count1 == 0) count = count1 = 0;
+  if (first + count > dims[0] || first1 + count1 > dims[1])
+    throw std::runtime_error(what + ": rows " + std::to_string(first) + " + " + std::to_string(count) + ", " +
+                             std::to_string(first1) + " + " + std::to_string(count1) + " of " +
+                             std::to_string(dims[0]) + " x " + std::to_string(dims[1]));
   dims[0] = count;
+  dims[1] = count1;
   start[0] = first;
+  start[1] = first1;
   const H5Id mem_space(H5Screate_simple(rank, dims.data(), nullptr), H5Sclose, what);
   if (count == 0) {
     h5_check(H5Sselect_none(file_space.get()), what);
@@ -227,6 +207,41 @@ inline void write_rows(hid_t file, const std::string& name, hid_t mem_type, hsiz
   }
   const H5Id dxpl = group.transfer(what);
   h5_check(H5Dwrite(set.get(), mem_type, mem_space.get(), file_space.get(), dxpl.get(), data), what);
+}
+
+/// Values of the one-dimensional dataset `name` in `chunks` runs of `block` values, the
+/// first at `first` and each `stride` after the one before, to or from memory where they
+/// lie `mem_stride` apart from `data`: a block's share of a checkpoint's store, a run of
+/// rows of each of its planes (DESIGN 8). Writing is collective over `group` (chunks = 0 for
+/// a process that has none); reading is each process's own.
+inline void strided_values(hid_t file, const std::string& name, hid_t mem_type, hsize_t first, hsize_t stride,
+                           hsize_t chunks, hsize_t block, hsize_t mem_stride, void* data, const WriteGroup* group,
+                           const std::string& what) {
+  const H5Id set(H5Dopen2(file, name.c_str(), H5P_DEFAULT), H5Dclose, what);
+  const H5Id file_space(H5Dget_space(set.get()), H5Sclose, what);
+  if (H5Sget_simple_extent_ndims(file_space.get()) != 1) throw std::runtime_error(what + ": not one-dimensional");
+  hsize_t n = 0;
+  h5_check(H5Sget_simple_extent_dims(file_space.get(), &n, nullptr), what);
+  if (chunks == 0 || block == 0) chunks = block = 0;
+  if (chunks > 0 && first + (chunks - 1) * stride + block > n)
+    throw std::runtime_error(what + ": values to " + std::to_string(first + (chunks - 1) * stride + block) + " of " +
+                             std::to_string(n));
+  const hsize_t mem_n = chunks == 0 ? 1 : (chunks - 1) * mem_stride + block;
+  const H5Id mem_space(H5Screate_simple(1, &mem_n, nullptr), H5Sclose, what);
+  if (chunks == 0) {
+    h5_check(H5Sselect_none(file_space.get()), what);
+    h5_check(H5Sselect_none(mem_space.get()), what);
+  } else {
+    const hsize_t fs = chunks > 1 ? stride : 1, ms = chunks > 1 ? mem_stride : 1, zero = 0;
+    h5_check(H5Sselect_hyperslab(file_space.get(), H5S_SELECT_SET, &first, &fs, &chunks, &block), what);
+    h5_check(H5Sselect_hyperslab(mem_space.get(), H5S_SELECT_SET, &zero, &ms, &chunks, &block), what);
+  }
+  if (group != nullptr) {
+    const H5Id dxpl = group->transfer(what);
+    h5_check(H5Dwrite(set.get(), mem_type, mem_space.get(), file_space.get(), dxpl.get(), data), what);
+  } else if (chunks > 0) {
+    h5_check(H5Dread(set.get(), mem_type, mem_space.get(), file_space.get(), H5P_DEFAULT, data), what);
+  }
 }
 
 /// Reads values [first, first + count) of the one-dimensional dataset `name` into `data`

@@ -27,6 +27,7 @@
 
 #include "common/run/atomic_file.hpp"
 #include "common/run/checksum.hpp"
+#include "common/hdf5/h5_writer.hpp"
 #include "common/hdf5/hdf5_handle.hpp"
 #include "common/hdf5/hdf5_quiet.hpp"
 
@@ -143,12 +144,12 @@ class CheckpointWriter {
   }
 
   /// An array of `n` values of `file_type` whose values other processes write (each its
-  /// own rows, hdf5_handle.hpp: write_rows) between pause() and commit(), which sums them
+  /// own rows, h5_writer.hpp: write_rows) between pause() and commit(), which sums them
   /// from the file.
   void reserve(const std::string& name, hid_t file_type, std::size_t n) {
     const H5Quiet quiet;
     const std::string what = "checkpoint " + path_.string() + ": cannot write " + name;
-    create_dataset(file_.get(), name, file_type, {static_cast<hsize_t>(n)}, what);
+    reserve_dataset(file_.get(), name, file_type, {static_cast<hsize_t>(n)}, what);
     reserved_.push_back(name);
   }
   /// Closes the file (it stays at part()) for the writers of the reserved arrays.
@@ -194,20 +195,13 @@ class CheckpointWriter {
                const void* data) {
     const H5Quiet quiet;
     const std::string what = "checkpoint " + path_.string() + ": cannot write " + name;
-    const hsize_t dims[1] = {static_cast<hsize_t>(n)};
-    const H5Id space(H5Screate_simple(1, dims, nullptr), H5Sclose, what);
-    const H5Id set(H5Dcreate2(file_.get(), name.c_str(), file_type, space.get(), H5P_DEFAULT,
-                              H5P_DEFAULT, H5P_DEFAULT),
-                   H5Dclose, what);
-    if (n > 0) h5_check(H5Dwrite(set.get(), mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data), what);
+    const H5Id set = write_dataset(file_.get(), name, file_type, mem_type, {static_cast<hsize_t>(n)}, data, what);
     // The memory types are the file's little-endian ones on every host we build for: the
     // bytes summed are the bytes stored.
     put_checksum(set.get(), Checksum().add(data, n * H5Tget_size(mem_type)).value(), what);
   }
   static void put_checksum(hid_t set, std::uint64_t sum, const std::string& what) {
-    const H5Id sspace(H5Screate(H5S_SCALAR), H5Sclose, what);
-    const H5Id a(H5Acreate2(set, "checksum", H5T_STD_U64LE, sspace.get(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose, what);
-    h5_check(H5Awrite(a.get(), H5T_NATIVE_UINT64, &sum), what);
+    put_attribute(set, "checksum", sum, what);
   }
   void scalar(const std::string& name, hid_t file_type, hid_t mem_type, const void* value) {
     const auto* b = static_cast<const char*>(value);
@@ -217,10 +211,7 @@ class CheckpointWriter {
   void scalar_unsummed(const std::string& name, hid_t file_type, hid_t mem_type, const void* value) {
     const H5Quiet quiet;
     const std::string what = "checkpoint " + path_.string() + ": cannot write the attribute " + name;
-    const H5Id space(H5Screate(H5S_SCALAR), H5Sclose, what);
-    const H5Id a(H5Acreate2(file_.get(), name.c_str(), file_type, space.get(), H5P_DEFAULT, H5P_DEFAULT),
-                 H5Aclose, what);
-    h5_check(H5Awrite(a.get(), mem_type, value), what);
+    put_attribute(file_.get(), name, file_type, mem_type, value, what);
   }
 
   std::filesystem::path path_;

@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 
 namespace cosim::protocol {
@@ -29,8 +30,8 @@ std::string format_duration(double seconds) {
   return buf;
 }
 
-ProgressLine::ProgressLine(bool enabled, std::FILE* stream)
-    : enabled_(enabled), tty_(isatty(fileno(stream)) != 0), stream_(stream),
+ProgressLine::ProgressLine(const log::Logger& logger)
+    : logger_(logger), enabled_(logger.shows(log::Level::progress)), tty_(isatty(STDERR_FILENO) != 0),
       every_s_(tty_ ? 0.5 : progress_every_s(10.0)), last_(ProgressClock::Clock::now()) {}
 
 bool ProgressLine::due(bool last) {
@@ -43,15 +44,14 @@ bool ProgressLine::due(bool last) {
 
 void ProgressLine::show(const std::string& text) {
   if (!enabled_) return;
-  std::fprintf(stream_, "%s%s%s", tty_ ? "\r" : "", text.c_str(), tty_ ? "    " : "\n");
-  std::fflush(stream_);
+  const std::string line = logger_.format(log::Level::progress, text);
+  log::Logger::write(std::cerr, tty_ ? "\r" + line + "    " : line + "\n");
   shown_ = tty_;
 }
 
 void ProgressLine::clear() {
   if (!shown_) return;
-  std::fprintf(stream_, "\r%100s\r", "");
-  std::fflush(stream_);
+  log::Logger::write(std::cerr, "\r" + std::string(100, ' ') + "\r");
   shown_ = false;
 }
 

@@ -8,8 +8,9 @@
 
 #include <chrono>
 #include <cstdint>
-#include <cstdio>
 #include <string>
+
+#include "common/log/logger.hpp"
 
 namespace cosim::protocol {
 
@@ -57,12 +58,14 @@ double progress_every_s(double fallback);
 /// "42 s", "3 min 05 s", "2 h 07 min".
 std::string format_duration(double seconds);
 
-/// The progress line on `stream` (stderr): on a terminal rewritten in place with a carriage
-/// return, at most twice a second; otherwise (a log file) one plain line every
-/// progress_every_s(10) seconds.
+/// The progress line of a fluid-only or solid-only run on stderr, in the logger's format
+/// ("fluid: progress <text>", log::Logger::progress): on a terminal rewritten in place with a
+/// carriage return, at most twice a second; otherwise (a log file) one plain line every
+/// progress_every_s(10) seconds. Shown where the logger's threshold shows progress (not
+/// --quiet).
 class ProgressLine {
  public:
-  ProgressLine(bool enabled, std::FILE* stream);
+  explicit ProgressLine(const log::Logger& logger);
   /// Whether a line is due now (the last step's always is).
   bool due(bool last);
   void show(const std::string& text);
@@ -70,8 +73,8 @@ class ProgressLine {
   void clear();
 
  private:
+  log::Logger logger_;
   bool enabled_, tty_, shown_ = false;
-  std::FILE* stream_;
   double every_s_;
   ProgressClock::Clock::time_point last_;
 };

@@ -120,7 +120,7 @@ std::string added_mass_warning(const AddedMass& a, double relaxation_substeps_mi
   if (!(a.relaxation_substeps < relaxation_substeps_min)) return "";
   const double threshold = 2.0 * relaxation_substeps_min / time_ratio;
   const double needed = std::ceil(2.0 * relaxation_substeps_min / a.mass_ratio);
-  return "warning: added mass: the lightest CGP has m / (rho_air dA dx) = " + fmt("%.4g", a.mass_ratio) +
+  return "added mass: the lightest CGP has m / (rho_air dA dx) = " + fmt("%.4g", a.mass_ratio) +
          ", below 2 x relaxation_substeps_min / A_T = " + fmt("%.4g", threshold) +
          ": the fluid's reaction (Eqs. 18-20) relaxes its velocity in T = m / (2 rho_air dA c) = " +
          fmt("%.3g", a.relaxation_substeps) + " substeps (" + fmt("%.3g", a.relaxation_lb_steps) +

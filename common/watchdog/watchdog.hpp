@@ -21,7 +21,7 @@ struct WatchdogSettings {
   /// this many LB steps' state, from the extrema the next step's kernel gathers as it reads
   /// it (no pass over memory unless they break a limit: fluid/observables/flow_monitor.hpp,
   /// kernel_state_problem), besides the full check before every write. The coordinator times
-  /// its watchdog ("fluid: watchdog: ... % of the compute").
+  /// its watchdog (the fluid's "watchdog: ... % of the compute").
   std::int64_t health_every = 10;
   /// Fluid: density bounds, lattice units (rho_0 = 1), at the markers every step and on the
   /// whole grid every health_every steps. Mach 0.3 changes the density by about 5 %.
@@ -97,7 +97,7 @@ struct AddedMass {
 AddedMass added_mass(double cgp_mass_kg, double cgp_area_m2, double air_density_kg_m3,
                      double dx_m, int time_ratio);
 
-/// The start-up warning (one line, without a "fluid: " prefix), or "" when T is at least
+/// The start-up warning (one line, without the logger's "fluid: warning: "), or "" when T is at least
 /// relaxation_substeps_min substeps. Explicit substeps overshoot for T < 1 substep and
 /// diverge for T < 1/2 (the drag, integrated with the force held over the substep, is
 /// explicit Euler: v <- v - dt/T (v - u)); the line names the ratio, its threshold and the

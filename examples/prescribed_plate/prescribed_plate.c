@@ -21,7 +21,6 @@
  */
 #define _POSIX_C_SOURCE 200809L
 
-#include <ctype.h>
 #include <errno.h>
 #include <float.h>
 #include <inttypes.h>
@@ -37,9 +36,6 @@
 #include <time.h>
 
 #include <lcm/lcm.h>
-#include <openssl/crypto.h>
-#include <openssl/evp.h>
-#include <openssl/hmac.h>
 
 #include "cosimlcm_fluid_state_t.h"
 #include "cosimlcm_hello_t.h"
@@ -47,8 +43,7 @@
 #include "cosimlcm_solid_state_t.h"
 #include "cosimlcm_stop_t.h"
 #include "cosimlcm_welcome_t.h"
-
-enum { EXIT_DONE = 0, EXIT_SYSTEM = 1, EXIT_BAD_INPUT = 2, EXIT_UNHEALTHY = 3, EXIT_PEER_LOST = 4 };
+#include "plate.h"
 
 /* The air of the paper's Table 1 (protocol/README.md section 4). */
 static const double kSoundSpeed_m_s = 331.5;
@@ -56,266 +51,7 @@ static const double kAirNumberDensity_m3 = 2.687e25;
 static const double kAirMoleculeMass_kg = 4.851e-26;
 static const double kPi = 3.14159265358979323846;
 
-#define TEXT 512
-
-/* ---------------------------------------------------------------------------- scene --- */
-
-typedef struct {
-  double dx_um;
-  int32_t time_ratio;
-  double handshake_timeout_s, peer_timeout_s, resend_after_s;
-  char lcm_url[TEXT], channel_prefix[TEXT], output_dir[TEXT];
-  int sheets; /* [[sheet]] tables seen; only the first is read */
-  long nx_cg, ny_cg;
-  double spacing_um[2]; /* across the width, up the height; 0: dx_um */
-  double base_um[3];
-  double theta_deg;
-} Scene;
-
-static char *trim(char *s) {
-  while (isspace((unsigned char)*s)) ++s;
-  char *e = s + strlen(s);
-  while (e > s && isspace((unsigned char)e[-1])) *--e = '\0';
-  return s;
-}
-
-static int parse_number(const char *v, double *out) {
-  char *end = NULL;
-  errno = 0;
-  const double x = strtod(v, &end);
-  if (end == v || errno != 0 || !isfinite(x)) return 0;
-  while (isspace((unsigned char)*end)) ++end;
-  if (*end != '\0') return 0;
-  *out = x;
-  return 1;
-}
-
-static int parse_integer(const char *v, long lo, long hi, long *out) {
-  char *end = NULL;
-  errno = 0;
-  const long x = strtol(v, &end, 10);
-  if (end == v || errno != 0 || x < lo || x > hi) return 0;
-  while (isspace((unsigned char)*end)) ++end;
-  if (*end != '\0') return 0;
-  *out = x;
-  return 1;
-}
-
-static int parse_string(const char *v, char *out) {
-  const size_t n = strlen(v);
-  if (n < 2 || v[0] != '"' || v[n - 1] != '"' || n - 2 >= TEXT) return 0;
-  memcpy(out, v + 1, n - 2);
-  out[n - 2] = '\0';
-  return strchr(out, '"') == NULL && strchr(out, '\\') == NULL;
-}
-
-/* "[a, b, c]" with 1..max numbers. */
-static int parse_array(const char *v, double *out, int max, int *count) {
-  const size_t n = strlen(v);
-  if (n < 2 || v[0] != '[' || v[n - 1] != ']' || n >= TEXT) return 0;
-  char buf[TEXT];
-  memcpy(buf, v + 1, n - 2);
-  buf[n - 2] = '\0';
-  *count = 0;
-  for (char *item = strtok(buf, ","); item; item = strtok(NULL, ",")) {
-    if (*count == max || !parse_number(trim(item), &out[*count])) return 0;
-    ++*count;
-  }
-  return *count > 0;
-}
-
-static int scene_error(const char *path, int line, const char *key, const char *value, const char *what) {
-  fprintf(stderr, "prescribed-plate: %s:%d: %s = %s: %s\n", path, line, key, value, what);
-  return EXIT_BAD_INPUT;
-}
-
-/* Reads the few keys this solid needs; every other line is left unread. */
-static int read_scene(const char *path, Scene *s) {
-  FILE *f = fopen(path, "r");
-  if (!f) {
-    fprintf(stderr, "prescribed-plate: %s: cannot read the scene file: %s\n", path, strerror(errno));
-    return EXIT_BAD_INPUT;
-  }
-  char section[TEXT] = "", raw[4096];
-  int line = 0, status = 0;
-  while (status == 0 && fgets(raw, sizeof raw, f)) {
-    ++line;
-    int in_string = 0; /* cut the comment: '#' outside a string */
-    for (char *p = raw; *p; ++p) {
-      if (*p == '"') in_string = !in_string;
-      if (*p == '#' && !in_string) { *p = '\0'; break; }
-    }
-    char *l = trim(raw);
-    if (*l == '\0') continue;
-    if (l[0] == '[') {
-      const int array = l[1] == '[';
-      char *name = trim(l + 1 + array);
-      char *close = strchr(name, ']');
-      if (close) *close = '\0';
-      snprintf(section, sizeof section, "%s", trim(name));
-      if (array && strcmp(section, "sheet") == 0) ++s->sheets;
-      continue;
-    }
-    char *eq = strchr(l, '=');
-    if (!eq) continue;
-    *eq = '\0';
-    const char *key = trim(l), *value = trim(eq + 1);
-    long i = 0;
-    double x = 0.0;
-    int n = 0;
-    if (strcmp(section, "grid") == 0 && strcmp(key, "dx_um") == 0) {
-      if (!parse_number(value, &s->dx_um) || s->dx_um <= 0.0)
-        status = scene_error(path, line, key, value, "a number > 0 (micrometres per cell) is allowed");
-    } else if (strcmp(section, "output") == 0 && strcmp(key, "directory") == 0) {
-      if (!parse_string(value, s->output_dir)) status = scene_error(path, line, key, value, "a quoted string is allowed");
-    } else if (strcmp(section, "coupling") == 0) {
-      if (strcmp(key, "time_ratio") == 0) {
-        if (!parse_integer(value, 1, 1000000, &i)) status = scene_error(path, line, key, value, "an integer 1 to 1000000 is allowed");
-        s->time_ratio = (int32_t)i;
-      } else if (strcmp(key, "handshake_timeout_s") == 0 || strcmp(key, "peer_timeout_s") == 0 ||
-                 strcmp(key, "resend_after_s") == 0) {
-        if (!parse_number(value, &x) || x <= 0.0 || x > 86400.0)
-          status = scene_error(path, line, key, value, "a number in (0, 86400] seconds is allowed");
-        *(key[0] == 'h' ? &s->handshake_timeout_s : key[0] == 'p' ? &s->peer_timeout_s : &s->resend_after_s) = x;
-      } else if (strcmp(key, "lcm_url") == 0) {
-        if (!parse_string(value, s->lcm_url)) status = scene_error(path, line, key, value, "a quoted string is allowed");
-      } else if (strcmp(key, "scheme") == 0) {
-        /* This solid speaks the serial scheme only (protocol/README.md 5; 13 and 14 are others). */
-        char scheme[TEXT];
-        if (!parse_string(value, scheme) || strcmp(scheme, "serial") != 0)
-          status = scene_error(path, line, key, value, "\"serial\" only (this example speaks the serial scheme)");
-      } else if (strcmp(key, "channel_prefix") == 0) {
-        if (!parse_string(value, s->channel_prefix)) status = scene_error(path, line, key, value, "a quoted string is allowed");
-      }
-    } else if (strcmp(section, "sheet") == 0 && s->sheets == 1) {
-      if (strcmp(key, "nx_cg") == 0 || strcmp(key, "ny_cg") == 0) {
-        if (!parse_integer(value, 1, 65536, &i)) status = scene_error(path, line, key, value, "an integer 1 to 65536 is allowed");
-        *(key[1] == 'x' ? &s->nx_cg : &s->ny_cg) = i;
-      } else if (strcmp(key, "spacing_um") == 0) {
-        if (parse_number(value, &x)) s->spacing_um[0] = s->spacing_um[1] = x;
-        else if (!parse_array(value, s->spacing_um, 2, &n) || n != 2) s->spacing_um[0] = -1.0;
-        if (!(s->spacing_um[0] > 0.0 && s->spacing_um[1] > 0.0))
-          status = scene_error(path, line, key, value, "a number > 0 or [width, height] > 0 is allowed");
-      } else if (strcmp(key, "base_um") == 0) {
-        if (!parse_array(value, s->base_um, 3, &n) || n != 3)
-          status = scene_error(path, line, key, value, "[x, y, z], finite numbers on one line, is allowed");
-      } else if (strcmp(key, "theta_deg") == 0) {
-        if (!parse_number(value, &s->theta_deg)) status = scene_error(path, line, key, value, "a finite number is allowed");
-      }
-    }
-  }
-  fclose(f);
-  if (status == 0 && s->sheets == 0) {
-    fprintf(stderr, "prescribed-plate: %s: no [[sheet]]: the plate is the first [[sheet]]\n", path);
-    status = EXIT_BAD_INPUT;
-  }
-  if (status == 0 && !(s->resend_after_s < s->peer_timeout_s)) {
-    fprintf(stderr, "prescribed-plate: %s: [coupling] resend_after_s = %g must be below peer_timeout_s = %g\n", path,
-            s->resend_after_s, s->peer_timeout_s);
-    status = EXIT_BAD_INPUT;
-  }
-  return status;
-}
-
-/* protocol/README.md section 6: FNV-1a 64 of the file's bytes, 16 lowercase hex digits. */
-static int scene_hash(const char *path, char out[17]) {
-  FILE *f = fopen(path, "rb");
-  if (!f) return 0;
-  uint64_t h = 0xcbf29ce484222325ULL;
-  for (int b; (b = fgetc(f)) != EOF;) h = (h ^ (uint64_t)(unsigned char)b) * 0x100000001b3ULL;
-  const int ok = !ferror(f);
-  fclose(f);
-  snprintf(out, 17, "%016" PRIx64, h);
-  return ok;
-}
-
-/* protocol/README.md section 2: 1 to 32 characters from A-Z a-z 0-9 _. */
-static int valid_prefix(const char *p) {
-  const size_t n = strlen(p);
-  if (n < 1 || n > 32) return 0;
-  for (size_t k = 0; k < n; ++k)
-    if (!isalnum((unsigned char)p[k]) && p[k] != '_') return 0;
-  return 1;
-}
-
-/* A decimal number at p of 1 to `digits` digits, no sign, no leading zero (but "0"), at most
- * `max`; its end in *end, or 0. */
-static int decimal(const char *p, int digits, long max, long *out, const char **end) {
-  int n = 0;
-  long v = 0;
-  while (isdigit((unsigned char)p[n]) && n <= digits) v = 10 * v + (p[n++] - '0');
-  if (n == 0 || n > digits || (n > 1 && p[0] == '0') || v > max) return 0;
-  *out = v;
-  *end = p + n;
-  return 1;
-}
-
-/* protocol/README.md section 1, the rule both servers apply (protocol/lcm_url.hpp): exactly
- * "memq://", or "udpm://A.B.C.D:PORT?ttl=0" with A.B.C.D an IPv4 multicast group (224.0.0.0
- * to 239.255.255.255), PORT 1 to 65535, and ttl=0 the whole query (no second ttl, no other
- * item), so that no packet leaves this machine. */
-static int valid_url(const char *u) {
-  if (strcmp(u, "memq://") == 0) return 1;
-  if (strncmp(u, "udpm://", 7) != 0) return 0;
-  const char *p = u + 7;
-  long part[4], port;
-  for (int k = 0; k < 4; ++k) {
-    if (!decimal(p, 3, 255, &part[k], &p)) return 0;
-    if (*p++ != (k < 3 ? '.' : ':')) return 0;
-  }
-  if (part[0] < 224 || part[0] > 239) return 0;
-  if (!decimal(p, 5, 65535, &port, &p) || port == 0) return 0;
-  return strcmp(p, "?ttl=0") == 0;
-}
-
 /* ---------------------------------------------------------------------- the server --- */
-
-typedef struct {
-  size_t len;
-  uint8_t *bytes;
-  int64_t step;
-} SentMessage;
-
-typedef struct {
-  /* set up once */
-  lcm_t *lcm;
-  const char *token;
-  char ch_hello[64], ch_welcome[64], ch_solid[64], ch_fluid[64], ch_resend[64], ch_stop[64];
-  int32_t n;          /* markers */
-  double (*x0)[3];    /* initial marker positions, lattice coordinates */
-  double dA;          /* surface element of a marker, dx^2 */
-  double amplitude;   /* of the x oscillation, dx */
-  double omega;       /* 2 pi / period, per LB step */
-  int32_t time_ratio; /* A_T of the scene; the welcome's must equal it */
-  double dt_lb_s, dt_cg_s, force_lb_N;
-  /* handshake */
-  int welcomed, accepted;
-  char refusal[TEXT];
-  int64_t total_steps, rigid_steps;
-  int32_t welcome_time_ratio;
-  /* lock-step */
-  int64_t awaited;        /* the fluid_state_t step waited for; last published + 1 */
-  int have_sample;        /* the awaited sample arrived and waits to be used */
-  double *rho, (*u)[3];   /* the frozen sample */
-  int gap;                /* a seq gap or an early step: ask again now */
-  int64_t fluid_seq_next; /* next fluid seq expected */
-  int64_t solid_seq, substeps_total;
-  SentMessage sent[2];
-  /* ending */
-  int stopped;
-  int32_t stop_code;
-  char stop_reason[TEXT];
-  int fatal;
-  char fatal_reason[TEXT];
-  /* counters */
-  long foreign[4], duplicate, stale, early, resends_asked, resend_requests, resends_answered, undecodable;
-  /* -sum_l J_l of each published step, lattice force */
-  double (*drag)[3];
-  /* the run's key (section 8b), when COSIM_RUN_KEY_FILE names one */
-  int keyed;
-  unsigned char key[32];
-  long unauthenticated;
-} Plate;
 
 static double now_s(void) {
   struct timespec t;
@@ -326,50 +62,6 @@ static double now_s(void) {
 static void sleep_s(double s) {
   struct timespec t = {(time_t)s, (long)((s - floor(s)) * 1e9)};
   nanosleep(&t, NULL);
-}
-
-/* ---- message authentication (protocol/README.md section 8b) ---- */
-
-enum { MAC_BYTES = 32 };
-
-/* HMAC-SHA-256 under the run's key of the channel, a NUL byte and the message's bytes. */
-static int message_mac(const Plate *p, const char *channel, const void *data, size_t len, unsigned char out[MAC_BYTES]) {
-  const size_t head = strlen(channel) + 1;
-  unsigned char *text = malloc(head + len);
-  unsigned int out_len = 0;
-  if (!text) return 0;
-  memcpy(text, channel, head); /* the channel and its NUL */
-  if (len) memcpy(text + head, data, len);
-  const int ok = HMAC(EVP_sha256(), p->key, (int)sizeof p->key, text, head + len, out, &out_len) != NULL &&
-                 out_len == MAC_BYTES;
-  free(text);
-  return ok;
-}
-
-/* The message's length before its MAC when the run has a key and the MAC verifies (the
-   whole length without a key); -1 otherwise: counted as foreign, never read. */
-static int verified_length(Plate *p, const lcm_recv_buf_t *rbuf, const char *channel, int index) {
-  if (!p->keyed) return (int)rbuf->data_size;
-  unsigned char mac[MAC_BYTES];
-  if (rbuf->data_size >= MAC_BYTES &&
-      message_mac(p, channel, rbuf->data, rbuf->data_size - MAC_BYTES, mac) &&
-      CRYPTO_memcmp(mac, (const unsigned char *)rbuf->data + rbuf->data_size - MAC_BYTES, MAC_BYTES) == 0)
-    return (int)(rbuf->data_size - MAC_BYTES);
-  ++p->foreign[index];
-  if (p->unauthenticated++ == 0)
-    fprintf(stderr, "prescribed-plate: a message on %s whose MAC does not verify under the run's key (ignored, counted as foreign)\n",
-            channel);
-  return -1;
-}
-
-/* Publishes `len` encoded bytes at `bytes` (with MAC_BYTES spare after them, where the MAC goes). */
-static int publish_signed(Plate *p, const char *channel, unsigned char *bytes, int len) {
-  if (len < 0) return -1;
-  if (p->keyed) {
-    if (!message_mac(p, channel, bytes, (size_t)len, bytes + len)) return -1;
-    len += MAC_BYTES;
-  }
-  return lcm_publish(p->lcm, channel, bytes, (unsigned int)len);
 }
 
 /* publish_T(p, channel, m): encodes a message of type T and publishes it signed. */
@@ -384,39 +76,6 @@ static int publish_signed(Plate *p, const char *channel, unsigned char *bytes, i
 DEFINE_PUBLISH(cosimlcm_hello_t)
 DEFINE_PUBLISH(cosimlcm_stop_t)
 DEFINE_PUBLISH(cosimlcm_resend_t)
-
-/* The key file: 64 hexadecimal digits and a newline, readable by its owner only. */
-static int read_key(Plate *p, const char *path, char *why, size_t why_size) {
-  struct stat st;
-  if (stat(path, &st) != 0 || !S_ISREG(st.st_mode)) {
-    snprintf(why, why_size, "COSIM_RUN_KEY_FILE = \"%s\": not a readable regular file", path);
-    return 0;
-  }
-  if (st.st_mode & 077) {
-    snprintf(why, why_size, "COSIM_RUN_KEY_FILE = \"%s\": mode %04o lets others read it; allowed: readable by its owner only",
-             path, (unsigned)(st.st_mode & 07777));
-    return 0;
-  }
-  FILE *f = fopen(path, "r");
-  char text[80] = {0};
-  const size_t n = f ? fread(text, 1, sizeof text - 1, f) : 0;
-  if (f) fclose(f);
-  size_t len = n;
-  if (len && text[len - 1] == '\n') --len;
-  int ok = len == 2 * sizeof p->key;
-  for (size_t k = 0; ok && k < sizeof p->key; ++k) {
-    unsigned v;
-    ok = isxdigit((unsigned char)text[2 * k]) && isxdigit((unsigned char)text[2 * k + 1]) &&
-         sscanf(text + 2 * k, "%2x", &v) == 1;
-    p->key[k] = (unsigned char)v;
-  }
-  if (!ok) {
-    snprintf(why, why_size, "COSIM_RUN_KEY_FILE = \"%s\": allowed: 64 hexadecimal digits (the 32-byte key) and a newline", path);
-    return 0;
-  }
-  p->keyed = 1;
-  return 1;
-}
 
 static int own_token(Plate *p, const char *token, int channel, const char *name) {
   if (token && strcmp(token, p->token) == 0) return 1;

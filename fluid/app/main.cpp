@@ -36,6 +36,7 @@
 #include "fluid/coupled/coupled_fluid.hpp"
 #include "fluid/domain/decomposition.hpp"
 #include "fluid/io/field_writer.hpp"
+#include "fluid/io/fluid_log.hpp"
 #include "fluid/io/held_body_log.hpp"
 #include "fluid/ib/held_body.hpp"
 #include "fluid/observables/flow_monitor.hpp"
@@ -101,8 +102,8 @@ void print_header(const FluidScene& s, const protocol::UnitConverter& units) {
   const double dt_ns = units.dt_lb_s() * 1e9;
   const double nu = (s.params.tau - 0.5) / 3.0;
   const double u = max_boundary_speed(s.params);
-  std::printf("fluid: scene %s%s%s (%s)\n", s.name.c_str(), s.description.empty() ? "" : ": ",
-              s.description.c_str(), s.path.c_str());
+  fluid_log().info() << "scene " << s.name << (s.description.empty() ? "" : ": ") << s.description << " (" << s.path
+                     << ")";
   std::printf("  grid     %d x %d x %d = %lld cells; domain %.4g x %.4g x %.4g um\n", g.nx, g.ny,
               g.nz, static_cast<long long>(g.cells()), g.nx * s.dx_um, g.ny * s.dx_um,
               g.nz * s.dx_um);
@@ -160,15 +161,15 @@ void print_header(const FluidScene& s, const protocol::UnitConverter& units) {
   std::fflush(stdout);
   // Liveness while writing (coupled scenes): the solid hears nothing while the fluid writes
   // its largest file (fluid/io/snapshots.hpp).
-  if (const std::string w = silent_write_warning(s); !w.empty()) std::fprintf(stderr, "%s\n", w.c_str());
+  if (const std::string w = silent_write_warning(s); !w.empty()) fluid_log().warning(std::cerr) << w;
 }
 
 /// The fluid-only run's progress line on stderr (common/run/progress.hpp): step, simulated
-/// time, MLUPS and ETA.
+/// time, MLUPS and ETA; none where `logger` does not show progress (--quiet).
 class Progress {
  public:
-  Progress(bool enabled, std::int64_t total, double dt_us, std::int64_t cells)
-      : line_(enabled, stderr), clock_(total), dt_us_(dt_us), cells_(cells) {}
+  Progress(const log::Logger& logger, std::int64_t total, double dt_us, std::int64_t cells)
+      : line_(logger), clock_(total), dt_us_(dt_us), cells_(cells) {}
 
   void update(std::int64_t step) {
     if (!line_.due(step == clock_.total())) return;
@@ -209,12 +210,13 @@ int run(const FluidScene& s, bool quiet, FluidDomain& domain) {
   if (s.held_body) body.emplace(s.held_body->shape, ImmersedBoundary(s.params));
 
   const HealthLimits limits{s.mach_limit, 0.0, s.watchdog.rho_min, s.watchdog.rho_max};
-  Progress progress(!quiet && leads, s.steps, dt_us, s.params.shape.cells());
+  Progress progress(fluid_log(!quiet && leads ? log::Level::progress : log::Level::info), s.steps, dt_us,
+                    s.params.shape.cells());
   const auto stop = [&](const std::string& problem) {
     if (!leads) return;
     progress.clear();
     std::fflush(stdout);
-    std::fprintf(stderr, "fluid: unhealthy flow, run stopped: %s\n", one_line(problem).c_str());
+    fluid_log().error() << "unhealthy flow, run stopped: " << one_line(problem);
   };
   // Health before every write: an unhealthy state is diagnosed and nothing is written. The
   // summary is on the leading process; its verdict goes to every process.
@@ -287,12 +289,13 @@ int run(const FluidScene& s, bool quiet, FluidDomain& domain) {
   progress.clear();
   const double wall = progress.elapsed_s();
   const std::vector<double> peaks = domain.peak_memory_mib();
-  if (leads) std::printf("%s\n", peak_memory_line(peaks).c_str());
+  if (leads) fluid_log().info() << peak_memory_line(peaks);
   if (leads)
-    std::printf("fluid: done, %lld steps (%.4g us) in %.1f s, %.1f MLUPS; output in %s\n",
-                static_cast<long long>(s.steps), double(s.steps) * dt_us, wall,
-                wall > 0 ? double(s.params.shape.cells()) * double(s.steps) / wall * 1e-6 : 0.0,
-                s.output_dir.c_str());
+    fluid_log().info() << log::printf_text("done, %lld steps (%.4g us) in %.1f s, %.1f MLUPS; output in %s",
+                                           static_cast<long long>(s.steps), double(s.steps) * dt_us, wall,
+                                           wall > 0 ? double(s.params.shape.cells()) * double(s.steps) / wall * 1e-6
+                                                    : 0.0,
+                                           s.output_dir.c_str());
   return exit_code::ok;
 }
 
@@ -451,7 +454,7 @@ int main_impl(int argc, char** argv) {
   try {
     active_kernel();  // COSIM_KERNEL_LEVEL, if set, names a level this binary and CPU have
   } catch (const std::invalid_argument& e) {
-    std::fprintf(stderr, "fluid: %s\n", e.what());
+    fluid_log().error() << e.what();
     return exit_code::bad_input;
   }
   if (check) {
@@ -467,7 +470,7 @@ int main_impl(int argc, char** argv) {
       try {
         protocol::validate_channel_prefix(channel_prefix);
       } catch (const std::invalid_argument& e) {
-        std::fprintf(stderr, "fluid: --channel-prefix %s: %s\n", channel_prefix.c_str(), e.what());
+        fluid_log().error() << "--channel-prefix " << channel_prefix << ": " << e.what();
         return exit_code::bad_input;
       }
     }
@@ -483,7 +486,7 @@ int main_impl(int argc, char** argv) {
       co.read_environment();  // the run id, --new-time-ratio, the run's key
       co.faults = protocol::fault_settings_from(o_faults->count() ? &faults : nullptr);
     } catch (const std::invalid_argument& e) {
-      std::fprintf(stderr, "fluid: %s\n", e.what());
+      fluid_log().error() << e.what();
       return exit_code::bad_input;
     }
     return run_coupled_scene(scene, co);
@@ -524,10 +527,9 @@ int main(int argc, char** argv) {
   // Started by mpirun on several ranks, a build without MPI would run the whole scene in
   // each of them into the same folder.
   if (const int ranks = cosim::fluid::mpirun_world_size(); ranks > 1) {
-    std::fprintf(stderr,
-                 "fluid: started on %d MPI ranks, but this build has no MPI (install libopenmpi-dev "
-                 "and rebuild: cmake -DCOSIM_MPI=ON)\n",
-                 ranks);
+    cosim::fluid::fluid_log().error() << "started on " << ranks
+                                      << " MPI ranks, but this build has no MPI (install libopenmpi-dev "
+                                         "and rebuild: cmake -DCOSIM_MPI=ON)";
     return cosim::protocol::exit_code::bad_input;
   }
 #endif
@@ -536,7 +538,7 @@ int main(int argc, char** argv) {
   } catch (const std::exception& e) {
     std::fflush(stdout);
     cosim::fluid::release_stderr();
-    std::fprintf(stderr, "fluid: %s\n", cosim::fluid::one_line(e.what()).c_str());
+    cosim::fluid::fluid_log().error() << cosim::fluid::one_line(e.what());
 #if COSIM_HAVE_MPI
     // The other ranks may wait in a collective for this one: end them all.
     if (world && world->size() > 1) cosim::fluid::mpi::World::abort(cosim::protocol::exit_code::system);

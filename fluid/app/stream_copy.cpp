@@ -1,4 +1,4 @@
-// An independent check of the bench's roofline (docs/performance.md, "One roofline per run"):
+// An independent check of the bench's roofline (docs/results/roofline-check-20261205.md):
 // the STREAM benchmark's copy kernel b[i] = a[i] written as STREAM writes it, a plain loop
 // under `omp parallel for` left to the compiler (no code of the project's kernels or of the
 // bench's copies, no intrinsics), counted as STREAM counts it (16 bytes per element).

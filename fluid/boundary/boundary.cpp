@@ -72,6 +72,20 @@ std::string BoundaryConditions::check(const std::array<FaceSpec, kFaces>& faces,
 
 namespace {
 
+/// The populations a face's ghost plane feeds into the domain: c along the face's axis
+/// pointing inward, and of those, where `along_axis` >= 0, the ones whose c along that axis
+/// is `c_along` (a wall's ghosts of a halo layer's cells: those that leave the layer towards
+/// the block). The one selection of the copy faces, the walls (Eq. 14) and the free-slip faces.
+struct EnteringPopulations {
+  explicit EnteringPopulations(int face, int along_axis = -1, int c_along = 0) {
+    const int axis = face_axis(face), inward = face_side(face) == 0 ? 1 : -1;
+    for (int q = 0; q < D3Q19::Q; ++q)
+      if (D3Q19::c(q, axis) == inward && (along_axis < 0 || D3Q19::c(q, along_axis) == c_along)) qs[nq++] = q;
+  }
+  int qs[D3Q19::Q];
+  int nq = 0;
+};
+
 bool is_copy(FaceKind k) {
   return k == FaceKind::Periodic || k == FaceKind::Inlet || k == FaceKind::Outflow;
 }
@@ -158,14 +172,12 @@ bool is_kernel_outflow(const FaceSpec& spec, int face) {
 
 BoundaryConditions::BoundaryConditions(const GridLayout& layout,
                                        const std::array<FaceSpec, kFaces>& faces,
-                                       const std::array<bool, kFaces>& halo)
-    : layout_(layout), faces_(faces), halo_(halo) {
+                                       const std::array<bool, kFaces>& halo, int y_origin)
+    : layout_(layout), faces_(faces), halo_(halo), y_origin_(y_origin) {
   const std::string err = check(faces, halo);
   if (!err.empty()) throw std::invalid_argument(err);
-  int axes = 0;
-  for (int a = 0; a < 3; ++a) axes += halo[2 * a] || halo[2 * a + 1];
-  if (axes > 1)
-    throw std::invalid_argument("BoundaryConditions: halo faces on more than one axis (the blocks are slabs)");
+  if (halo[XMin] || halo[XMax])
+    throw std::invalid_argument("BoundaryConditions: halo faces on x (the blocks keep the rows of x whole)");
   // An outflow's edge ghosts next to an earlier axis' ghosts extrapolate from the interior
   // cell those ghosts stand for (fill_outflow); next to halo faces that is a neighbour
   // block's cell, which the exchange does not send whole.
@@ -176,7 +188,7 @@ BoundaryConditions::BoundaryConditions(const GridLayout& layout,
           !halo[2 * b] && !halo[2 * b + 1])
         throw std::invalid_argument(std::string("BoundaryConditions: an outflow on ") + face_name(2 * b) + "/" +
                                     face_name(2 * b + 1) + " next to halo faces on " + face_name(2 * a) + "/" +
-                                    face_name(2 * a + 1) + " (the blocks are cut across z only)");
+                                    face_name(2 * a + 1) + " (its edge ghosts would need the neighbour block's cells)");
   // A halo face is filled by the exchange only: no fill of its own (kind Periodic is never
   // a reflecting or an inlet fill, and fills_copy() skips it).
   for (int f = 0; f < kFaces; ++f)
@@ -196,7 +208,7 @@ void BoundaryConditions::fill_inlet_x_table() {
     for (int y = 0; y < layout_.ny(); ++y)
       for (int q = 0; q < D3Q19::Q; ++q)
         if (D3Q19::cx[q] == inward)
-          t[std::size_t(y) * D3Q19::Q + q] = inlet_ghost(faces_[face], 0, inward, q, y, inlet_scale_);
+          t[std::size_t(y) * D3Q19::Q + q] = inlet_ghost(faces_[face], 0, inward, q, y + y_origin_, inlet_scale_);
   }
 }
 
@@ -265,17 +277,21 @@ void BoundaryConditions::fill(BasicPopulationField<T>& f, HaloExchange* halo, Fi
   if (halo == nullptr) throw std::logic_error("BoundaryConditions: a block with halo faces needs its exchange");
   if (halo->faces() != halo_)
     throw std::logic_error("BoundaryConditions: the halo exchange fills other faces than the conditions leave to it");
-  // The copy-type faces of the axes before the halo's, the halo (a periodic copy from the
-  // neighbour, in its axis' place), the copy-type faces after it, the reflecting faces:
-  // the order above, in two parallel regions around the exchange.
-  int halo_axis = 0;
-  while (!halo_[2 * halo_axis] && !halo_[2 * halo_axis + 1]) ++halo_axis;
+  // Axis by axis, the copy-type faces of an axis or its halo faces (a periodic copy from
+  // the neighbour, in that axis' place; the other face of a halo axis, the grid's own, is
+  // a reflecting one or a copy-type one filled with the axis), then the reflecting faces:
+  // the order above, in parallel regions between the exchanges.
+  int from = 0;
+  for (int axis = 0; axis < 3; ++axis) {
+    if (!halo_[2 * axis] && !halo_[2 * axis + 1]) continue;
 #pragma omp parallel
-  fill_copy_faces(slots, 0, 2 * halo_axis, which);
-  halo->exchange(f);
+    fill_copy_faces(slots, from, 2 * axis + 2, which);
+    halo->exchange_axis(f, axis);
+    from = 2 * axis + 2;
+  }
 #pragma omp parallel
   {
-    fill_copy_faces(slots, 2 * halo_axis, kFaces, which);
+    fill_copy_faces(slots, from, kFaces, which);
     fill_reflect_faces(slots, which);
   }
 }
@@ -382,13 +398,20 @@ void BoundaryConditions::fill_step_ghosts(BasicPopulationField<T>& f, HaloExchan
 }
 
 template <class T>
-void BoundaryConditions::fill_wall_ghosts_of_halo_cells(BasicPopulationField<T>& f, bool below, bool above) const {
+void BoundaryConditions::fill_wall_ghosts_of_halo_cells(BasicPopulationField<T>& f,
+                                                        const std::array<bool, kFaces>& cells) const {
   const PopulationSlots<T> slots(f, PopulationLayout::Canonical);
-  // The faces in fill_reflect_faces' order (walls after free slip: a wall's ghost is its own).
-  for (int face = XMin; face <= YMax; ++face) {
-    if (faces_[face].kind != FaceKind::Wall) continue;
-    if (below && halo_[ZMin]) fill_wall(slots, face, -1, -1, -1);
-    if (above && halo_[ZMax]) fill_wall(slots, face, layout_.nz(), layout_.nz(), 1);
+  // The faces in fill_reflect_faces' order (walls after free slip: a wall's ghost is its
+  // own). The populations whose ghost lies in this block: those that leave the halo layer
+  // towards it (c = -1 from the layer below, +1 from the one above).
+#pragma omp parallel
+  for (int face = XMin; face < kFaces; ++face) {
+    if (faces_[face].kind != FaceKind::Wall || halo_[face]) continue;
+    for (int h = YMin; h < kFaces; ++h)
+      if (halo_[h] && cells[h] && face_axis(h) != face_axis(face)) {
+        fill_wall(slots, face, h, face_side(h) == 0 ? -1 : 1);
+#pragma omp barrier
+      }
   }
 }
 
@@ -428,9 +451,9 @@ void BoundaryConditions::fill_copy_face(const PopulationSlots<T>& f, int face) c
   r.lo[axis] = r.hi[axis] = ghost;
 
   // Populations pulled from this ghost plane into the interior.
-  int qs[D3Q19::Q], nq = 0;
-  for (int q = 0; q < D3Q19::Q; ++q)
-    if (D3Q19::c(q, axis) == inward) qs[nq++] = q;
+  const EnteringPopulations entering(face);
+  const int* const qs = entering.qs;
+  const int nq = entering.nq;
 
   // Source cell for copy-type fills.
   int src_shift[3] = {0, 0, 0};
@@ -456,7 +479,8 @@ void BoundaryConditions::fill_copy_face(const PopulationSlots<T>& f, int face) c
         const std::ptrdiff_t len = hi - lo + 1;
         T* const fq = f.q(qs[i]) + layout_.index(lo, y, z);
         if (spec.kind == FaceKind::Inlet)
-          std::fill_n(fq, len, encode_population<T>(inlet_ghost(spec, axis, inward, qs[i], y, inlet_scale_), qs[i]));
+          std::fill_n(fq, len,
+                      encode_population<T>(inlet_ghost(spec, axis, inward, qs[i], y + y_origin_, inlet_scale_), qs[i]));
         else  // Periodic: source and ghost rows are n[axis] cells apart, never overlapping
           std::copy_n(fq + src_off, len, fq);
       }
@@ -464,24 +488,23 @@ void BoundaryConditions::fill_copy_face(const PopulationSlots<T>& f, int face) c
 }
 
 template <class T>
-void BoundaryConditions::fill_wall(const PopulationSlots<T>& f, int face, int z_lo, int z_hi, int cz) const {
+void BoundaryConditions::fill_wall(const PopulationSlots<T>& f, int face, int cells_of, int c_along) const {
   // For every interior cell next to the wall and every population entering from the
   // wall: ghost at x - c_q holds f*_opp(x) + 6 E_q rho_w c_q.U_w (Eq. 14), rho_w = 1.
   const FaceSpec& spec = faces_[face];
   const int axis = face_axis(face), side = face_side(face);
   const int n[3] = {layout_.nx(), layout_.ny(), layout_.nz()};
-  const int inward = side == 0 ? 1 : -1;
-  int qs[D3Q19::Q], nq = 0;
-  for (int q = 0; q < D3Q19::Q; ++q)
-    if (D3Q19::c(q, axis) == inward && (cz == 2 || D3Q19::cz[q] == cz)) qs[nq++] = q;
+  const int c_axis = cells_of < 0 ? -1 : face_axis(cells_of);
+  const EnteringPopulations entering(face, c_axis, c_along);
   PlaneRange r = plane_range(layout_, axis, false);
   for (int b = 0; b < 3; ++b)
     if (b != axis) r.lo[b] = 0, r.hi[b] = n[b] - 1;
   r.lo[axis] = r.hi[axis] = side == 0 ? 0 : n[axis] - 1;
-  if (axis != 2) r.lo[2] = z_lo, r.hi[2] = z_hi;  // the boundary cells of these planes
+  if (c_axis >= 0)  // the boundary cells of the halo layer: the neighbour block's
+    r.lo[c_axis] = r.hi[c_axis] = face_side(cells_of) == 0 ? -1 : n[c_axis];
   const auto& U = spec.wall_velocity;
-  for (int i = 0; i < nq; ++i) {
-    const int q = qs[i], o = D3Q19::opp[q];
+  for (int i = 0; i < entering.nq; ++i) {
+    const int q = entering.qs[i], o = D3Q19::opp[q];
     const double moving = 6.0 * D3Q19::w[q] *
                           (D3Q19::cx[q] * U[0] + D3Q19::cy[q] * U[1] + D3Q19::cz[q] * U[2]);
     const std::ptrdiff_t back = layout_.offset(-D3Q19::cx[q], -D3Q19::cy[q], -D3Q19::cz[q]);
@@ -504,20 +527,17 @@ void BoundaryConditions::fill_reflect_face(const PopulationSlots<T>& f, int face
   const int n[3] = {layout_.nx(), layout_.ny(), layout_.nz()};
   const int inward = side == 0 ? 1 : -1;
 
-  int qs[D3Q19::Q], nq = 0;
-  for (int q = 0; q < D3Q19::Q; ++q)
-    if (D3Q19::c(q, axis) == inward) qs[nq++] = q;
-
   if (spec.kind == FaceKind::Wall) {
-    fill_wall(f, face, 0, n[2] - 1, 2);
+    fill_wall(f, face, -1, 0);
   } else {  // FreeSlip
     PlaneRange r = plane_range(layout_, axis, true);
     r.lo[axis] = r.hi[axis] = side == 0 ? -1 : n[axis];
     int in[3] = {0, 0, 0};
     in[axis] = inward;
     const std::ptrdiff_t in_off = layout_.offset(in[0], in[1], in[2]);
-    for (int i = 0; i < nq; ++i) {
-      const int q = qs[i], m = D3Q19::mirror(q, axis);
+    const EnteringPopulations entering(face);
+    for (int i = 0; i < entering.nq; ++i) {
+      const int q = entering.qs[i], m = D3Q19::mirror(q, axis);
       T* fq = f.q(q);
       const T* fm = f.q(m);
 #pragma omp for collapse(2) schedule(static) nowait
@@ -542,18 +562,18 @@ template void BoundaryConditions::fill_ghosts_but_x(PopulationFieldSingle&, Halo
 template void BoundaryConditions::fill_static_ghosts(PopulationField&) const;
 template void BoundaryConditions::fill_step_ghosts(PopulationField&, HaloExchange*) const;
 template void BoundaryConditions::fill_outflow_ghost(PopulationField&, int, int, int) const;
-template void BoundaryConditions::fill_wall_ghosts_of_halo_cells(PopulationField&, bool, bool) const;
+template void BoundaryConditions::fill_wall_ghosts_of_halo_cells(PopulationField&, const std::array<bool, kFaces>&) const;
 template void BoundaryConditions::fill_ghosts(PopulationFieldSingle&, HaloExchange*) const;
 template void BoundaryConditions::fill_static_ghosts(PopulationFieldSingle&) const;
 template void BoundaryConditions::fill_step_ghosts(PopulationFieldSingle&, HaloExchange*) const;
 template void BoundaryConditions::fill_outflow_ghost(PopulationFieldSingle&, int, int, int) const;
-template void BoundaryConditions::fill_wall_ghosts_of_halo_cells(PopulationFieldSingle&, bool, bool) const;
+template void BoundaryConditions::fill_wall_ghosts_of_halo_cells(PopulationFieldSingle&, const std::array<bool, kFaces>&) const;
 template void BoundaryConditions::fill_ghosts(PopulationFieldHalf&, HaloExchange*) const;
 template void BoundaryConditions::fill_ghosts_but_x(PopulationFieldHalf&, HaloExchange*) const;
 template void BoundaryConditions::fill_swapped_ghosts(PopulationFieldHalf&, bool) const;
 template void BoundaryConditions::fill_static_ghosts(PopulationFieldHalf&) const;
 template void BoundaryConditions::fill_step_ghosts(PopulationFieldHalf&, HaloExchange*) const;
 template void BoundaryConditions::fill_outflow_ghost(PopulationFieldHalf&, int, int, int) const;
-template void BoundaryConditions::fill_wall_ghosts_of_halo_cells(PopulationFieldHalf&, bool, bool) const;
+template void BoundaryConditions::fill_wall_ghosts_of_halo_cells(PopulationFieldHalf&, const std::array<bool, kFaces>&) const;
 
 }  // namespace cosim::fluid

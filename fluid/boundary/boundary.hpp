@@ -153,11 +153,12 @@ class BoundaryConditions {
  public:
   BoundaryConditions() = default;
   /// `halo`: the faces a HaloExchange fills (their FaceSpec is not used; the pairing rule of
-  /// check() does not apply to them). std::invalid_argument for halo faces on more than one
-  /// axis, or on an axis before an outflow's (its edge ghosts would need the neighbour's
-  /// whole cells; the slabs of fluid/mpi have their halo faces on z, the last axis).
+  /// check() does not apply to them). std::invalid_argument for halo faces on x (the blocks
+  /// of fluid/mpi keep x whole), or on an axis before an outflow's (its edge ghosts would
+  /// need the neighbour's whole cells).
+  /// `y_origin`: the whole grid's row of this block's row 0 (FluidParams::y_origin).
   BoundaryConditions(const GridLayout& layout, const std::array<FaceSpec, kFaces>& faces,
-                     const std::array<bool, kFaces>& halo = {});
+                     const std::array<bool, kFaces>& halo = {}, int y_origin = 0);
 
   /// Empty string if the set is consistent, else a sentence naming the problem.
   static std::string check(const std::array<FaceSpec, kFaces>& faces,
@@ -196,16 +197,16 @@ class BoundaryConditions {
   /// kinds (walls, free slip, halo) are Kind::Other, filled by fill_ghosts.
   InPlaceXFaces in_place_x_faces() const;
   /// A block's wall ghosts (Eq. 14) that the neighbour blocks' cells fill in the undivided
-  /// grid: those of the cells of the halo plane z = -1 (`below`: a block below, not the
-  /// periodic image of the grid's last plane, whose cells are ghosts of the undivided grid)
-  /// and of the plane nz (`above`), which lie in the block's planes 0 and nz - 1 (the
-  /// populations that enter from the wall and leave towards the block). The block's own
-  /// step never reads them (only the neighbours' cells pull them); a checkpoint that each
-  /// block writes its share of then holds the undivided grid's values there
-  /// (fluid/mpi/distributed_fluid.cpp). @pre the halo planes hold the neighbours' current
+  /// grid: those of the boundary cells of the halo layers marked in `cells` (a halo face
+  /// whose layer holds cells of the undivided grid: not the periodic image across the
+  /// grid's wrap, whose cells are ghosts there), which lie in the block's own rows and
+  /// planes (the populations that enter from the wall and leave towards the block). The
+  /// block's own step never reads them (only the neighbours' cells pull them); a checkpoint
+  /// that each block writes its share of then holds the undivided grid's values there
+  /// (fluid/mpi/distributed_fluid.cpp). @pre the halo layers hold the neighbours' current
   /// cells (after a step's ghost fill)
   template <class T>
-  void fill_wall_ghosts_of_halo_cells(BasicPopulationField<T>& f, bool below, bool above) const;
+  void fill_wall_ghosts_of_halo_cells(BasicPopulationField<T>& f, const std::array<bool, kFaces>& cells) const;
   /// The x-outflow ghost of one boundary cell (x = 0 or nx - 1 next to an outflow face;
   /// nothing elsewhere), after the cell's populations were changed (a collision with an
   /// immersed-boundary force).
@@ -234,10 +235,11 @@ class BoundaryConditions {
   void fill_copy_face(const PopulationSlots<T>& f, int face) const;
   template <class T>
   void fill_reflect_face(const PopulationSlots<T>& f, int face) const;
-  /// The wall `face`'s ghosts of its boundary cells in planes z_lo .. z_hi, of the
-  /// populations entering from the wall whose c_z is `cz` (any with cz = 2).
+  /// The wall `face`'s ghosts of its boundary cells: the interior ones (cells_of = -1), or
+  /// those of the halo layer of face `cells_of`, of the populations entering from the wall
+  /// whose component along that face's axis is `c`.
   template <class T>
-  void fill_wall(const PopulationSlots<T>& f, int face, int z_lo, int z_hi, int cz) const;
+  void fill_wall(const PopulationSlots<T>& f, int face, int cells_of, int c) const;
   /// Which faces fill() fills: All (fill_ghosts), Step (fill_step_ghosts), AllButX
   /// (fill_ghosts_but_x).
   enum class Fill { All, Step, AllButX };
@@ -259,6 +261,7 @@ class BoundaryConditions {
   std::array<bool, kFaces> halo_{};
   std::vector<double> inlet_x_ghosts_[2];  ///< x_min, x_max inlets: ny x 19 (in_place_x_faces)
   double inlet_scale_ = 1.0;               ///< set_inlet_scale
+  int y_origin_ = 0;                       ///< the whole grid's row of row 0
   void fill_inlet_x_table();
 };
 

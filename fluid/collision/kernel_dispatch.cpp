@@ -209,19 +209,19 @@ void stream_collide(const PopulationFieldSingle& src, PopulationFieldSingle& dst
 
 void stream_collide_in_place(PopulationField& f, PopulationLayout layout, double tau,
                              const std::array<double, 3>& force, KernelExtrema* extrema, RowSchedule schedule,
-                             const InPlaceXFaces* x_faces, Arithmetic arithmetic) {
+                             const InPlaceXFaces* x_faces, Arithmetic arithmetic, KernelRows rows) {
   if (arithmetic != Arithmetic::Double) no_float_arithmetic("stream_collide_in_place");
   active_kernel().in_place_double(f, layout == PopulationLayout::Canonical, tau, force, extrema, schedule,
-                                  x_faces != nullptr && x_faces->all() ? x_faces : nullptr);
+                                  x_faces != nullptr && x_faces->all() ? x_faces : nullptr, rows);
 }
 
 void stream_collide_in_place(PopulationFieldSingle& f, PopulationLayout layout, double tau,
                              const std::array<double, 3>& force, KernelExtrema* extrema, RowSchedule schedule,
-                             const InPlaceXFaces* x_faces, Arithmetic arithmetic) {
+                             const InPlaceXFaces* x_faces, Arithmetic arithmetic, KernelRows rows) {
   const KernelTable& k = active_kernel();
   (arithmetic == Arithmetic::Float ? k.in_place_single : k.in_place_mixed)(
       f, layout == PopulationLayout::Canonical, tau, force, extrema, schedule,
-      x_faces != nullptr && x_faces->all() ? x_faces : nullptr);
+      x_faces != nullptr && x_faces->all() ? x_faces : nullptr, rows);
 }
 
 void stream_collide(const PopulationFieldHalf& src, PopulationFieldHalf& dst, double tau,
@@ -234,10 +234,10 @@ void stream_collide(const PopulationFieldHalf& src, PopulationFieldHalf& dst, do
 
 void stream_collide_in_place(PopulationFieldHalf& f, PopulationLayout layout, double tau,
                              const std::array<double, 3>& force, KernelExtrema* extrema, RowSchedule schedule,
-                             const InPlaceXFaces* x_faces, Arithmetic arithmetic) {
+                             const InPlaceXFaces* x_faces, Arithmetic arithmetic, KernelRows rows) {
   if (arithmetic != Arithmetic::Float) no_double_arithmetic("stream_collide_in_place");
   active_kernel().in_place_half(f, layout == PopulationLayout::Canonical, tau, force, extrema, schedule,
-                                x_faces != nullptr && x_faces->all() ? x_faces : nullptr);
+                                x_faces != nullptr && x_faces->all() ? x_faces : nullptr, rows);
 }
 
 }  // namespace cosim::fluid

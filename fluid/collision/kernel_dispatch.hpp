@@ -55,16 +55,16 @@ struct KernelTable {
   /// stream_collide_in_place; from_canonical: the state is in PopulationLayout::Canonical.
   void (*in_place_double)(PopulationField& f, bool from_canonical, double tau,
                           const std::array<double, 3>& force, KernelExtrema* extrema, RowSchedule schedule,
-                          const InPlaceXFaces* x_faces);
+                          const InPlaceXFaces* x_faces, KernelRows rows);
   void (*in_place_mixed)(PopulationFieldSingle& f, bool from_canonical, double tau,
                          const std::array<double, 3>& force, KernelExtrema* extrema, RowSchedule schedule,
-                         const InPlaceXFaces* x_faces);
+                         const InPlaceXFaces* x_faces, KernelRows rows);
   void (*in_place_single)(PopulationFieldSingle& f, bool from_canonical, double tau,
                           const std::array<double, 3>& force, KernelExtrema* extrema, RowSchedule schedule,
-                          const InPlaceXFaces* x_faces);
+                          const InPlaceXFaces* x_faces, KernelRows rows);
   void (*in_place_half)(PopulationFieldHalf& f, bool from_canonical, double tau,
                         const std::array<double, 3>& force, KernelExtrema* extrema, RowSchedule schedule,
-                        const InPlaceXFaces* x_faces);
+                        const InPlaceXFaces* x_faces, KernelRows rows);
 };
 
 /// The names of the levels built into the binary, lowest first.

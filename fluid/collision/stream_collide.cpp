@@ -254,7 +254,7 @@ inline void store_outflow_ghost(const V (&f)[L::Q], int lane, T* g, std::ptrdiff
 
 /// How far ahead of its group, in bytes along x, a kernel prefetches each of the 19 slots it
 /// reads (8 cache lines): the cache's own prefetchers leave it waiting on memory. Measured on
-/// the AMD EPYC of docs/performance.md (AVX-512), interleaved runs of `bench --grids paper box
+/// the AMD EPYC of docs/results/in-place-20261202.md (AVX-512), interleaved runs of `bench --grids paper box
 /// --threads 2 --precision double single --no-ib --repeat 3 --propagation ...` with and
 /// without: the in-place step with the double store from 66-84 % of the same-run roofline to
 /// 86-94 % (256 and 128 bytes ahead: 64-104 %), with the single store from 27-48 % to
@@ -462,7 +462,7 @@ void update_rows(const BasicPopulationField<T>& src, BasicPopulationField<T>& ds
 template <class T, class V, bool kForce>
 void update_in_place(BasicPopulationField<T>& f, bool from_canonical, double tau,
                      const std::array<double, 3>& F, KernelExtrema* extrema, RowSchedule schedule,
-                     const InPlaceXFaces* x_faces) {
+                     const InPlaceXFaces* x_faces, KernelRows some) {
   if (extrema != nullptr) *extrema = KernelExtrema{};
   constexpr int N = lanes_of<V>;
   const GridLayout& lay = f.layout();
@@ -507,7 +507,10 @@ void update_in_place(BasicPopulationField<T>& f, bool from_canonical, double tau
       }
       if (x_faces != nullptr) in_place_x_ghosts(c, wr, nx, y, *x_faces);
     };
-    for_rows(rows, schedule, row);
+    if (some.rows == nullptr)
+      for_rows(rows, schedule, row);
+    else
+      for_rows(some.count, schedule, [&](std::ptrdiff_t i) { row(some.rows[i]); });
     if (extrema != nullptr) {
 #pragma omp critical(cosim_fluid_kernel_extrema)
       ex.merge_into(*extrema);
@@ -519,11 +522,11 @@ void update_in_place(BasicPopulationField<T>& f, bool from_canonical, double tau
 template <class T, class V>
 void run_in_place(BasicPopulationField<T>& f, bool from_canonical, double tau,
                   const std::array<double, 3>& force, KernelExtrema* extrema, RowSchedule schedule,
-                  const InPlaceXFaces* x_faces) {
+                  const InPlaceXFaces* x_faces, KernelRows rows) {
   if (force[0] == 0.0 && force[1] == 0.0 && force[2] == 0.0)
-    update_in_place<T, V, false>(f, from_canonical, tau, force, extrema, schedule, x_faces);
+    update_in_place<T, V, false>(f, from_canonical, tau, force, extrema, schedule, x_faces, rows);
   else
-    update_in_place<T, V, true>(f, from_canonical, tau, force, extrema, schedule, x_faces);
+    update_in_place<T, V, true>(f, from_canonical, tau, force, extrema, schedule, x_faces, rows);
 }
 
 template <class T, class V>

@@ -3,7 +3,9 @@
 #pragma once
 
 #include <array>
+#include <algorithm>
 #include <cstddef>
+#include <cstdint>
 #include <limits>
 
 #include "fluid/lattice/population_field.hpp"
@@ -49,13 +51,20 @@ struct KernelExtrema {
   double rho_max = -std::numeric_limits<double>::infinity();
   double u2_max = 0.0;
   bool finite = true;
+  /// Those of the cells of `part` too (a step in parts: the extrema of the whole).
+  void merge(const KernelExtrema& part) {
+    rho_min = std::min(rho_min, part.rho_min);
+    rho_max = std::max(rho_max, part.rho_max);
+    u2_max = std::max(u2_max, part.u2_max);
+    finite = finite && part.finite;
+  }
 };
 
 /// How the rows are shared among the OpenMP threads. Static: each thread one contiguous
 /// part (the fastest on cores of its own). Dynamic: 64 chunks of whole rows, handed out as
 /// threads come free, for steps that share the cores with another busy process (the parallel
 /// coupling scheme's solid, protocol/README.md 14): a thread the scheduler holds back no
-/// longer holds up the step. Measured in docs/performance.md (bench --schedule).
+/// longer holds up the step. Measured in docs/results/kernel-step-20261122.md (bench --schedule).
 enum class RowSchedule { Static, Dynamic };
 
 /// The arithmetic the kernel collides in (Precision): Double for the modes "double" and
@@ -112,30 +121,39 @@ struct InPlaceXFaces {
   bool all() const { return kind[0] != Kind::Other && kind[1] != Kind::Other; }
 };
 
+/// The rows (y + ny z) that a call of stream_collide_in_place steps: every row of the block
+/// where `rows` is null, else rows[0 .. count - 1]. A cell's collision does not depend on
+/// which others run in the same call: stepping the rows of a step in two calls gives the
+/// bits of one (the split coupled step, FluidSolver::step_reading).
+struct KernelRows {
+  const std::int32_t* rows = nullptr;
+  std::ptrdiff_t count = 0;
+};
+
 /// One step in place (the AA pattern): pull (Eq. 9) and collide as stream_collide, on one
 /// field. From Canonical (ghosts filled) the state ends Swapped; from Swapped (its ghost slots
 /// filled) it ends Canonical (ghosts not filled, but for x_faces). Same collision arithmetic, bit for bit, as
 /// stream_collide; no outflow ghosts (the solver fills them); ordinary stores.
 /// With `x_faces`, the ghosts of those x faces too (only where x_faces->all()).
-/// `arithmetic` as stream_collide.
+/// `arithmetic` as stream_collide; `rows`: the rows stepped (KernelRows; all by default).
 void stream_collide_in_place(PopulationField& f, PopulationLayout layout, double tau,
                              const std::array<double, 3>& force, KernelExtrema* extrema = nullptr,
                              RowSchedule schedule = RowSchedule::Static, const InPlaceXFaces* x_faces = nullptr,
-                             Arithmetic arithmetic = Arithmetic::Double);
+                             Arithmetic arithmetic = Arithmetic::Double, KernelRows rows = {});
 void stream_collide_in_place(PopulationFieldSingle& f, PopulationLayout layout, double tau,
                              const std::array<double, 3>& force, KernelExtrema* extrema = nullptr,
                              RowSchedule schedule = RowSchedule::Static, const InPlaceXFaces* x_faces = nullptr,
-                             Arithmetic arithmetic = Arithmetic::Double);
+                             Arithmetic arithmetic = Arithmetic::Double, KernelRows rows = {});
 void stream_collide_in_place(PopulationFieldHalf& f, PopulationLayout layout, double tau,
                              const std::array<double, 3>& force, KernelExtrema* extrema = nullptr,
                              RowSchedule schedule = RowSchedule::Static, const InPlaceXFaces* x_faces = nullptr,
-                             Arithmetic arithmetic = Arithmetic::Float);
+                             Arithmetic arithmetic = Arithmetic::Float, KernelRows rows = {});
 
 /// Population fields from the size of the CPU's last-level cache on (bytes, 19 populations
 /// with ghosts, either precision) are written with non-temporal stores: they cannot stay in
 /// cache between steps, and skipping the read for ownership cuts the traffic per update from
 /// 456 to 304 bytes. Smaller fields are reused from cache, where ordinary stores are faster
-/// (measured: docs/performance.md, on a CPU with 32 MiB of L3). The L3 size as the Linux
+/// (measured: docs/results/kernel-levels-20261202.md, on a CPU with 32 MiB of L3). The L3 size as the Linux
 /// kernel describes it (sysfs), this where it does not.
 constexpr std::size_t kStreamingStoresFrom = std::size_t(32) << 20;
 /// The threshold in use: the L3 size of this CPU, or kStreamingStoresFrom.

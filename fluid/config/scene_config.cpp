@@ -201,8 +201,8 @@ void load_run(const SceneReader& r, FluidScene& s) {
       run.bad("threads", "must be in [0, 1024]; 0 leaves the choice to OpenMP (OMP_NUM_THREADS)");
     s.threads = int(*t);
   }
-  // The blocks of an MPI run (fluid/domain/decomposition.hpp): slabs along z, [1, 1, N].
-  if (const auto b = run.numbers("blocks", 3, 3, "three block counts along x, y and z, e.g. [1, 1, 2]")) {
+  // The blocks of an MPI run (fluid/domain/decomposition.hpp): blocks along y and z, [1, py, pz].
+  if (const auto b = run.numbers("blocks", 3, 3, "three block counts along x, y and z, e.g. [1, 2, 2]")) {
     for (const double n : *b)
       if (!(n >= 1.0 && n <= 4096.0 && n == std::floor(n)))
         run.bad("blocks", "each count must be an integer in [1, 4096]");
@@ -650,9 +650,10 @@ void initialize_flow(FluidSolver& solver, const FluidScene& s) {
   const FaceSpec& spec = s.params.faces[inlet];
   const int axis = face_axis(inlet);
   const double inward = face_side(inlet) == 0 ? 1.0 : -1.0;
+  const int y0 = solver.y_origin();  // a block's first row (fluid/mpi)
   solver.initialize([&](int, int y, int) {
     double u[3] = {0.0, 0.0, 0.0};
-    u[axis] = inward * inlet_profile(spec, y);
+    u[axis] = inward * inlet_profile(spec, y + y0);
     return CellState{1.0, u[0], u[1], u[2]};
   });
 }

@@ -14,6 +14,7 @@
 #include "protocol/session/stop_rules.hpp"
 #include "common/text/text.hpp"
 #include "common/watchdog/watchdog.hpp"
+#include "fluid/io/fluid_log.hpp"
 #include "fluid/schemes/fluid_scheme.hpp"
 
 namespace cosim::fluid {
@@ -122,9 +123,9 @@ std::optional<Ending> Coordinator::handshake() {
   }
   num_cgps_ = solid_hello_->num_cgps;
   time_ratio_ = r.time_ratio;
-  out_ << "fluid: handshake accepted: solid model " << solid_hello_->model << ", " << num_cgps_
-       << " CGPs, A_T = " << r.time_ratio << ", " << s_.steps << " LB steps (" << c_.rigid_steps << " rigid)"
-       << std::endl;
+  fluid_log().info(out_) << "handshake accepted: solid model " << solid_hello_->model << ", " << num_cgps_
+                         << " CGPs, A_T = " << r.time_ratio << ", " << s_.steps << " LB steps (" << c_.rigid_steps
+                         << " rigid)";
   added_mass_check(r.time_ratio);
   inbox_.heard(Clock::now());
   return std::nullopt;
@@ -135,20 +136,20 @@ std::optional<Ending> Coordinator::handshake() {
 void Coordinator::added_mass_check(int time_ratio) {
   const double m = solid_hello_->light_cgp_mass_kg, a = solid_hello_->light_cgp_area_m2;
   if (!(m > 0.0 && a > 0.0)) {
-    out_ << "fluid: added mass: the solid does not report its CGPs' mass (no check)\n";
+    fluid_log().info(out_) << "added mass: the solid does not report its CGPs' mass (no check)";
     return;
   }
   const protocol::AddedMass am = protocol::added_mass(m, a, units_.air_density_kg_m3(), units_.dx_m(), time_ratio);
   added_mass_ = am;
   const std::string warning = protocol::added_mass_warning(am, s_.watchdog.relaxation_substeps_min, time_ratio);
   if (!warning.empty())
-    out_ << "fluid: " << warning << "\n";
+    fluid_log().warning(out_) << warning;
   else
-    out_ << "fluid: added mass: the lightest CGP has m / (rho_air dA dx) = " << protocol::fmt("%.4g", am.mass_ratio)
-         << "; the fluid's reaction relaxes it in " << protocol::fmt("%.4g", am.relaxation_substeps)
-         << " substeps (watchdog.relaxation_substeps_min = " << protocol::fmt("%g", s_.watchdog.relaxation_substeps_min)
-         << ")\n";
-  out_.flush();
+    fluid_log().info(out_) << "added mass: the lightest CGP has m / (rho_air dA dx) = "
+                           << protocol::fmt("%.4g", am.mass_ratio) << "; the fluid's reaction relaxes it in "
+                           << protocol::fmt("%.4g", am.relaxation_substeps)
+                           << " substeps (watchdog.relaxation_substeps_min = "
+                           << protocol::fmt("%g", s_.watchdog.relaxation_substeps_min) << ")";
 }
 
 double Coordinator::light_cgp_area_lb() const {
@@ -164,14 +165,14 @@ void Coordinator::announce_retry(std::int64_t before, int from, int to) {
   if (!w.retry) return;
   const long long next = to > 0 ? to : static_cast<long long>(from) * w.retry_factor;
   if (next > 1000000) {
-    out_ << "fluid: watchdog: no retry: A_T = " << next << " would exceed 1000000\n";
+    fluid_log().info(out_) << "watchdog: no retry: A_T = " << next << " would exceed 1000000";
     return;
   }
-  out_ << "fluid: watchdog retry: time_ratio = " << next << " ("
-       << (to > 0 ? "the smallest stable A_T" : "A_T " + std::to_string(from) + " x " + std::to_string(w.retry_factor))
-       << "), from the newest checkpoint before step " << before << ", at most " << w.retry_max
-       << " retries ([watchdog] retry)\n";
-  out_.flush();
+  fluid_log().info(out_)
+      << "watchdog retry: time_ratio = " << next << " ("
+      << (to > 0 ? "the smallest stable A_T" : "A_T " + std::to_string(from) + " x " + std::to_string(w.retry_factor))
+      << "), from the newest checkpoint before step " << before << ", at most " << w.retry_max
+      << " retries ([watchdog] retry)";
 }
 
 // ---- receiving (sections 7, 8, 8a) ----
@@ -462,7 +463,7 @@ int Coordinator::stop_and_end(const Ending& e, std::int64_t step) {
 int Coordinator::end(const Ending& e) {
   // A run that stops after the handshake still reports what it received and refused.
   if (e.code != exit_code::ok && welcome_ && welcome_->accepted)
-    out_ << "fluid: coupled run stopped; " << counters() << "\n";
+    fluid_log().info(out_) << "coupled run stopped; " << counters();
   if (end_hook_) end_hook_(out_);
   out_.flush();
   last_reason_ = e.reason;

@@ -11,6 +11,7 @@
 #include "fluid/coupled/fluid_run.hpp"
 #include "fluid/coupled/step_driver.hpp"
 #include "fluid/domain/fluid_domain.hpp"
+#include "fluid/io/fluid_log.hpp"
 #include "fluid/schemes/fluid_scheme.hpp"
 #include "common/run/checkpoint_file.hpp"
 #include "common/hdf5/hdf5_handle.hpp"
@@ -69,18 +70,18 @@ int run_coupled_fluid(const FluidScene& scene, const CoupledFluidOptions& option
                       std::ostream& err, FluidDomain& domain) {
   protocol::hdf5_no_exit_cleanup();
   if (!scene.coupling) {
-    err << "fluid: " << scene.path << ": not a coupled scene (no [coupling] section)\n";
+    fluid_log().error(err) << scene.path << ": not a coupled scene (no [coupling] section)";
     return exit_code::bad_input;
   }
   if (options.token.empty()) {
-    err << "fluid: a coupled run needs the run's token: --token TOKEN or COSIM_RUN_TOKEN\n";
+    fluid_log().error(err) << "a coupled run needs the run's token: --token TOKEN or COSIM_RUN_TOKEN";
     return exit_code::bad_input;
   }
   const std::unique_ptr<FluidScheme> scheme =
       make_fluid_scheme(scene.coupling->scheme, scene.steps, scene.coupling->rigid_steps);
   Coordinator coord(scene, options, *scheme, out);
   const int code = run_coupled(scene, options, coord, *scheme, domain);
-  if (code != exit_code::ok) err << "fluid: coupled run stopped: " << coord.last_reason() << "\n";
+  if (code != exit_code::ok) fluid_log().error(err) << "coupled run stopped: " << coord.last_reason();
   return code;
 }
 

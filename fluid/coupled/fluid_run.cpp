@@ -9,6 +9,7 @@
 #include "common/text/text.hpp"
 #include "fluid/coupled/coordinator.hpp"
 #include "fluid/lattice/d3q19.hpp"
+#include "fluid/io/fluid_log.hpp"
 #include "fluid/schemes/fluid_scheme.hpp"
 #include "common/run/checkpoint_file.hpp"
 #include "protocol/checkpoint_identity.hpp"
@@ -75,7 +76,7 @@ std::vector<FlowSummary> get_rows(const protocol::CheckpointReader& r) {
 FluidRun::FluidRun(const FluidScene& scene, const CoupledFluidOptions& options, Coordinator& coordinator,
                    const FluidScheme& scheme, FluidDomain& domain)
     : s_(scene), restart_(options.restart), run_id_(options.run_id), new_time_ratio_(options.new_time_ratio),
-      quiet_(options.quiet), coord_(coordinator), scheme_(scheme),
+      logger_(fluid_log(options.quiet ? log::Level::info : log::Level::progress)), coord_(coordinator), scheme_(scheme),
       domain_(domain),
       limits_{scene.mach_limit, 0.0, scene.watchdog.rho_min, scene.watchdog.rho_max},
       dt_us_(coordinator.units().dt_lb_s() * 1e6),
@@ -86,7 +87,7 @@ FluidRun::FluidRun(const FluidScene& scene, const CoupledFluidOptions& options, 
   domain_.initialize(s_);
   if (s_.held_body) body_.emplace(s_.held_body->shape, ImmersedBoundary(s_.params));
   coord_.on_end([this](std::ostream& out) {
-    if (markers_.has_reference()) out << "fluid: watchdog margins: " << markers_.margins() << "\n";
+    if (markers_.has_reference()) logger_.info(out) << "watchdog margins: " << markers_.margins();
   });
 }
 
@@ -106,8 +107,8 @@ std::int64_t FluidRun::start(std::optional<int>& failed) {
       failed = coord_.stop_and_end({exit_code::bad_input, "--restart " + restart_ + ": " + x.what(), false}, 0);
       return 0;
     }
-    coord_.out() << "fluid: restarted from " << restart_ << " at step " << first_step
-                 << " (the folder's files are rewritten once the solid has accepted its checkpoint too)\n";
+    logger_.info(coord_.out()) << "restarted from " << restart_ << " at step " << first_step
+                               << " (the folder's files are rewritten once the solid has accepted its checkpoint too)";
     if (in_flight) coord_.republish(std::move(*in_flight));
     // monitor.h5, held_body.csv, the scene copy and provenance wait for the solid's
     // solid_state_t of the restart (accept_restart()): a restart that either side refuses
@@ -162,9 +163,8 @@ std::optional<int> FluidRun::accept_restart(std::int64_t step) {
     return coord_.stop_and_end({exit_code::system, protocol::one_line(x.what()), true}, step);
   }
   if (const auto code = open_run_files(step)) return code;
-  coord_.out() << "fluid: restart accepted at step " << step << ": both checkpoints read; monitor.h5 continues from its "
-               << rows_.size() << " rows\n";
-  coord_.out().flush();
+  logger_.info(coord_.out()) << "restart accepted at step " << step
+                             << ": both checkpoints read; monitor.h5 continues from its " << rows_.size() << " rows";
   return std::nullopt;
 }
 
@@ -272,7 +272,7 @@ protocol::Trip FluidRun::blame(const protocol::Trip& t) const {
 }
 
 std::optional<int> FluidRun::step_outputs(std::int64_t now, bool last, bool periodic) {
-  const bool monitor = now % s_.monitor_every == 0 || last;
+  const bool monitor = monitor_due(now) || last;
   const bool snapshot = snapshots_.due(now, last);
   if (monitor || snapshot || periodic) {
     const FlowSummary sum = *domain_.summary();
@@ -417,49 +417,47 @@ void FluidRun::progress(std::int64_t now, int iteration) {
   // The release: the rigid spin-up is over after step rigid_steps (DESIGN 2.4).
   if (!released_ && now >= rigid_steps() && iteration < 0) {
     released_ = true;
-    std::fprintf(stderr, "fluid: sheet released at step %lld (t = %.4g us): the rigid spin-up is over, the sheets move freely\n",
-                 static_cast<long long>(now), double(now) * dt_us_);
+    logger_.info(std::cerr) << "sheet released at step " << now << " (t = "
+                            << protocol::fmt("%.4g", double(now) * dt_us_)
+                            << " us): the rigid spin-up is over, the sheets move freely";
   }
-  if (quiet_ || !(clock_.due(progress_every_s_) || now == s_.steps)) return;
+  if (!logger_.shows(log::Level::progress) || !(clock_.due(progress_every_s_) || now == s_.steps)) return;
   // One machine-readable line per interval for launch/progress.py (the launcher's one line).
   const double wall = clock_.elapsed_s();
   const auto share = [wall](double part) { return wall > 0.0 ? 100.0 * part / wall : 0.0; };
   std::string it = iteration < 0 ? "" : "  iteration " + std::to_string(iteration);
-  std::fprintf(stderr,
-               "fluid: progress step %lld/%lld  phase %s  t = %.4g us  %.1f MLUPS  compute %.0f %%  wait %.0f %%  ETA %s%s\n",
-               static_cast<long long>(now), static_cast<long long>(s_.steps), now <= rigid_steps() ? "spin-up" : "free",
-               double(now) * dt_us_, double(s_.params.shape.cells()) * clock_.rate(now) * 1e-6, share(timing_.compute),
-               share(timing_.wait), protocol::format_duration(clock_.eta_s(now)).c_str(), it.c_str());
+  logger_.progress(std::cerr) << log::printf_text("step %lld/%lld  phase %s  t = %.4g us  %.1f MLUPS  compute %.0f %%  "
+                                               "wait %.0f %%  ETA %s%s",
+                                               static_cast<long long>(now), static_cast<long long>(s_.steps),
+                                               now <= rigid_steps() ? "spin-up" : "free", double(now) * dt_us_,
+                                               double(s_.params.shape.cells()) * clock_.rate(now) * 1e-6,
+                                               share(timing_.compute), share(timing_.wait),
+                                               protocol::format_duration(clock_.eta_s(now)).c_str(), it.c_str());
 }
 
 int FluidRun::finish() {
   coord_.publish_stop(s_.steps, exit_code::ok, "");
   std::ostream& out = coord_.out();
   const double wall = std::chrono::duration<double>(Clock::now() - start_).count();
-  out << "fluid: coupled run done, " << s_.steps << " LB steps in " << wall << " s; " << coord_.counters()
-      << "; output in " << s_.output_dir << "\n";
+  logger_.info(out) << "coupled run done, " << s_.steps << " LB steps in " << wall << " s; " << coord_.counters()
+                    << "; output in " << s_.output_dir;
   const double per = 1e3 / double(s_.steps);
   const StepTiming& t = timing_;
-  char line[256];
-  std::snprintf(line, sizeof line,
-                "fluid: per LB step: compute %.4g ms (spread, step, health, sample), waiting "
-                "%.4g ms (for solid_state_t), publishing %.4g ms; %.1f MLUPS while computing\n",
-                t.compute * per, t.wait * per, t.publish * per,
-                t.compute > 0 ? double(s_.params.shape.cells()) * double(s_.steps) / t.compute * 1e-6 : 0.0);
-  out << line;
-  std::snprintf(line, sizeof line,
-                "fluid: watchdog: %.4g ms per LB step, %.2g %% of the compute (the markers, the samples "
-                "and the kernel's extrema every %lld steps)\n",
-                t.watch * per, t.compute > 0 ? 100.0 * t.watch / t.compute : 0.0,
-                static_cast<long long>(s_.watchdog.health_every));
-  out << line;
-  out << "fluid: watchdog margins: " << markers_.margins() << "\n";
-  out << peak_memory_line(domain_.peak_memory_mib()) << "\n";
+  const double mlups = t.compute > 0 ? double(s_.params.shape.cells()) * double(s_.steps) / t.compute * 1e-6 : 0.0;
+  logger_.info(out) << log::printf_text("per LB step: compute %.4g ms (spread, step, health, sample), waiting "
+                                        "%.4g ms (for solid_state_t), publishing %.4g ms; %.1f MLUPS while computing",
+                                        t.compute * per, t.wait * per, t.publish * per, mlups);
+  logger_.info(out) << log::printf_text("watchdog: %.4g ms per LB step, %.2g %% of the compute (the markers, the "
+                                        "samples and the kernel's extrema every %lld steps)",
+                                        t.watch * per, t.compute > 0 ? 100.0 * t.watch / t.compute : 0.0,
+                                        static_cast<long long>(s_.watchdog.health_every));
+  logger_.info(out) << "watchdog margins: " << markers_.margins();
+  logger_.info(out) << peak_memory_line(domain_.peak_memory_mib());
   scheme_.summary(out, s_.steps);
   out.flush();
   // The solid may have lost every copy of the stop_t: it asks, and is answered, until quiet.
   if (const int again = coord_.linger(); again > 0)
-    out << "fluid: closing: the stop_t sent again " << again << " times for the solid's resend_t\n";
+    logger_.info(out) << "closing: the stop_t sent again " << again << " times for the solid's resend_t";
   coord_.done();
   return exit_code::ok;
 }

@@ -16,6 +16,7 @@
 #include "fluid/domain/fluid_domain.hpp"
 #include "fluid/ib/held_body.hpp"
 #include "fluid/ib/immersed_boundary.hpp"
+#include "fluid/io/fluid_log.hpp"
 #include "fluid/io/held_body_log.hpp"
 #include "fluid/io/monitor_log.hpp"
 #include "fluid/config/scene_config.hpp"
@@ -65,7 +66,10 @@ class FluidRun {
   /// The grid: the schemes step it, sample and spread at the markers through it.
   FluidDomain& domain() { return domain_; }
   StepTiming& timing() { return timing_; }
+  /// The bulk velocity U_b of the latest monitor row (fluid_state_t carries it).
   double bulk_velocity() const { return bulk_u_; }
+  /// Whether step_outputs(now) writes a monitor row (and so sets bulk_velocity()).
+  bool monitor_due(std::int64_t now) const { return now % s_.monitor_every == 0 || now == s_.steps; }
   std::int64_t total_steps() const { return s_.steps; }
   std::int64_t rigid_steps() const { return s_.coupling->rigid_steps; }
   std::int64_t checkpoint_every() const { return s_.coupling->checkpoint_every; }
@@ -130,7 +134,8 @@ class FluidRun {
   const std::string restart_;
   const std::string run_id_;   ///< the launcher's run id (checkpoints; a restart's check)
   const bool new_time_ratio_;  ///< a restart may change A_T
-  const bool quiet_;
+  /// The fluid's lines; --quiet: no progress line.
+  const log::Logger logger_;
   Coordinator& coord_;
   const FluidScheme& scheme_;
   FluidDomain& domain_;

@@ -7,11 +7,20 @@
 namespace cosim::fluid {
 
 std::string blocks_problem(const GridShape& shape, const std::array<int, 3>& blocks) {
-  if (blocks[0] != 1 || blocks[1] != 1)
-    return "only slabs along z are built: blocks = [1, 1, N]";
+  char buf[160];
+  if (blocks[0] != 1 || blocks[1] < 1 || blocks[2] < 1) {
+    std::snprintf(buf, sizeof buf, "blocks along y and z only: [1, py, pz] with py in [1, %d], pz in [1, %d]",
+                  shape.ny, shape.nz);
+    return buf;
+  }
+  if (blocks[1] > shape.ny) {
+    std::snprintf(buf, sizeof buf, "more blocks along y than the %d rows; py at most %d: [1, %d, %d]", shape.ny,
+                  shape.ny, shape.ny, blocks[2]);
+    return buf;
+  }
   if (blocks[2] > shape.nz) {
-    char buf[128];
-    std::snprintf(buf, sizeof buf, "more slabs than the %d planes along z; at most [1, 1, %d]", shape.nz, shape.nz);
+    std::snprintf(buf, sizeof buf, "more blocks along z than the %d planes; pz at most %d: [1, %d, %d]", shape.nz,
+                  shape.nz, blocks[1], shape.nz);
     return buf;
   }
   return {};
@@ -44,6 +53,55 @@ BlockChoice choose_blocks(const GridShape& shape, int ranks, const std::array<in
   return c;
 }
 
+Block block_of(const GridShape& shape, const std::array<int, 3>& blocks, int rank) {
+  Block b;
+  b.py = blocks[1];
+  b.pz = blocks[2];
+  b.iy = rank % b.py;
+  b.iz = rank / b.py;
+  const Slab y = slab_of(shape.ny, b.py, b.iy), z = slab_of(shape.nz, b.pz, b.iz);
+  b.y0 = y.z0;
+  b.ny = y.nz;
+  b.z0 = z.z0;
+  b.nz = z.nz;
+  return b;
+}
+
+BlockNeighbours block_neighbours(const FluidParams& whole, const Block& b) {
+  // Along one axis of `count` blocks: the neighbours' places, -1 at a grid's end.
+  const auto along = [](bool periodic, int index, int count, int& lo, int& hi) {
+    lo = hi = -1;
+    if (count == 1) return;
+    if (index > 0) lo = index - 1;
+    else if (periodic) lo = count - 1;
+    if (index + 1 < count) hi = index + 1;
+    else if (periodic) hi = 0;
+  };
+  int ylo, yhi, zlo, zhi;
+  along(whole.faces[YMin].kind == FaceKind::Periodic, b.iy, b.py, ylo, yhi);
+  along(whole.faces[ZMin].kind == FaceKind::Periodic, b.iz, b.pz, zlo, zhi);
+  BlockNeighbours n;
+  if (ylo >= 0) n.y_min = b.iz * b.py + ylo;
+  if (yhi >= 0) n.y_max = b.iz * b.py + yhi;
+  if (zlo >= 0) n.z_min = zlo * b.py + b.iy;
+  if (zhi >= 0) n.z_max = zhi * b.py + b.iy;
+  return n;
+}
+
+FluidParams block_params(const FluidParams& whole, const Block& b, std::array<bool, kFaces>& halo) {
+  FluidParams p = whole;
+  p.shape.ny = b.ny;
+  p.shape.nz = b.nz;
+  p.y_origin = b.y0;
+  const BlockNeighbours n = block_neighbours(whole, b);
+  halo = {};
+  halo[YMin] = n.y_min >= 0;
+  halo[YMax] = n.y_max >= 0;
+  halo[ZMin] = n.z_min >= 0;
+  halo[ZMax] = n.z_max >= 0;
+  return p;
+}
+
 Slab slab_of(int nz, int count, int index) {
   const int base = nz / count, extra = nz % count;
   Slab s;
@@ -52,27 +110,6 @@ Slab slab_of(int nz, int count, int index) {
   s.nz = base + (index < extra ? 1 : 0);
   s.z0 = index * base + (index < extra ? index : extra);
   return s;
-}
-
-SlabNeighbours slab_neighbours(const FluidParams& whole, const Slab& slab) {
-  SlabNeighbours n;
-  if (slab.count == 1) return n;
-  const bool periodic = whole.faces[ZMin].kind == FaceKind::Periodic;
-  if (slab.index > 0) n.below = slab.index - 1;
-  else if (periodic) n.below = slab.count - 1;
-  if (slab.index + 1 < slab.count) n.above = slab.index + 1;
-  else if (periodic) n.above = 0;
-  return n;
-}
-
-FluidParams slab_params(const FluidParams& whole, const Slab& slab, std::array<bool, kFaces>& halo) {
-  FluidParams p = whole;
-  p.shape.nz = slab.nz;
-  const SlabNeighbours n = slab_neighbours(whole, slab);
-  halo = {};
-  halo[ZMin] = n.below >= 0;
-  halo[ZMax] = n.above >= 0;
-  return p;
 }
 
 int mpirun_world_size() {

@@ -47,7 +47,7 @@ std::string SerialDomain::read_store(const std::string& file, const std::string&
 std::string peak_memory_line(const std::vector<double>& peaks) {
   char v[32];
   std::snprintf(v, sizeof v, "%.1f", peaks.empty() ? 0.0 : peaks[0]);
-  std::string line = std::string("fluid: peak memory ") + v + " MiB (largest resident set)";
+  std::string line = std::string("peak memory ") + v + " MiB (largest resident set)";
   if (peaks.size() > 1) {
     line += "; per rank:";
     for (const double p : peaks) {

@@ -74,8 +74,20 @@ class FluidDomain {
   /// Whether begin_step() may run before the forces of the step are spread (the bulk of a
   /// coupled step overlapping the solid's compute; fluid/schemes/serial_scheme.cpp) and leave
   /// the state of the current step whole until finish_step(): Propagation::TwoGrid. The
-  /// in-place propagation needs the forced cells before the bulk and overwrites the state.
+  /// in-place propagation needs the forced cells before the bulk and overwrites the state:
+  /// it overlaps the bulk after the step's sample instead (step_near).
   virtual bool bulk_before_impulses() const = 0;
+  /// The step (forces spread) of the cells that sample(X) reads, the rest by finish_rest()
+  /// or by any reader of the whole state (FluidSolver::step_reading): in place, the coupled
+  /// step publishes fluid_state_t before the bulk of the step, which then overlaps the
+  /// solid's compute. Where the domain cannot split (two grids, a grid over MPI ranks): the
+  /// whole step, finish_rest() nothing.
+  virtual void step_near(std::span<const Vec3> X) {
+    (void)X;
+    begin_step();
+    finish_step();
+  }
+  virtual void finish_rest() {}
   virtual void set_row_schedule(RowSchedule schedule) = 0;
   /// FluidSolver::set_inlet_scale of the whole grid (the inlet's start-up ramp), the same
   /// `s` on every process. A domain that cannot throws std::logic_error (the scene reader
@@ -127,8 +139,8 @@ class FluidDomain {
 /// without one. The fluid-only loop and the coupled run alike.
 void ramp_inlet(FluidDomain& domain, const FluidScene& scene, std::int64_t step);
 
-/// The servers' end-of-run line for `peaks` (FluidDomain::peak_memory_mib): "fluid: peak
-/// memory X MiB (largest resident set)", X the leading process's, and with several processes
+/// The servers' end-of-run line for `peaks` (FluidDomain::peak_memory_mib), without the
+/// logger's prefix: "peak memory X MiB (largest resident set)", X the leading process's, and with several processes
 /// "; per rank: A B C ... MiB" (no rank holds the whole grid, docs/scaling.md).
 std::string peak_memory_line(const std::vector<double>& peaks);
 
@@ -142,6 +154,11 @@ class SerialDomain final : public FluidDomain {
   void begin_step() override { solver_.begin_step(); }
   void finish_step() override { solver_.finish_step(); }
   bool bulk_before_impulses() const override { return solver_.propagation() == Propagation::TwoGrid; }
+  void step_near(std::span<const Vec3> X) override {
+    ib_.marker_nodes(X, nodes_, listed_);
+    solver_.step_reading(nodes_.cells);
+  }
+  void finish_rest() override { solver_.finish_rest(); }
   void set_row_schedule(RowSchedule schedule) override { solver_.set_row_schedule(schedule); }
   void set_inlet_scale(double s) override { solver_.set_inlet_scale(s); }
   std::string kernel_problem(const HealthLimits& limits) override {
@@ -162,6 +179,8 @@ class SerialDomain final : public FluidDomain {
   FluidSolver solver_;
   ImmersedBoundary ib_;
   KeptState kept_;
+  MarkerNodes nodes_;  // step_near's scratch
+  std::vector<std::size_t> listed_;
 };
 
 }  // namespace cosim::fluid

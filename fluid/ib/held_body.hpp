@@ -29,7 +29,7 @@ struct HeldBodyShape {
   double bar_thickness = 0.0;
   /// The markers lie on the surface moved inward by this much (cells): the kernel of Eq. 23
   /// spreads over +-2 dx and makes the body look larger (Breugem 2012; the fixed cylinder
-  /// of tests/test_cylinder_drag.cpp takes 0.3).
+  /// of tests/validation/test_cylinder_drag.cpp takes 0.3).
   double retraction = 0.3;
   double spacing = 1.0;  ///< target marker spacing along the surface (cells)
   int iterations = 5;    ///< multi-direct forcing passes per step (>= 1; 1: the plain force)

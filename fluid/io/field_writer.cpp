@@ -3,33 +3,20 @@
 #include <algorithm>
 #include <array>
 #include <cstdio>
-#include <fstream>
-#include <iomanip>
-#include <sstream>
 #include <stdexcept>
 #include <system_error>
 #include <utility>
 
 #include "fluid/io/hdf5_handle.hpp"
 #include "fluid/io/hdf5_quiet.hpp"
+#include "common/hdf5/xdmf.hpp"
 #include "common/run/atomic_file.hpp"
+#include "common/hdf5/h5_writer.hpp"
 #include "common/run/provenance_h5.hpp"
 
 namespace cosim::fluid {
 
 namespace fs = std::filesystem;
-
-namespace {
-
-template <class T>
-void write_scalar_attribute(hid_t obj, const char* name, hid_t file_type, hid_t mem_type, T value) {
-  const H5Id space(H5Screate(H5S_SCALAR), H5Sclose, "cannot make an HDF5 dataspace");
-  const H5Id attr(H5Acreate2(obj, name, file_type, space.get(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose,
-                  std::string("cannot create the HDF5 attribute ") + name);
-  h5_check(H5Awrite(attr.get(), mem_type, &value), std::string("cannot write the HDF5 attribute ") + name);
-}
-
-}  // namespace
 
 FieldWriter::FieldWriter(std::string dir, double dx_um, double dt_us, std::string prefix,
                          int y_plane)
@@ -57,6 +44,9 @@ void FieldPart::whole(const FluidSolver& solver, FieldPart& into) {
   into.ghosts = 0;
   into.z0 = 0;
   into.nz_whole = solver.shape().nz;
+  into.y_ghosts = 0;
+  into.y0 = 0;
+  into.ny_whole = solver.shape().ny;
   into.step = solver.step_count();
 }
 
@@ -107,11 +97,12 @@ void FieldWriter::write(const FieldPart& part, const protocol::WriteGroup* group
   const protocol::WriteGroup alone;
   const protocol::WriteGroup& g = group != nullptr ? *group : alone;
   const std::int64_t step = part.step;
-  grid_ = GridShape{part.m.shape.nx, part.m.shape.ny, part.nz_whole};
+  grid_ = GridShape{part.m.shape.nx, part.ny_whole, part.nz_whole};
   if (y_plane_ >= grid_.ny)
     throw std::invalid_argument("FieldWriter: plane y = " + std::to_string(y_plane_) +
                                 " outside a grid of ny = " + std::to_string(grid_.ny));
-  vorticity(part.m, part.periodic, part.ghosts, part.z0, part.nz_whole, wx_, wy_, wz_);
+  vorticity(part.m, part.periodic, part.y_ghosts, part.y0, part.ny_whole, part.ghosts, part.z0, part.nz_whole, wx_,
+            wy_, wz_);
 
   // Whole or not at all (protocol::write_atomically): the part file, renamed when every
   // process has written its rows.
@@ -158,16 +149,16 @@ void FieldWriter::create_hdf5(const fs::path& file, std::int64_t step) const {
   const H5Quiet quiet;
   const std::string name = file.string();
   H5Id f = protocol::create_output_file(name, "cannot create the HDF5 file " + name);
-  write_scalar_attribute(f.get(), "step", H5T_STD_I64LE, H5T_NATIVE_INT64, std::int64_t(step));
-  write_scalar_attribute(f.get(), "time_us", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, double(step) * dt_us_);
-  write_scalar_attribute(f.get(), "dx_um", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, dx_um_);
-  write_scalar_attribute(f.get(), "dt_us", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, dt_us_);
+  protocol::put_attribute(f.get(), "step", std::int64_t(step));
+  protocol::put_attribute(f.get(), "time_us", double(step) * dt_us_);
+  protocol::put_attribute(f.get(), "dx_um", dx_um_);
+  protocol::put_attribute(f.get(), "dt_us", dt_us_);
 
   if (y_plane_ >= 0) {
     // Node j sits at (j + 1/2) dx in the sheets' frame (plate at y = 0), like the XDMF geometry.
-    write_scalar_attribute(f.get(), "y_um", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, (y_plane_ + 0.5) * dx_um_);
-    write_scalar_attribute(f.get(), "y_cell", H5T_STD_I64LE, H5T_NATIVE_INT64, std::int64_t(y_plane_));
-    write_scalar_attribute(f.get(), "grid_ny", H5T_STD_I64LE, H5T_NATIVE_INT64, std::int64_t(grid_.ny));
+    protocol::put_attribute(f.get(), "y_um", (y_plane_ + 0.5) * dx_um_);
+    protocol::put_attribute(f.get(), "y_cell", std::int64_t(y_plane_));
+    protocol::put_attribute(f.get(), "grid_ny", std::int64_t(grid_.ny));
   }
   // float64 datasets [nz][ny][nx] (rho) and [nz][ny][nx][3] (u, vorticity in physical units).
   const GridShape s = written_shape();
@@ -175,9 +166,9 @@ void FieldWriter::create_hdf5(const fs::path& file, std::int64_t step) const {
   const std::vector<hsize_t> vector{hsize_t(s.nz), hsize_t(s.ny), hsize_t(s.nx), 3};
   const std::array<std::pair<const char*, const char*>, 3> sets{{{"rho", "1 (rho / rho_0)"}, {"u", "m/s"}, {"vorticity", "1/us"}}};
   for (const auto& [set, units] : sets) {
-    const H5Id d = protocol::create_dataset(f.get(), set, H5T_IEEE_F64LE, std::string(set) == "rho" ? scalar : vector,
-                                            "cannot create " + name + ":/" + set);
-    protocol::put_string_attribute(d.get(), "units", units);
+    const H5Id d = protocol::reserve_dataset(f.get(), set, H5T_IEEE_F64LE, std::string(set) == "rho" ? scalar : vector,
+                                             "cannot create " + name + ":/" + set);
+    protocol::put_units(d.get(), set, units);
   }
   protocol::stamp_file(f.get());
   f.close("cannot close the HDF5 file " + name);
@@ -187,19 +178,23 @@ void FieldWriter::write_rows(const fs::path& file, const FieldPart& part, const 
   const H5Quiet quiet;
   const std::string name = file.string();
   H5Id f = protocol::open_for_hyperslabs(name, g, "cannot open the HDF5 file " + name);
-  // This part's cells in file order (x fastest): its planes, whole or their row y_plane.
+  // This part's cells in file order (x fastest): its rows of its planes, all of them or
+  // the row y_plane (none where the part does not hold it).
   const MacroscopicFields& m = part.m;
-  const int ny = y_plane_ >= 0 ? 1 : m.shape.ny;
+  const bool holds_plane = y_plane_ >= part.y0 && y_plane_ < part.y0 + part.ny();
+  const int ny = y_plane_ >= 0 ? (holds_plane ? 1 : 0) : part.ny();
   std::vector<std::size_t> cells;
   cells.reserve(std::size_t(m.shape.nx) * std::size_t(ny) * std::size_t(part.nz()));
   for (int z = part.ghosts; z < part.ghosts + part.nz(); ++z)
     for (int y = 0; y < ny; ++y)
-      for (int x = 0; x < m.shape.nx; ++x) cells.push_back(m.index(x, y_plane_ >= 0 ? y_plane_ : y, z));
+      for (int x = 0; x < m.shape.nx; ++x)
+        cells.push_back(m.index(x, part.y_ghosts + (y_plane_ >= 0 ? y_plane_ - part.y0 : y), z));
   const std::size_t n = cells.size();
-  const hsize_t first = hsize_t(part.z0), rows = hsize_t(part.nz());
+  const hsize_t first = hsize_t(part.z0), rows = ny == 0 ? 0 : hsize_t(part.nz());
+  const hsize_t first_y = y_plane_ >= 0 ? 0 : hsize_t(part.y0), count_y = hsize_t(ny);
   std::vector<double> rho(n);
   for (std::size_t i = 0; i < n; ++i) rho[i] = m.rho[cells[i]];
-  protocol::write_rows(f.get(), "rho", H5T_NATIVE_DOUBLE, first, rows, rho.data(), g, "cannot write " + name + ":/rho");
+  protocol::write_box(f.get(), "rho", H5T_NATIVE_DOUBLE, first, rows, first_y, count_y, rho.data(), g, "cannot write " + name + ":/rho");
 
   // Vectors interleaved per cell, [nz][ny][nx][3], in physical units.
   vec_.resize(3 * n);
@@ -209,61 +204,42 @@ void FieldWriter::write_rows(const fs::path& file, const FieldPart& part, const 
     vec_[3 * i + 1] = u_scale * m.uy[cells[i]];
     vec_[3 * i + 2] = u_scale * m.uz[cells[i]];
   }
-  protocol::write_rows(f.get(), "u", H5T_NATIVE_DOUBLE, first, rows, vec_.data(), g, "cannot write " + name + ":/u");
+  protocol::write_box(f.get(), "u", H5T_NATIVE_DOUBLE, first, rows, first_y, count_y, vec_.data(), g, "cannot write " + name + ":/u");
   const double w_scale = 1.0 / dt_us_;  // 1/us
   for (std::size_t i = 0; i < n; ++i) {
     vec_[3 * i] = w_scale * wx_[cells[i]];
     vec_[3 * i + 1] = w_scale * wy_[cells[i]];
     vec_[3 * i + 2] = w_scale * wz_[cells[i]];
   }
-  protocol::write_rows(f.get(), "vorticity", H5T_NATIVE_DOUBLE, first, rows, vec_.data(), g,
+  protocol::write_box(f.get(), "vorticity", H5T_NATIVE_DOUBLE, first, rows, first_y, count_y, vec_.data(), g,
                        "cannot write " + name + ":/vorticity");
   f.close("cannot close the HDF5 file " + name);
 }
 
 void FieldWriter::write_xdmf() const {
-  std::ostringstream x;
-  x << std::setprecision(12);
-  x << "<?xml version=\"1.0\" ?>\n"
-    << "<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n"
-    << "<Xdmf Version=\"3.0\" xmlns:xi=\"http://www.w3.org/2001/XInclude\">\n"
-    << "  <Domain>\n"
-    << "    <Grid Name=\"" << prefix_ << "\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
+  namespace xdmf = protocol::xdmf;
+  std::vector<xdmf::Grid> grids;
   for (const Snapshot& snap : snapshots_) {
     const GridShape& s = snap.shape;
     const std::string file = snapshot_name(snap.step);
-    std::ostringstream dims, dims3;
-    dims << s.nz << ' ' << s.ny << ' ' << s.nx;
-    dims3 << dims.str() << " 3";
-    const auto attribute = [&](const char* name, const char* type, const std::string& d) {
-      x << "        <Attribute Name=\"" << name << "\" AttributeType=\"" << type << "\" Center=\"Node\">\n"
-        << "          <DataItem Format=\"HDF\" NumberType=\"Float\" Precision=\"8\" Dimensions=\"" << d
-        << "\">" << file << ":/" << name << "</DataItem>\n"
-        << "        </Attribute>\n";
-    };
-    x << "      <Grid Name=\"step_" << snap.step << "\" GridType=\"Uniform\">\n"
-      << "        <Time Value=\"" << double(snap.step) * dt_us_ << "\"/>\n"
-      << "        <Topology TopologyType=\"3DCoRectMesh\" Dimensions=\"" << dims.str() << "\"/>\n"
-      // ORIGIN_DXDYDZ lists z, y, x (slowest first), like the topology's Dimensions. Node
-      // (i, j, k) sits at (i, j + 1/2, k) dx, the frame of the sheets (sheets.xmf: the plate,
-      // the half-way bounce-back wall at lattice y = -1/2, is y = 0; protocol/README.md
-      // section 4; XdmfGeometryMatchesSheets).
-      << "        <Geometry GeometryType=\"ORIGIN_DXDYDZ\">\n"
-      << "          <DataItem Format=\"XML\" NumberType=\"Float\" Precision=\"8\" Dimensions=\"3\">0 "
-      << ((y_plane_ >= 0 ? y_plane_ : 0) + 0.5) * dx_um_ << " 0</DataItem>\n"
-      << "          <DataItem Format=\"XML\" NumberType=\"Float\" Precision=\"8\" Dimensions=\"3\">" << dx_um_ << ' '
-      << dx_um_ << ' ' << dx_um_ << "</DataItem>\n"
-      << "        </Geometry>\n";
-    attribute("rho", "Scalar", dims.str());
-    attribute("u", "Vector", dims3.str());
-    attribute("vorticity", "Vector", dims3.str());
-    x << "      </Grid>\n";
+    const std::string dims = std::to_string(s.nz) + ' ' + std::to_string(s.ny) + ' ' + std::to_string(s.nx);
+    xdmf::Grid g;
+    g.name = "step_" + std::to_string(snap.step);
+    g.time = double(snap.step) * dt_us_;
+    g.topology = {"3DCoRectMesh", {{"Dimensions", dims}}, {}};
+    // ORIGIN_DXDYDZ lists z, y, x (slowest first), like the topology's Dimensions. Node
+    // (i, j, k) sits at (i, j + 1/2, k) dx, the frame of the sheets (sheets.xmf: the plate,
+    // the half-way bounce-back wall at lattice y = -1/2, is y = 0; protocol/README.md
+    // section 4; XdmfGeometryMatchesSheets).
+    g.geometry = {"ORIGIN_DXDYDZ",
+                  {xdmf::xml({0.0, ((y_plane_ >= 0 ? y_plane_ : 0) + 0.5) * dx_um_, 0.0}),
+                   xdmf::xml({dx_um_, dx_um_, dx_um_})}};
+    g.attributes = {{"rho", "Scalar", xdmf::hdf(file, "rho", "Float", 8, dims)},
+                    {"u", "Vector", xdmf::hdf(file, "u", "Float", 8, dims + " 3")},
+                    {"vorticity", "Vector", xdmf::hdf(file, "vorticity", "Float", 8, dims + " 3")}};
+    grids.push_back(std::move(g));
   }
-  x << "    </Grid>\n"
-    << "  </Domain>\n"
-    << "</Xdmf>\n";
-
-  protocol::write_text_atomically(xdmf_path(), x.str());
+  xdmf::write_temporal_collection(xdmf_path(), prefix_, grids);
 }
 
 }  // namespace cosim::fluid

@@ -24,8 +24,12 @@ struct FieldPart {
   MacroscopicFields m;
   std::array<bool, 3> periodic{};  ///< per axis x, y, z
   int ghosts = 0, z0 = 0, nz_whole = 0;
+  /// The same along y for a block cut along y (rows y0 .. y0 + ny() - 1 of ny_whole, from
+  /// m's row y_ghosts on); y_ghosts = 0 and ny_whole = m.shape.ny for whole planes.
+  int y_ghosts = 0, y0 = 0, ny_whole = 0;
   std::int64_t step = 0;
   int nz() const { return m.shape.nz - 2 * ghosts; }
+  int ny() const { return m.shape.ny - 2 * y_ghosts; }
   /// The whole grid of `solver`, in `into` (its arrays reused).
   static void whole(const FluidSolver& solver, FieldPart& into);
 };

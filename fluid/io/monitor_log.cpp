@@ -11,46 +11,20 @@
 
 #include "fluid/io/hdf5_handle.hpp"
 #include "fluid/io/hdf5_quiet.hpp"
+#include "common/hdf5/h5_writer.hpp"
 #include "common/run/provenance_h5.hpp"
 
 namespace cosim::fluid {
 
 namespace {
 
-/// One extendible dataset [n] (width 1) or [n][width].
-struct Column {
-  const char* name;
-  hid_t mem_type;
-  int width;
-  H5Id dset;
-};
-
-Column make_column(hid_t file, const char* name, hid_t file_type, hid_t mem_type, int width) {
+/// One extendible dataset [n] (width 1) or [n][width], 512 rows a chunk.
+protocol::SeriesDataset make_column(hid_t file, const char* name, hid_t file_type, hid_t mem_type, int width) {
   constexpr hsize_t kChunkRows = 512;
-  const int rank = width == 1 ? 1 : 2;
-  const hsize_t dims[2] = {0, hsize_t(width)};
-  const hsize_t maxdims[2] = {H5S_UNLIMITED, hsize_t(width)};
-  const hsize_t chunk[2] = {kChunkRows, hsize_t(width)};
-  const std::string what = std::string("cannot create the monitor dataset ") + name;
-  const H5Id space(H5Screate_simple(rank, dims, maxdims), H5Sclose, what);
-  const H5Id plist(H5Pcreate(H5P_DATASET_CREATE), H5Pclose, what);
-  h5_check(H5Pset_chunk(plist.get(), rank, chunk), what);
-  H5Id dset(H5Dcreate2(file, name, file_type, space.get(), H5P_DEFAULT, plist.get(), H5P_DEFAULT), H5Dclose,
-            what);
-  return {name, mem_type, width, std::move(dset)};
-}
-
-void append_row(Column& c, hsize_t row, const void* data) {
-  const std::string what = std::string("cannot append to the monitor dataset ") + c.name;
-  const int rank = c.width == 1 ? 1 : 2;
-  const hsize_t extent[2] = {row + 1, hsize_t(c.width)};
-  h5_check(H5Dset_extent(c.dset.get(), extent), what);
-  const H5Id file_space(H5Dget_space(c.dset.get()), H5Sclose, what);
-  const hsize_t start[2] = {row, 0};
-  const hsize_t count[2] = {1, hsize_t(c.width)};
-  h5_check(H5Sselect_hyperslab(file_space.get(), H5S_SELECT_SET, start, nullptr, count, nullptr), what);
-  const H5Id mem_space(H5Screate_simple(rank, count, nullptr), H5Sclose, what);
-  h5_check(H5Dwrite(c.dset.get(), c.mem_type, mem_space.get(), file_space.get(), H5P_DEFAULT, data), what);
+  std::vector<hsize_t> row_dims;
+  if (width != 1) row_dims.push_back(hsize_t(width));
+  return protocol::SeriesDataset(file, name, file_type, mem_type, std::move(row_dims), kChunkRows,
+                                 std::string("the monitor dataset ") + name);
 }
 
 std::array<std::int32_t, 3> cell_row(const CellIndex& c) { return {c.x, c.y, c.z}; }
@@ -61,7 +35,7 @@ struct MonitorLog::Impl {
   std::string path;
   double dt_us;
   H5Id file;
-  std::vector<Column> columns;
+  std::vector<protocol::SeriesDataset> columns;
   std::int64_t rows = 0;
 };
 
@@ -105,7 +79,6 @@ const std::string& MonitorLog::path() const { return impl_->path; }
 
 void MonitorLog::append(const FlowSummary& s) {
   const H5Quiet quiet;
-  const hsize_t row = hsize_t(impl_->rows);
   const double time_us = double(s.step) * impl_->dt_us;
   const std::array<std::int32_t, 3> cells[4] = {cell_row(s.max_mach_cell), cell_row(s.rho_min_cell),
                                                 cell_row(s.rho_max_cell), cell_row(s.nan_cell)};
@@ -115,7 +88,7 @@ void MonitorLog::append(const FlowSummary& s) {
                         cells[3].data(), &has_nan};
   auto& c = impl_->columns;
   static_assert(sizeof data / sizeof data[0] == 12);
-  for (std::size_t k = 0; k < c.size(); ++k) append_row(c[k], row, data[k]);
+  for (std::size_t k = 0; k < c.size(); ++k) c[k].append(data[k], 1);
   ++impl_->rows;
   h5_check(H5Fflush(impl_->file.get(), H5F_SCOPE_LOCAL), "cannot flush the monitor file " + impl_->path);
 }

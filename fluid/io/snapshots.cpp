@@ -69,7 +69,7 @@ std::string silent_write_warning(const FluidScene& scene) {
   const SilentWrite w = largest_silent_write(scene);
   const double seconds = w.bytes / kAssumedWriteBytesPerS, timeout = scene.coupling->peer_timeout_s;
   if (!(seconds > 0.5 * timeout)) return "";
-  return "fluid: warning: " + w.what + " is " + protocol::fmt("%.3g", w.bytes * 1e-6) + " MB: at " +
+  return w.what + " is " + protocol::fmt("%.3g", w.bytes * 1e-6) + " MB: at " +
          protocol::fmt("%.0f", kAssumedWriteBytesPerS * 1e-6) + " MB/s it takes " + protocol::fmt("%.3g", seconds) +
          " s, more than half of coupling.peer_timeout_s = " + protocol::fmt("%.3g", timeout) +
          " s, during which the solid hears nothing from the fluid and may declare it lost (exit 4); raise "

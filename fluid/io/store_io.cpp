@@ -4,6 +4,7 @@
 
 #include "fluid/io/hdf5_handle.hpp"
 #include "fluid/io/hdf5_quiet.hpp"
+#include "common/hdf5/h5_writer.hpp"
 #include "fluid/lattice/d3q19.hpp"
 
 namespace cosim::fluid {
@@ -39,8 +40,9 @@ std::string write_store_share(const std::string& file, const std::string& name, 
   for (int q = 0; q < D3Q19::Q; ++q) {
     const auto* from = static_cast<const unsigned char*>(store) + (q * share.local_stride + share.local_first) * size;
     try {
-      protocol::write_rows(f.get(), name, mem_type, hsize_t(q * share.whole_stride + share.first),
-                           hsize_t(share.count), from, g, what);
+      protocol::strided_values(f.get(), name, mem_type, hsize_t(q * share.whole_stride + share.first),
+                               hsize_t(share.whole_chunk_stride), hsize_t(share.chunks), hsize_t(share.count),
+                               hsize_t(share.local_chunk_stride), const_cast<unsigned char*>(from), &g, what);
     } catch (const std::exception& x) {
       if (error.empty()) error = x.what();
     }
@@ -62,8 +64,9 @@ std::string read_store_share(const std::string& file, const std::string& name, v
     const H5Id f(H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose, what);
     for (int q = 0; q < D3Q19::Q; ++q) {
       auto* into = static_cast<unsigned char*>(store) + (q * share.local_stride + share.local_first) * size;
-      protocol::read_values(f.get(), name, mem_type, hsize_t(q * share.whole_stride + share.first),
-                            hsize_t(share.count), into, what);
+      protocol::strided_values(f.get(), name, mem_type, hsize_t(q * share.whole_stride + share.first),
+                               hsize_t(share.whole_chunk_stride), hsize_t(share.chunks), hsize_t(share.count),
+                               hsize_t(share.local_chunk_stride), into, nullptr, what);
     }
   } catch (const std::exception& x) {
     return x.what();

@@ -14,13 +14,16 @@ class WriteGroup;
 
 namespace cosim::fluid {
 
-/// One process's share of a whole grid's store: per population q, the values
-/// [first, first + count) of the whole store's q, at local_first of its own store's q.
+/// One process's share of a whole grid's store: per population q, `chunks` runs of `count`
+/// values, the first [first, first + count) of the whole store's q at local_first of its own
+/// store's q, each next run whole_chunk_stride (in the whole store) and local_chunk_stride
+/// (in its own) further on: a block's rows of each of its planes (DESIGN 8).
 struct StoreShare {
   std::size_t value_bytes = sizeof(double);  ///< 8 (double), 4 (float) or 2 (the half store's codes)
   std::size_t whole_stride = 0;  ///< values per population, the whole grid's layout
   std::size_t local_stride = 0;  ///< the same for this process's store
   std::size_t first = 0, local_first = 0, count = 0;
+  std::size_t chunks = 1, whole_chunk_stride = 0, local_chunk_stride = 0;
 };
 
 /// Writes this process's share of its store (`store`: population 0's first value, the

@@ -19,7 +19,7 @@ namespace cosim::fluid {
 ///  - Double ("double", the default): double store, double arithmetic;
 ///  - Mixed ("mixed"): float store, double arithmetic: halves the memory and the bytes moved
 ///    per update (304 -> 152) at the cost of rounding every stored population to float
-///    (docs/performance.md, docs/error-vs-runtime.md). Before issue 35 this mode was called
+///    (docs/results/precision-modes-20261206.md, docs/error-vs-runtime.md). Before issue 35 this mode was called
 ///    "single".
 ///  - Single ("single"): float store and float arithmetic (what single precision means in
 ///    most LB codes): the kernel collides groups of floats twice as wide as the double ones

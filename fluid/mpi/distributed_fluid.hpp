@@ -1,4 +1,5 @@
-// The fluid grid of a run over MPI ranks (DESIGN 8): one slab per rank, each stepped by the
+// The fluid grid of a run over MPI ranks (DESIGN 8): one block per rank (slabs along z, or
+// blocks along y and z), each stepped by the
 // same FluidSolver (kernel and boundary fills) as the undivided grid, with the halo exchange
 // between slabs; the watchdog's extrema combined over the ranks; the monitor's row sums
 // added on rank 0; the snapshots and checkpoints written by every rank, each its own planes
@@ -15,7 +16,7 @@
 #include "fluid/domain/decomposition.hpp"
 #include "fluid/domain/fluid_domain.hpp"
 #include "fluid/mpi/mpi_world.hpp"
-#include "fluid/mpi/slab_halo.hpp"
+#include "fluid/mpi/block_halo.hpp"
 
 namespace cosim::fluid::mpi {
 
@@ -30,7 +31,8 @@ namespace cosim::fluid::mpi {
 /// ImmersedBoundary), computes the moments of the nodes it owns, and rank 0 gathers them and
 /// sums each marker in the serial order; the impulses go to every rank, which spreads all
 /// markers in the serial order onto the nodes it owns, so each node adds its contributions
-/// in the serial order too (a marker whose support straddles a slab edge adds to both).
+/// in the serial order too (a marker whose support straddles a block edge, along y or z or
+/// both, adds to each block it reaches).
 /// Checkpoints: each rank writes its range of the whole grid's store into the file one
 /// process writes; a restart reads each block's store (ghost and halo planes included).
 /// Scalar arguments (steps, schedules, limits) must be the same on every rank; the others
@@ -61,9 +63,9 @@ class DistributedFluid final : public FluidDomain {
   std::string read_store(const std::string& file, const std::string& name, std::int64_t step) override;
   std::vector<double> peak_memory_mib() override;
 
-  const Slab& slab() const { return slab_; }
+  const Block& place() const { return place_; }
   const FluidSolver& block() const { return *block_; }
-  const SlabHalo& halo() const { return *halo_; }
+  const BlockHalo& halo() const { return *halo_; }
 
  private:
   /// The whole grid's summary on rank 0 from the slabs' partials (flow_partials): their row
@@ -77,18 +79,18 @@ class DistributedFluid final : public FluidDomain {
   StoreShare share(bool reading) const;
   /// Rank 0's markers (and impulses) on every rank.
   std::vector<Vec3> from_leader(std::span<const Vec3> values);
-  /// The rank that owns plane z of the whole grid.
-  int owner(int z) const { return owner_[std::size_t(z)]; }
+  /// The rank that owns cell row (y, z) of the whole grid.
+  int owner(int y, int z) const { return owner_z_[std::size_t(z)] * place_.py + owner_y_[std::size_t(y)]; }
 
   MPI_Comm comm_;
   int rank_ = 0, ranks_ = 1;
-  Slab slab_;
-  std::unique_ptr<SlabHalo> halo_;
+  Block place_;
+  std::unique_ptr<BlockHalo> halo_;
   std::unique_ptr<FluidSolver> block_;
   FluidParams whole_params_;
   FieldPart part_;                      // kept between snapshots
   ImmersedBoundary ib_;                 // of the whole grid
-  std::vector<int> owner_;              // per plane z of the whole grid
+  std::vector<int> owner_y_, owner_z_;  // the block's place along y (z) per row (plane)
   KeptState kept_;                      // of this rank's block
 };
 

@@ -194,7 +194,7 @@ int follow(DistributedFluid& grid, const FluidScene& scene, double dt_us, MPI_Co
       case Call::PeakMemory: grid.peak_memory_mib(); break;
       case Call::End: return static_cast<int>(o.arg);
       default:
-        throw std::runtime_error("rank " + std::to_string(grid.slab().index) + ": an unknown order " +
+        throw std::runtime_error("rank " + std::to_string(grid.place().rank()) + ": an unknown order " +
                                  std::to_string(o.call) + " from rank 0");
     }
   }

@@ -107,7 +107,7 @@ const char* non_finite_name(double v) {
 /// whole grid).
 template <class T>
 FlowPartials partials_of_field(const FluidSolver& solver, const BasicPopulationField<T>& f,
-                               std::int64_t first_cell) {
+                               std::int64_t first_cell, int whole_ny) {
   const GridLayout& lay = f.layout();
   const GridShape& shape = solver.shape();
   const int nx = shape.nx, ny = shape.ny;
@@ -133,7 +133,7 @@ FlowPartials partials_of_field(const FluidSolver& solver, const BasicPopulationF
       const T* s[L::Q];
 #pragma GCC unroll 19
       for (int q = 0; q < L::Q; ++q) s[q] = f.q(q) + base - lay.offset(L::cx[q], L::cy[q], L::cz[q]);
-      const std::int64_t row0 = first_cell + std::int64_t(r) * nx;
+      const std::int64_t row0 = first_cell + (std::int64_t(z) * whole_ny + y) * nx;
       // Fast path, vectorised along x: the row's sums and extrema, and a flag that is NaN
       // when any rho or u of the row is not finite (0 * inf and 0 * NaN are NaN).
       double mass = 0, mx = 0, my = 0, mz = 0, u2max = -1.0, rmin = kInf, rmax = -kInf, bad = 0;
@@ -184,12 +184,14 @@ FlowPartials partials_of_field(const FluidSolver& solver, const BasicPopulationF
   return out;
 }
 
-FlowPartials partials_of(const FluidSolver& solver, bool previous, std::int64_t first_cell) {
+FlowPartials partials_of(const FluidSolver& solver, bool previous, std::int64_t first_cell, int whole_ny) {
   if (solver.precision() == Precision::Double)
-    return partials_of_field(solver, previous ? solver.previous_state() : solver.state(), first_cell);
+    return partials_of_field(solver, previous ? solver.previous_state() : solver.state(), first_cell, whole_ny);
   if (stores_halves(solver.precision()))
-    return partials_of_field(solver, previous ? solver.previous_state_half() : solver.state_half(), first_cell);
-  return partials_of_field(solver, previous ? solver.previous_state_single() : solver.state_single(), first_cell);
+    return partials_of_field(solver, previous ? solver.previous_state_half() : solver.state_half(), first_cell,
+                             whole_ny);
+  return partials_of_field(solver, previous ? solver.previous_state_single() : solver.state_single(), first_cell,
+                           whole_ny);
 }
 
 }  // namespace
@@ -208,8 +210,8 @@ void FlowPartials::merge_extrema(const FlowPartials& o) {
   }
 }
 
-FlowPartials flow_partials(const FluidSolver& block, bool previous, std::int64_t first_cell) {
-  return partials_of(block, previous, first_cell);
+FlowPartials flow_partials(const FluidSolver& block, bool previous, std::int64_t first_cell, int whole_ny) {
+  return partials_of(block, previous, first_cell, whole_ny > 0 ? whole_ny : block.shape().ny);
 }
 
 FlowSummary flow_summary(const FlowPartials& p, const GridShape& shape, std::int64_t step) {
@@ -239,7 +241,7 @@ FlowSummary flow_summary(const FlowPartials& p, const GridShape& shape, std::int
 }
 
 FlowSummary summarize(const FluidSolver& solver) {
-  return flow_summary(partials_of(solver, false, 0), solver.shape(), solver.step_count());
+  return flow_summary(partials_of(solver, false, 0, solver.shape().ny), solver.shape(), solver.step_count());
 }
 
 bool kernel_extrema_suspect(const KernelExtrema& e, const HealthLimits& limits) {
@@ -260,7 +262,7 @@ std::string kernel_state_problem(const FluidSolver& solver, const HealthLimits& 
   // Mid-step, or where no previous state is kept (the in-place propagation): the state now.
   if (solver.mid_step() || !solver.has_previous_state()) return health_problem(summarize(solver), limits);
   const std::int64_t before = solver.step_count() - 1;
-  return health_problem(flow_summary(partials_of(solver, true, 0), solver.shape(), before), limits);
+  return health_problem(flow_summary(partials_of(solver, true, 0, solver.shape().ny), solver.shape(), before), limits);
 }
 
 std::string health_problem(const FlowSummary& s, const HealthLimits& limits) {

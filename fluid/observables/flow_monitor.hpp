@@ -61,8 +61,9 @@ struct FlowPartials {
 };
 /// The partials of a block's current state, or (previous) of the state its last step read
 /// (@pre as FluidSolver::previous_state), `first_cell` the linear index in the whole grid of
-/// the block's cell (0, 0, 0).
-FlowPartials flow_partials(const FluidSolver& block, bool previous, std::int64_t first_cell);
+/// the block's cell (0, 0, 0), `whole_ny` the whole grid's rows per plane (0: the block's,
+/// a block of whole planes); row_sums in the block's row order.
+FlowPartials flow_partials(const FluidSolver& block, bool previous, std::int64_t first_cell, int whole_ny = 0);
 /// The summary of the whole grid of `shape` at `step` from the partials of all its rows.
 FlowSummary flow_summary(const FlowPartials& all, const GridShape& shape, std::int64_t step);
 

@@ -40,12 +40,22 @@ void vorticity(const FluidSolver& solver, const MacroscopicFields& m, std::vecto
 
 void vorticity(const MacroscopicFields& m, const std::array<bool, 3>& periodic, int ghosts, int z0, int nz_whole,
                std::vector<double>& wx, std::vector<double>& wy, std::vector<double>& wz) {
+  vorticity(m, periodic, 0, 0, m.shape.ny, ghosts, z0, nz_whole, wx, wy, wz);
+}
+
+void vorticity(const MacroscopicFields& m, const std::array<bool, 3>& periodic, int y_ghosts, int y0, int ny_whole,
+               int ghosts, int z0, int nz_whole, std::vector<double>& wx, std::vector<double>& wy,
+               std::vector<double>& wz) {
   const GridShape& s = m.shape;
-  const int nz = s.nz - 2 * ghosts;
+  const int nz = s.nz - 2 * ghosts, ny = s.ny - 2 * y_ghosts;
   if (ghosts < 0 || nz < 1 || (ghosts == 0 && nz != nz_whole) || (ghosts > 0 && ghosts < 2) || z0 < 0 ||
       z0 + nz > nz_whole)
     throw std::invalid_argument("vorticity: planes " + std::to_string(z0) + " + " + std::to_string(nz) + " with " +
                                 std::to_string(ghosts) + " ghost planes of a grid of " + std::to_string(nz_whole));
+  if (y_ghosts < 0 || ny < 1 || (y_ghosts == 0 && ny != ny_whole) || (y_ghosts > 0 && y_ghosts < 2) || y0 < 0 ||
+      y0 + ny > ny_whole)
+    throw std::invalid_argument("vorticity: rows " + std::to_string(y0) + " + " + std::to_string(ny) + " with " +
+                                std::to_string(y_ghosts) + " ghost rows of a grid of " + std::to_string(ny_whole));
   const std::size_t n = std::size_t(s.cells());
   if (m.ux.size() != n || m.uy.size() != n || m.uz.size() != n)
     throw std::invalid_argument("vorticity: the velocity arrays do not match the grid shape");
@@ -59,21 +69,25 @@ void vorticity(const MacroscopicFields& m, const std::array<bool, 3>& periodic, 
     if (periodic[2] && ghosts > 0 && nz_whole > 1) return 0.5 * (p[sz] - p[-sz]);
     return derivative(p, z0 + z - ghosts, nz_whole, sz, periodic[2]);
   };
+  const auto d_dy = [&](const double* p, int y) {
+    if (periodic[1] && y_ghosts > 0 && ny_whole > 1) return 0.5 * (p[sy] - p[-sy]);
+    return derivative(p, y0 + y - y_ghosts, ny_whole, sy, periodic[1]);
+  };
 
 #pragma omp parallel for collapse(2) schedule(static)
   for (int z = ghosts; z < ghosts + nz; ++z)
-    for (int y = 0; y < s.ny; ++y)
+    for (int y = y_ghosts; y < y_ghosts + ny; ++y)
       for (int x = 0; x < s.nx; ++x) {
         const std::size_t i = m.index(x, y, z);
         const double* ux = m.ux.data() + i;
         const double* uy = m.uy.data() + i;
         const double* uz = m.uz.data() + i;
-        const double duz_dy = derivative(uz, y, s.ny, sy, periodic[1]);
+        const double duz_dy = d_dy(uz, y);
         const double duy_dz = d_dz(uy, z);
         const double dux_dz = d_dz(ux, z);
         const double duz_dx = derivative(uz, x, s.nx, sx, periodic[0]);
         const double duy_dx = derivative(uy, x, s.nx, sx, periodic[0]);
-        const double dux_dy = derivative(ux, y, s.ny, sy, periodic[1]);
+        const double dux_dy = d_dy(ux, y);
         wx[i] = duz_dy - duy_dz;
         wy[i] = dux_dz - duz_dx;
         wz[i] = duy_dx - dux_dy;

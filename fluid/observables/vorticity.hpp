@@ -26,4 +26,12 @@ void vorticity(const FluidSolver& solver, const MacroscopicFields& m, std::vecto
 void vorticity(const MacroscopicFields& m, const std::array<bool, 3>& periodic, int ghosts, int z0, int nz_whole,
                std::vector<double>& wx, std::vector<double>& wy, std::vector<double>& wz);
 
+/// A block cut along y too: `m` holds its rows y0 .. y0 + ny - 1 from its row `y_ghosts` on,
+/// with `y_ghosts` rows of the grid either side as along z (the rows of the blocks beside it,
+/// or their periodic images), for a grid of ny_whole rows. @pre y_ghosts >= 2 or
+/// y_ghosts == 0 and ny == ny_whole
+void vorticity(const MacroscopicFields& m, const std::array<bool, 3>& periodic, int y_ghosts, int y0, int ny_whole,
+               int ghosts, int z0, int nz_whole, std::vector<double>& wx, std::vector<double>& wy,
+               std::vector<double>& wz);
+
 }  // namespace cosim::fluid

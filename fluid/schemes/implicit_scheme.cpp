@@ -13,6 +13,7 @@
 #include "common/text/text.hpp"
 #include "fluid/coupled/coordinator.hpp"
 #include "fluid/coupled/fluid_run.hpp"
+#include "fluid/io/fluid_log.hpp"
 #include "fluid/schemes/fluid_scheme.hpp"
 #include "fluid/schemes/scheme_context.hpp"
 #include "protocol/message_checks.hpp"
@@ -65,8 +66,9 @@ class ImplicitFluidScheme final : public FluidScheme {
   }
 
   void summary(std::ostream& out, std::int64_t steps) const override {
-    out << "fluid: implicit scheme: " << redone_steps_ << " LB steps computed again for sub-iterations, "
-        << protocol::fmt("%.3g", double(steps + redone_steps_) / double(steps)) << " fluid steps per LB step\n";
+    fluid_log().info(out) << "implicit scheme: " << redone_steps_ << " LB steps computed again for sub-iterations, "
+                          << protocol::fmt("%.3g", double(steps + redone_steps_) / double(steps))
+                          << " fluid steps per LB step";
   }
 
  private:

@@ -44,12 +44,19 @@ void SchemeContext::charge() {
   mark_ = t;
 }
 
-// The bulk of the step to step + 1 needs no impulses with two grids (FluidDomain::
-// begin_step: the cells that receive them are collided again by finish_step): it runs while
-// the solid computes them, and the result is that of a whole step after the wait. The
-// in-place propagation needs the forced cells before the bulk, which overwrites the state of
-// `step`: there the whole step runs after the message, so every ending (a lost peer, a
-// signal, a watchdog trip) still finds the state of `step` whole.
+// The bulk of the step overlaps the solid's compute, and every ending (a lost peer, a
+// signal, a watchdog trip) still finds the state of the committed step whole (DESIGN 2.4, 7):
+//  - two grids: the bulk of the step to step + 1 needs no impulses (FluidDomain::begin_step:
+//    the cells that receive them are collided again by finish_step) and leaves the state of
+//    `step` in the other grid: it runs here, while the solid computes the impulses.
+//  - in place: the bulk overwrites the state it steps from, so it cannot run before the
+//    message: the step runs after it, first near the markers only (FluidDomain::step_near:
+//    the cells the sample at X_l reads, the forced ones, the faces' margins), then
+//    fluid_state_t(step + 1) goes out, and the rest of the step runs while the solid
+//    computes its answer (lb_step). The state is whole at every wait: the rest ran before
+//    it; and nothing sees it part stepped, since every reader of the whole state (a trip's
+//    checkpoint, the health check, the outputs) runs the rest first (FluidSolver::
+//    step_reading). The same bits as the step run whole (SplitStepInPlaceKeepsAbortCheckpointWhole).
 std::optional<int> SchemeContext::begin_step(std::int64_t step, bool free) {
   coord.begin_step(step);
   // In the free steps the solid computes beside the bulk, on the same cores: the kernel
@@ -78,20 +85,33 @@ Reply SchemeContext::lb_step(const cosimlcm::solid_state_t& m, std::int64_t step
   FluidDomain& fluid = run.domain();
   run.hold_body(j);  // [held_body]: the body's impulses first (Turek and Hron's cylinder)
   fluid.spread(x, j);
-  if (!overlap_) fluid.begin_step();
-  fluid.finish_step();
-  // In place, the sentinel after the whole step (the state is not read mid-step; the
-  // fluid-only loop's order): the kernel's extrema of `step`, the state now if suspect.
-  if (!overlap_)
-    if (auto code = run.check_step_read(step)) return {code};
   const std::int64_t now = step + 1;
-  if (publish_after)
+  // fluid_state_t(now) goes out before the outputs of `now`, unless it carries the bulk
+  // velocity of the monitor row of `now` (FluidRun::monitor_due).
+  bool published = false;
+  if (overlap_) {
+    fluid.finish_step();
+  } else {
+    // In place (begin_step): the step near the markers; its sample, published, sets the
+    // solid going; then the rest of the step, while the solid computes.
+    fluid.step_near(x);
+    if (publish_after && !run.monitor_due(now)) {
+      if (auto code = run.sample_markers(now, x, samples)) return {code};
+      // fluid_state_t's *_start_lb serve the implicit scheme only: a copy of the sample here.
+      publish(now, samples, samples);
+      published = true;
+    }
+    fluid.finish_rest();
+    // The sentinel after the whole step (the fluid-only loop's order): the kernel's
+    // extrema of `step`, the state now if suspect.
+    if (auto code = run.check_step_read(step)) return {code};
+  }
+  if (publish_after && !published)
     if (auto code = run.sample_markers(now, x, samples)) return {code};
   bool periodic = false;
   if (auto code = outputs(now, periodic)) return {code};
   if (publish_after) {
-    // fluid_state_t's *_start_lb serve the implicit scheme only: a copy of the sample here.
-    publish(now, samples, samples);
+    if (!published) publish(now, samples, samples);
     if (periodic) run.checkpoint(now, "");
   }
   return {std::nullopt, now};

@@ -59,7 +59,8 @@ class SchemeContext {
   void charge();
 
  private:
-  /// The fluid's bulk runs before the impulses (two grids): FluidDomain::bulk_before_impulses.
+  /// The fluid's bulk runs before the impulses (two grids): FluidDomain::bulk_before_impulses;
+  /// else after fluid_state_t(step + 1) is out (in place: FluidDomain::step_near).
   const bool overlap_;
   Clock::time_point mark_ = Clock::now();
 };

@@ -108,7 +108,7 @@ FluidSolver::FluidSolver(const FluidParams& params, HaloExchange* halo)
     : params_(params),
       layout_(solver_layout(params, halo)),
       halo_(halo),
-      bc_(layout_, params.faces, halo != nullptr ? halo->faces() : std::array<bool, kFaces>{}),
+      bc_(layout_, params.faces, halo != nullptr ? halo->faces() : std::array<bool, kFaces>{}, params.y_origin),
       x_faces_(bc_.in_place_x_faces()) {
   // The in-place propagation needs one grid.
   const bool two = params.propagation == Propagation::TwoGrid;
@@ -126,6 +126,7 @@ std::size_t FluidSolver::population_bytes() const {
 }
 
 void FluidSolver::make_canonical(const char* call) const {
+  finish_rest();
   if (params_.propagation != Propagation::InPlace) return;
   if (mid_step_)
     throw std::logic_error(std::string("FluidSolver::") + call +
@@ -140,9 +141,9 @@ const PopulationField& FluidSolver::state() const {
   make_canonical("state()");
   return f_;
 }
-void FluidSolver::fill_wall_ghosts_of_halo_cells(bool below, bool above) {
+void FluidSolver::fill_wall_ghosts_of_halo_cells(const std::array<bool, kFaces>& cells) {
   make_canonical("fill_wall_ghosts_of_halo_cells()");
-  with_fields([&](auto& f, auto&) { bc_.fill_wall_ghosts_of_halo_cells(f, below, above); });
+  with_fields([&](auto& f, auto&) { bc_.fill_wall_ghosts_of_halo_cells(f, cells); });
 }
 
 PopulationField& FluidSolver::mutable_state() {
@@ -220,6 +221,8 @@ void FluidSolver::initialize(const InitialState& state) {
   const GridShape& s = layout_.shape();
   have_previous_ = mid_step_ = false;
   arrangement_ = PopulationLayout::Canonical;
+  rest_.clear();  // a whole new state
+  rest_row_.clear();
   // One thread, x fastest: the callback may keep state (e.g. a random generator). Once per
   // run; a few tens of milliseconds on the paper's grid.
   with_fields([&](auto& f, auto& g) {
@@ -243,6 +246,7 @@ void FluidSolver::initialize_uniform(double rho, const std::array<double, 3>& u)
 
 void FluidSolver::set_inlet_scale(double s) {
   if (mid_step_) throw std::logic_error("FluidSolver::set_inlet_scale(): between begin_step() and finish_step()");
+  finish_rest();
   if (s == bc_.inlet_scale()) return;
   bc_.set_inlet_scale(s);
   if (params_.propagation == Propagation::InPlace) {
@@ -281,7 +285,11 @@ void FluidSolver::add_force(int x, int y, int z, double fx, double fy, double fz
 void FluidSolver::step() {
   // A block's two-grid step sends its edge planes while it collides its interior ones; the
   // in-place step has one grid, whose edge planes the interior's collision would overwrite.
-  if (halo_ != nullptr && bc_.has_halo() && layout_.nz() >= 3 && params_.propagation == Propagation::TwoGrid) {
+  // A block cut along y too sends its edge rows of every plane first: no overlap (its y
+  // exchange needs the whole sweep).
+  const bool y_halo = bc_.is_halo(YMin) || bc_.is_halo(YMax);
+  if (halo_ != nullptr && bc_.has_halo() && !y_halo && layout_.nz() >= 3 &&
+      params_.propagation == Propagation::TwoGrid) {
     with_fields([&](auto& f, auto& g) { step_overlapped(f, g); });
     return;
   }
@@ -291,6 +299,7 @@ void FluidSolver::step() {
 
 void FluidSolver::begin_step() {
   if (mid_step_) throw std::logic_error("FluidSolver::begin_step(): the step begun before is not finished");
+  finish_rest();
   with_fields([&](auto& f, auto& g) {
     if (params_.propagation == Propagation::InPlace)
       begin_in_place(f);
@@ -396,7 +405,7 @@ void FluidSolver::apply_local_forces(const BasicPopulationField<T>& f,
 // as apply_local_forces, the ghosts the same BoundaryConditions fills: the same bits as the
 // two-grid step (test_lbm_invariants: InPlaceStepMatchesTwoGridStep).
 template <class T>
-void FluidSolver::begin_in_place(BasicPopulationField<T>& f) {
+void FluidSolver::begin_in_place(BasicPopulationField<T>& f, KernelRows rows) {
   // The forced cells' pulled populations, before the bulk overwrites them.
   const std::size_t cells = forced_.size();
   saved_inputs_.resize(cells * D3Q19::Q);
@@ -408,7 +417,7 @@ void FluidSolver::begin_in_place(BasicPopulationField<T>& f) {
           decode_population(canonical ? f.q(q)[i - shift(layout_, q)] : f.q(D3Q19::opp[q])[i], q);
   }
   stream_collide_in_place(f, arrangement_, params_.tau, params_.body_force, &extrema_, schedule_, &x_faces_,
-                          arithmetic_of(params_.precision));
+                          arithmetic_of(params_.precision), rows);
   arrangement_ = canonical ? PopulationLayout::Swapped : PopulationLayout::Canonical;
 }
 
@@ -455,6 +464,89 @@ void FluidSolver::finish_in_place(BasicPopulationField<T>& f) {
     bc_.fill_ghosts_but_x(f, halo_);
   else
     bc_.fill_ghosts(f, halo_);
+}
+
+// The split step (step_reading). Why it gives the bits of step(): in an in-place step cell
+// x reads its 19 pulled populations from its own slots and writes its collided ones back to
+// them (stream_collide_in_place), and no two cells share a slot; the slots of the ghosts
+// are no cell's. So the rows the first kernel call leaves still hold the state the step
+// began from, whatever the first call, the forced cells' second collision (their rows are
+// stepped first) and the ghost fill wrote, and finish_rest() collides them as the one
+// call would have: a cell's bits do not depend on which rows share its call (KernelRows).
+// The ghost fill of the faces y and z reads the post-collision values of the cells next to
+// those faces (kRestMargin layers, all stepped first) and writes ghost slots only; the x
+// faces' ghosts are the kernel's, row by row (InPlaceXFaces), so the rows left write
+// theirs themselves. The kernel's extrema are merged from both calls (KernelExtrema::merge:
+// min, max and "and" do not depend on the order).
+void FluidSolver::step_reading(std::span<const std::array<int, 3>> read) {
+  if (mid_step_) throw std::logic_error("FluidSolver::step_reading(): the step begun before is not finished");
+  finish_rest();
+  const int ny = layout_.ny(), nz = layout_.nz(), m = kRestMargin;
+  if (params_.propagation != Propagation::InPlace || halo_ != nullptr || !x_faces_.all() || ny <= 2 * m ||
+      nz <= 2 * m) {
+    step();
+    return;
+  }
+  // Which rows run first: the faces' margins, the rows the reads pull from, the forced cells'.
+  const std::size_t rows = std::size_t(ny) * std::size_t(nz);
+  std::vector<std::uint8_t>& first = rest_row_;
+  first.assign(rows, 0);
+  for (int z = 0; z < nz; ++z)
+    for (int y = 0; y < ny; ++y)
+      if (y < m || y >= ny - m || z < m || z >= nz - m) first[std::size_t(y) + std::size_t(ny) * z] = 1;
+  for (const std::array<int, 3>& c : read)
+    for (int dz = -1; dz <= 1; ++dz)
+      for (int dy = -1; dy <= 1; ++dy) {
+        const int y = c[1] + dy, z = c[2] + dz;  // out of range: a face's row, stepped first
+        if (y >= 0 && y < ny && z >= 0 && z < nz) first[std::size_t(y) + std::size_t(ny) * z] = 1;
+      }
+  const std::ptrdiff_t sx = layout_.row_stride(), plane = layout_.plane_stride();
+  for (const std::ptrdiff_t i : forced_)
+    first[std::size_t(i % plane / sx - 1) + std::size_t(ny) * std::size_t(i / plane - 1)] = 1;
+  near_rows_.clear();
+  std::vector<std::int32_t> rest;
+  rest.reserve(rows);
+  for (std::size_t r = 0; r < rows; ++r) (first[r] ? near_rows_ : rest).push_back(std::int32_t(r));
+  if (rest.empty()) {
+    step();
+    return;
+  }
+  const bool from_canonical = arrangement_ == PopulationLayout::Canonical;
+  const KernelRows near{near_rows_.data(), std::ptrdiff_t(near_rows_.size())};
+  with_fields([&](auto& f, auto&) { begin_in_place(f, near); });
+  mid_step_ = true;
+  have_previous_ = false;
+  finish_step();  // the forced cells, the ghosts (they read the rows stepped)
+  rest_ = std::move(rest);
+  rest_from_canonical_ = from_canonical;
+  for (std::size_t r = 0; r < rows; ++r) first[r] = !first[r];  // now: the rows left
+}
+
+void FluidSolver::finish_rest() const {
+  if (rest_.empty()) return;
+  KernelExtrema part;
+  const KernelRows rows{rest_.data(), std::ptrdiff_t(rest_.size())};
+  const PopulationLayout from = rest_from_canonical_ ? PopulationLayout::Canonical : PopulationLayout::Swapped;
+  with_fields([&](auto& f, const auto&) {
+    stream_collide_in_place(f, from, params_.tau, params_.body_force, &part, schedule_, &x_faces_,
+                            arithmetic_of(params_.precision), rows);
+  });
+  extrema_.merge(part);
+  rest_.clear();
+  rest_row_.clear();
+}
+
+void FluidSolver::check_not_left(int x, int y, int z) const {
+  const int ny = layout_.ny(), nz = layout_.nz();
+  for (int dz = -1; dz <= 1; ++dz)
+    for (int dy = -1; dy <= 1; ++dy) {
+      const int yy = y + dy, zz = z + dz;
+      if (yy >= 0 && yy < ny && zz >= 0 && zz < nz && rest_row_[std::size_t(yy) + std::size_t(ny) * zz])
+        throw std::logic_error("FluidSolver::populations_at(" + std::to_string(x) + ", " + std::to_string(y) +
+                               ", " + std::to_string(z) +
+                               "): the cell pulls from a row left for finish_rest() (not among step_reading()'s "
+                               "cells)");
+    }
 }
 
 /// The ghosts of a Swapped state: every slot A[opp q](y) of an interior y whose y - c_q is a
@@ -504,6 +596,7 @@ void FluidSolver::populations_of(const BasicPopulationField<T>& f, int x, int y,
 
 void FluidSolver::populations_at(int x, int y, int z, double* f) const {
   if (mid_step_ && params_.propagation == Propagation::InPlace) make_canonical("populations_at()");  // throws
+  if (!rest_.empty()) check_not_left(x, y, z);
   with_fields([&](const auto& field, const auto&) { populations_of(field, x, y, z, f); });
 }
 
@@ -528,9 +621,16 @@ void FluidSolver::macroscopic(MacroscopicFields& out) const {
 }
 
 void FluidSolver::macroscopic(MacroscopicFields& out, int z_at) const {
+  if (out.shape.ny != layout_.ny()) throw std::invalid_argument("FluidSolver::macroscopic: fields of another shape");
+  macroscopic(out, 0, z_at);
+}
+
+void FluidSolver::macroscopic(MacroscopicFields& out, int y_at, int z_at) const {
+  finish_rest();  // before the threads read
   const GridShape& s = layout_.shape();
   const std::size_t n = std::size_t(out.shape.cells());
-  if (out.shape.nx != s.nx || out.shape.ny != s.ny || z_at < 0 || out.shape.nz < z_at + s.nz || out.rho.size() != n ||
+  if (out.shape.nx != s.nx || y_at < 0 || out.shape.ny < y_at + s.ny || z_at < 0 || out.shape.nz < z_at + s.nz ||
+      out.rho.size() != n ||
       out.ux.size() != n || out.uy.size() != n || out.uz.size() != n)
     throw std::invalid_argument("FluidSolver::macroscopic: fields of another shape");
 #pragma omp parallel for collapse(2) schedule(static)
@@ -538,7 +638,7 @@ void FluidSolver::macroscopic(MacroscopicFields& out, int z_at) const {
     for (int y = 0; y < s.ny; ++y)
       for (int x = 0; x < s.nx; ++x) {
         const CellState c = cell(x, y, z);
-        const std::size_t i = out.index(x, y, z + z_at);
+        const std::size_t i = out.index(x, y + y_at, z + z_at);
         out.rho[i] = c.rho;
         out.ux[i] = c.ux;
         out.uy[i] = c.uy;

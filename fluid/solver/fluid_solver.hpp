@@ -5,6 +5,7 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <span>
 #include <vector>
 
 #include "fluid/boundary/boundary.hpp"
@@ -34,6 +35,10 @@ struct FluidParams {
   /// How the populations are stored (fluid/lattice/population_field.hpp); arithmetic is double.
   Precision precision = Precision::Double;
   Propagation propagation = Propagation::InPlace;  ///< the default: half the memory, faster, same bits
+  /// The row y = 0 of this grid in the whole grid's rows: 0, or a block's first row (a grid
+  /// cut along y over MPI ranks, DESIGN 8); the inlet profiles are functions of the whole
+  /// grid's y.
+  int y_origin = 0;
 };
 
 /// The paper's channel (DESIGN 3): a Blasius inlet of speed `inlet_speed` (c) and boundary
@@ -107,6 +112,28 @@ class FluidSolver {
   /// Between begin_step() and finish_step().
   bool mid_step() const { return mid_step_; }
 
+  /// The in-place step split around its readers (the coupled step, DESIGN 7): step() for
+  /// the rows (y, z) that the cells `read` pull from, the rows of the forced cells and the
+  /// rows within kRestMargin of a y or z face (those the ghost fill reads), the others'
+  /// kernel left for finish_rest(). The step count, the arrangement and the ghosts are those
+  /// of the step after it: populations_at() of a cell of `read` (and of any cell whose
+  /// pulls avoid the rows left) is that of step() at once; every reader of the whole state
+  /// (state(), macroscopic(), last_step_extrema(), copy_state(), begin_step(), ...) runs
+  /// finish_rest() first, so none ever sees a state part stepped. Each cell reads and writes
+  /// only its own 19 slots in an in-place step (stream_collide_in_place), so the rows left
+  /// still hold the state the step began from: the same bits as step(). step() itself where
+  /// it cannot split: two grids, a block with halo faces, x faces whose ghosts the kernel
+  /// does not write (InPlaceXFaces::all), or no row to leave.
+  /// @throws std::logic_error mid-step
+  void step_reading(std::span<const std::array<int, 3>> read);
+  /// The rest of the step of step_reading() (nothing where none is left).
+  void finish_rest() const;
+  /// Rows are left for finish_rest().
+  bool rest_pending() const { return !rest_.empty(); }
+  /// The rows next to each y and z face that step_reading() steps first: the ghost fill
+  /// reads at most this many layers of cells (BoundaryConditions).
+  static constexpr int kRestMargin = 3;
+
   /// Scales the inlets' velocity by `s` (Turek and Hron's start-up ramp, inlet_ramp): the
   /// inlet ghosts are written again with it, the two-grid step's static ones at once (both
   /// grids), the in-place kernel's x inlets from its next step on (the ghosts a step pulls
@@ -122,6 +149,8 @@ class FluidSolver {
   /// more planes (a block's fields with room for its neighbours' planes); the other planes
   /// are left as they are. @pre out.shape: nx and ny this grid's, nz >= z_at + this nz
   void macroscopic(MacroscopicFields& out, int z_at) const;
+  /// The same into rows y_at .. y_at + ny - 1 of those planes (a block cut along y too).
+  void macroscopic(MacroscopicFields& out, int y_at, int z_at) const;
 
   const GridShape& shape() const { return layout_.shape(); }
   const GridLayout& layout() const { return layout_; }
@@ -130,6 +159,8 @@ class FluidSolver {
   double viscosity() const { return (params_.tau - 0.5) / 3.0; }  ///< Eq. 13
   const std::array<double, 3>& body_force() const { return params_.body_force; }
   std::int64_t step_count() const { return steps_; }
+  /// The whole grid's row of this grid's row 0 (FluidParams::y_origin).
+  int y_origin() const { return params_.y_origin; }
 
   Precision precision() const { return params_.precision; }
   Propagation propagation() const { return params_.propagation; }
@@ -160,7 +191,10 @@ class FluidSolver {
   /// What the last kernel saw of the state it read: extrema of rho and u.u and whether all
   /// were finite (KernelExtrema). That state is the current one between begin_step() and
   /// finish_step(), else the one before the last step (step_count() - 1).
-  const KernelExtrema& last_step_extrema() const { return extrema_; }
+  const KernelExtrema& last_step_extrema() const {
+    finish_rest();
+    return extrema_;
+  }
   /// That state itself, as long as no other step() ran (the second grid keeps it).
   /// @pre step_count() >= 1 and precision() == Precision::Double (Single:
   /// previous_state_single()), else std::logic_error
@@ -170,10 +204,10 @@ class FluidSolver {
   /// Call after changing mutable_state() or mutable_state_single() by hand.
   void refresh_ghosts();
   /// A block's wall ghosts that the neighbour blocks' cells fill in the undivided grid
-  /// (BoundaryConditions::fill_wall_ghosts_of_halo_cells), in the current state, which is
-  /// otherwise unchanged (this block's steps never read them): before its share of a
-  /// checkpoint is written.
-  void fill_wall_ghosts_of_halo_cells(bool below, bool above);
+  /// (BoundaryConditions::fill_wall_ghosts_of_halo_cells: the halo layers `cells` marks),
+  /// in the current state, which is otherwise unchanged (this block's steps never read
+  /// them): before its share of a checkpoint is written.
+  void fill_wall_ghosts_of_halo_cells(const std::array<bool, kFaces>& cells);
   /// A restart from a checkpoint (DESIGN 2.4): the step count the restored state is at.
   void set_step_count(std::int64_t steps) { steps_ = steps; }
 
@@ -228,13 +262,16 @@ class FluidSolver {
   void populations_of(const BasicPopulationField<T>& f, int x, int y, int z, double* out) const;
   // Propagation::InPlace (fluid_solver.cpp).
   template <class T>
-  void begin_in_place(BasicPopulationField<T>& f);
+  void begin_in_place(BasicPopulationField<T>& f, KernelRows rows = {});
   template <class T>
   void finish_in_place(BasicPopulationField<T>& f);
   template <class T>
   void fill_swapped_ghosts(BasicPopulationField<T>& f) const;
-  /// Swapped -> Canonical (a pass over the field); @throws std::logic_error mid-step.
+  /// Swapped -> Canonical (a pass over the field), after finish_rest();
+  /// @throws std::logic_error mid-step.
   void make_canonical(const char* call) const;
+  /// Throws std::logic_error if a pull of cell (y, z)'s row reads a row left for finish_rest().
+  void check_not_left(int x, int y, int z) const;
 
   FluidParams params_;
   GridLayout layout_;
@@ -255,7 +292,13 @@ class FluidSolver {
   // InPlace: the pulled populations of the forced cells (forced_ order), kept by begin_step().
   std::vector<double> saved_inputs_;
   std::int64_t steps_ = 0;
-  KernelExtrema extrema_;  // of the state the last step read
+  mutable KernelExtrema extrema_;  // of the state the last step read
+  // step_reading(): the rows (y + ny z) left for finish_rest(), a flag per row while any
+  // are (populations_at's check), and whether the step began from Canonical.
+  mutable std::vector<std::int32_t> rest_;
+  mutable std::vector<std::uint8_t> rest_row_;
+  mutable bool rest_from_canonical_ = false;
+  std::vector<std::int32_t> near_rows_;  // step_reading()'s scratch
   RowSchedule schedule_ = RowSchedule::Static;
   bool have_previous_ = false;  // the second grid holds the state before the last step
   bool mid_step_ = false;       // begin_step() ran, finish_step() not yet

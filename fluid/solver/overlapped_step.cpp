@@ -21,21 +21,14 @@ namespace {
 class AlreadyExchanged final : public HaloExchange {
  public:
   explicit AlreadyExchanged(const HaloExchange& h) : faces_(h.faces()) {}
-  void exchange(PopulationField&) override {}
-  void exchange(PopulationFieldSingle&) override {}
-  void exchange(PopulationFieldHalf&) override {}
+  void exchange_axis(PopulationField&, int) override {}
+  void exchange_axis(PopulationFieldSingle&, int) override {}
+  void exchange_axis(PopulationFieldHalf&, int) override {}
   std::array<bool, kHaloFaces> faces() const override { return faces_; }
 
  private:
   std::array<bool, kHaloFaces> faces_;
 };
-
-void merge(KernelExtrema& all, const KernelExtrema& part) {
-  all.rho_min = std::min(all.rho_min, part.rho_min);
-  all.rho_max = std::max(all.rho_max, part.rho_max);
-  all.u2_max = std::max(all.u2_max, part.u2_max);
-  all.finite = all.finite && part.finite;
-}
 
 }  // namespace
 
@@ -54,7 +47,7 @@ void FluidSolver::step_overlapped(BasicPopulationField<T>& f, BasicPopulationFie
     KernelExtrema part;
     stream_collide(src, dst, params_.tau, params_.body_force, stores, outflow, &part, schedule_,
                    arithmetic_of(params_.precision));
-    merge(all, part);
+    all.merge(part);
   };
   // The forced cells of some planes (apply_local_forces clears what it applies).
   const std::vector<std::ptrdiff_t> forced = std::move(forced_);

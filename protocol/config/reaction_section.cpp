@@ -17,9 +17,15 @@ ReactionLaw read_reaction_law(const SceneReader& scene, const CouplingSettings& 
   const auto i = sec.choice("law", names);
   if (!i) return ReactionLaw::MomentumExchange;
   const auto law = static_cast<ReactionLaw>(*i);
-  if (law != ReactionLaw::MomentumExchange && coupling.scheme.scheme == protocol::CouplingScheme::Implicit)
-    sec.bad("law", "only \"momentum_exchange\" with coupling.scheme = \"implicit\" (its backward-Euler "
-                   "drag is that law's); use the serial or parallel scheme");
+  // The schemes that run one law only (the name table's any_reaction_law).
+  const protocol::MessageOrder& order = protocol::message_order(coupling.scheme.scheme);
+  if (law != ReactionLaw::MomentumExchange && !order.any_reaction_law) {
+    std::string others;
+    for (const protocol::MessageOrder& o : protocol::kMessageOrders)
+      if (o.any_reaction_law) others += (others.empty() ? "" : " or ") + std::string(o.name);
+    sec.bad("law", std::string("only \"momentum_exchange\" with coupling.scheme = \"") + order.name +
+                       "\" (its backward-Euler drag is that law's); use the " + others + " scheme");
+  }
   return law;
 }
 

@@ -88,11 +88,20 @@ std::vector<std::string_view> watchdog_key_names() {
 
 namespace {
 
+/// The schemes of the name table that sub-iterate, e.g. "implicit".
+std::string iterating_schemes() {
+  std::string names;
+  for (const protocol::MessageOrder& o : protocol::kMessageOrders)
+    if (o.several_per_step) names += (names.empty() ? "" : "\" or \"") + std::string(o.name);
+  return names;
+}
+
 /// scheme, max_iterations, tolerance, relaxation (protocol/coupling_scheme.hpp).
 void read_scheme(const Table& sec, protocol::SchemeSettings& out) {
   using protocol::ImplicitSettings;
-  if (const auto i = sec.choice("scheme", {"serial", "implicit", "parallel"}))
-    out.scheme = static_cast<protocol::CouplingScheme>(*i);
+  std::vector<const char*> names;  // the name table's, in the order of the enum
+  for (const protocol::MessageOrder& o : protocol::kMessageOrders) names.push_back(o.name);
+  if (const auto i = sec.choice("scheme", names)) out.scheme = protocol::kMessageOrders[*i].scheme;
   ImplicitSettings& m = out.implicit;
   if (const auto v = sec.integer_in("max_iterations", 1, ImplicitSettings::max_iterations_max,
                                     " (sub-iterations per LB step of the implicit scheme)"))
@@ -109,11 +118,12 @@ void read_scheme(const Table& sec, protocol::SchemeSettings& out) {
                             "relaxation factor; default 0.5)");
     m.relaxation = *v;
   }
-  if (out.scheme != protocol::CouplingScheme::Implicit)
+  // The sub-iteration keys belong to a scheme that iterates (the name table's).
+  if (!protocol::message_order(out.scheme).several_per_step)
     for (const char* key : {"max_iterations", "tolerance", "relaxation"})
       if (sec.has(key))
-        sec.bad(key, std::string("belongs to coupling.scheme = \"implicit\"; this scene's scheme is \"") +
-                         protocol::scheme_name(out.scheme) + "\"");
+        sec.bad(key, std::string("belongs to coupling.scheme = \"") + iterating_schemes() +
+                         "\"; this scene's scheme is \"" + protocol::scheme_name(out.scheme) + "\"");
 }
 
 }  // namespace
@@ -160,8 +170,8 @@ CouplingSettings read_coupling(const SceneReader& scene) {
   if (const auto v = sec.string("lcm_url")) {
     if (const auto why = protocol::lcm_url_problem(*v)) {
       // One rule, two wordings that tests pin: the fluid's message starts with the rule, the
-      // solid's with what is wrong (tests/test_scene.cpp coupling_ttl,
-      // tests/test_solid_scene.cpp coupling_ttl_one).
+      // solid's with what is wrong (tests/fluid/test_scene.cpp coupling_ttl,
+      // tests/solid/test_solid_scene.cpp coupling_ttl_one).
       if (scene.process() == Process::Fluid)
         sec.bad("lcm_url", "must be a udpm:// URL with ttl=0 or memq://; " + *why);
       sec.bad("lcm_url", *why);

@@ -56,11 +56,13 @@
 #include "common/text/text.hpp"
 #include "protocol/units.hpp"
 #include "solid/coupled/coupled_solid.hpp"
+#include "solid/io/solid_log.hpp"
 #include "solid/coupled/initial_deflection.hpp"
 #include "solid/model/model_registry.hpp"
 #include "solid/io/sheet_snapshots.hpp"
 #include "solid/model/sheet_spec.hpp"
-#include "solid/io/solid_h5.hpp"
+#include "common/hdf5/h5_writer.hpp"
+#include "common/run/provenance_h5.hpp"
 #include "solid/model/solid_model.hpp"
 #include "solid/io/output_units.hpp"
 #include "solid/config/solid_scene.hpp"
@@ -136,28 +138,28 @@ void write_series(const SolidScene& scene, const Series& s) {
   H5Id file = protocol::create_output_file(path, "cannot create " + path);
   const hid_t f = file.get();
   const hsize_t n = s.rows(), ns = hsize_t(s.sheets);
-  write_dataset(f, "substep", H5T_STD_I64LE, H5T_NATIVE_INT64, {n}, s.substep.data());
-  write_dataset(f, "time_s", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n}, s.time_s.data());
-  write_dataset(f, "marked_displacement_um", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n, ns, 3},
+  protocol::write_dataset(f, "substep", H5T_STD_I64LE, H5T_NATIVE_INT64, {n}, s.substep.data());
+  protocol::write_dataset(f, "time_s", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n}, s.time_s.data());
+  protocol::write_dataset(f, "marked_displacement_um", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n, ns, 3},
                 s.displacement_um.data());
-  write_dataset(f, "marked_normal_displacement_um", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n, ns},
+  protocol::write_dataset(f, "marked_normal_displacement_um", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n, ns},
                 s.normal_um.data());
-  write_dataset(f, "kinetic_energy_J", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n}, s.kinetic_J.data());
-  write_dataset(f, "elastic_energy_J", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n}, s.elastic_J.data());
-  write_dataset(f, "total_energy_J", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n}, s.total_J.data());
-  write_attribute(f, "scene", scene.name);
-  write_attribute(f, "model", scene.model);
-  write_attribute(f, "mode", scene.mode == SolidRunMode::Free ? "free" : "static");
-  write_attribute(f, "dt_s", scene.dt_s);
+  protocol::write_dataset(f, "kinetic_energy_J", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n}, s.kinetic_J.data());
+  protocol::write_dataset(f, "elastic_energy_J", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n}, s.elastic_J.data());
+  protocol::write_dataset(f, "total_energy_J", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n}, s.total_J.data());
+  protocol::put_attribute(f, "scene", scene.name);
+  protocol::put_attribute(f, "model", scene.model);
+  protocol::put_attribute(f, "mode", scene.mode == SolidRunMode::Free ? "free" : "static");
+  protocol::put_attribute(f, "dt_s", scene.dt_s);
   protocol::stamp_file(f);
   file.close("cannot close " + path);
 }
 
 /// The standalone run's progress line on stderr (common/run/progress.hpp): substep, simulated
-/// time, rate and ETA.
+/// time, rate and ETA; none where `logger` does not show progress (--quiet).
 class Progress {
  public:
-  Progress(bool enabled, std::int64_t total, double dt_s) : line_(enabled, stderr), clock_(total), dt_s_(dt_s) {}
+  Progress(const log::Logger& logger, std::int64_t total, double dt_s) : line_(logger), clock_(total), dt_s_(dt_s) {}
 
   void update(std::int64_t k) {
     if (!line_.due(k == clock_.total())) return;
@@ -177,8 +179,8 @@ class Progress {
 };
 
 void print_header(const SolidScene& s, const SolidModel& model) {
-  std::printf("solid: scene %s%s%s (%s)\n", s.name.c_str(), s.description.empty() ? "" : ": ",
-              s.description.c_str(), s.path.c_str());
+  solid_log().info() << "scene " << s.name << (s.description.empty() ? "" : ": ") << s.description << " (" << s.path
+                     << ")";
   std::printf("%s", indent(model.startup_report()).c_str());
   std::printf("  sheets   %zu sheet(s), %lld CGPs\n", s.config.sheets.size(),
               static_cast<long long>(model.num_cgps()));
@@ -261,19 +263,19 @@ void print_free_summary(const SolidModel& model, const Series& series) {
       w[r] = series.normal_um[r * std::size_t(series.sheets) + std::size_t(k)];
     int crossings = 0;
     const std::optional<double> fm = crossing_frequency(series.time_s, w, &crossings);
-    std::printf("solid: sheet %d marked CGP: ", k);
+    log::Line line = solid_log().info();
+    line << "sheet " << k << " marked CGP: ";
     if (!fm)
-      std::printf("%d zero crossing(s) of w - mean, too few to measure a frequency%s\n",
-                  crossings,
-                  f.empty() ? "" : " (run at least one period of the first mode)");
+      line << log::printf_text("%d zero crossing(s) of w - mean, too few to measure a frequency%s", crossings,
+                               f.empty() ? "" : " (run at least one period of the first mode)");
     else if (f.empty())
-      std::printf("oscillation %.6g MHz from %d zero crossings (the model reports no vacuum "
-                  "eigenfrequency)\n",
-                  *fm * 1e-6, crossings);
+      line << log::printf_text("oscillation %.6g MHz from %d zero crossings (the model reports no vacuum "
+                               "eigenfrequency)",
+                               *fm * 1e-6, crossings);
     else
-      std::printf("oscillation %.6g MHz from %d zero crossings; f1 = %.6g MHz; relative "
-                  "difference %+.3e\n",
-                  *fm * 1e-6, crossings, f[0] * 1e-6, (*fm - f[0]) / f[0]);
+      line << log::printf_text("oscillation %.6g MHz from %d zero crossings; f1 = %.6g MHz; relative "
+                               "difference %+.3e",
+                               *fm * 1e-6, crossings, f[0] * 1e-6, (*fm - f[0]) / f[0]);
   }
   const double e0 = series.total_J.empty() ? 0.0 : series.total_J.front();
   double drift = 0.0, kinetic = 0.0;
@@ -282,13 +284,13 @@ void print_free_summary(const SolidModel& model, const Series& series) {
   // A sheet released flat under gravity starts at E0 = 0 (round-off): its drift is measured
   // against the largest kinetic energy of the run instead.
   if (std::abs(e0) >= kinetic && e0 != 0.0)
-    std::printf("solid: energy E0 = %.6g J; drift max|E - E0| / E0 = %.3e\n", e0,
-                drift / std::abs(e0));
+    solid_log().info() << log::printf_text("energy E0 = %.6g J; drift max|E - E0| / E0 = %.3e", e0,
+                                           drift / std::abs(e0));
   else if (kinetic > 0.0)
-    std::printf("solid: energy E0 = %.6g J; drift max|E - E0| / max E_kin = %.3e (max E_kin %.6g J)\n", e0,
-                drift / kinetic, kinetic);
+    solid_log().info() << log::printf_text(
+        "energy E0 = %.6g J; drift max|E - E0| / max E_kin = %.3e (max E_kin %.6g J)", e0, drift / kinetic, kinetic);
   else
-    std::printf("solid: energy E0 = 0 J; drift max|E - E0| = %.3e J\n", drift);
+    solid_log().info() << log::printf_text("energy E0 = 0 J; drift max|E - E0| = %.3e J", drift);
 }
 
 void print_static_summary(const SolidScene& s, const SolidModel& model, const Series& series) {
@@ -298,7 +300,8 @@ void print_static_summary(const SolidScene& s, const SolidModel& model, const Se
                                                           std::size_t(series.sheets) +
                                                       std::size_t(k)]
                                    : 0.0;
-    std::printf("solid: sheet %d marked CGP: final normal deflection %.6g um", k, w);
+    log::Line line = solid_log().info();
+    line << "sheet " << k << " marked CGP: final normal deflection " << log::printf_text("%.6g", w) << " um";
     if (!f.empty() && s.pressure_Pa != 0.0) {
       // Euler-Bernoulli clamped-free beam under uniform load: w_tip = q L^4 / (8 EI), and
       // omega_1 = beta_1^2 sqrt(EI / (mu L^4)), so w_tip = beta_1^4 / 8 (q / mu) / omega_1^2,
@@ -309,14 +312,13 @@ void print_static_summary(const SolidScene& s, const SolidModel& model, const Se
                            (sh.cgp_mass_me * PhysicalConstants::electron_mass_kg);
       const double omega1 = 2.0 * std::numbers::pi * f[0];
       const double beam_um = std::pow(kBeamRoot1, 4) / 8.0 * accel / (omega1 * omega1) / kMicrometre;
-      std::printf("; beam theory from f1: %.6g um (ratio %.4f)", beam_um,
-                  beam_um != 0.0 ? w / beam_um : 0.0);
+      line << log::printf_text("; beam theory from f1: %.6g um (ratio %.4f)", beam_um,
+                               beam_um != 0.0 ? w / beam_um : 0.0);
     }
-    std::printf("\n");
   }
   const auto [l, v] = fastest_cgp(model);
-  std::printf("solid: largest speed left %.4g m/s at %s\n", v * UnitConverter::velocity_au_m_s(),
-              describe_cgp(s.config, l).c_str());
+  solid_log().info() << log::printf_text("largest speed left %.4g m/s at %s", v * UnitConverter::velocity_au_m_s(),
+                                         describe_cgp(s.config, l).c_str());
 }
 
 /// Builds the model; construction errors are the scene's (exit 2).
@@ -388,11 +390,10 @@ int run(const SolidScene& s, SolidModel& model, bool quiet) {
     if (!std::isfinite(ek) || !std::isfinite(ee)) {
       const auto [l, v] = fastest_cgp(model);
       std::fflush(stdout);
-      std::fprintf(stderr,
-                   "solid: non-finite energy, run stopped: substep %lld: kinetic %g J, elastic "
-                   "%g J; fastest %s at %g m/s\n",
-                   static_cast<long long>(k), ek, ee, describe_cgp(s.config, l).c_str(),
-                   v * UnitConverter::velocity_au_m_s());
+      solid_log().error() << log::printf_text("non-finite energy, run stopped: substep %lld: kinetic %g J, elastic "
+                                              "%g J; fastest %s at %g m/s",
+                                              static_cast<long long>(k), ek, ee, describe_cgp(s.config, l).c_str(),
+                                              v * UnitConverter::velocity_au_m_s());
       return false;
     }
     series.substep.push_back(k);
@@ -408,12 +409,11 @@ int run(const SolidScene& s, SolidModel& model, bool quiet) {
     return true;
   };
 
-  Progress progress(!quiet, s.substeps, s.dt_s);
+  Progress progress(solid_log(quiet ? log::Level::info : log::Level::progress), s.substeps, s.dt_s);
   const auto stop = [&](std::int64_t k, const std::string& problem) {
     progress.clear();
     std::fflush(stdout);
-    std::fprintf(stderr, "solid: non-finite state, run stopped: substep %lld, %s\n",
-                 static_cast<long long>(k), one_line(problem).c_str());
+    solid_log().error() << "non-finite state, run stopped: substep " << k << ", " << one_line(problem);
     write_series(s, series);  // the finite records before it
     return exit_code::unhealthy;
   };
@@ -457,14 +457,13 @@ int run(const SolidScene& s, SolidModel& model, bool quiet) {
   progress.clear();
   write_series(s, series);
   const double wall = progress.elapsed_s();
-  std::printf("solid: done, %lld substeps (%.5g us) in %.1f s, %.3g us per CGP substep; %zu "
-              "records in %s\n",
-              static_cast<long long>(s.substeps), double(s.substeps) * s.dt_s * 1e6, wall,
-              n > 0 ? wall / double(s.substeps) / double(n) * 1e6 : 0.0, series.rows(),
-              (std::filesystem::path(s.output_dir) / "solid.h5").string().c_str());
+  solid_log().info() << log::printf_text("done, %lld substeps (%.5g us) in %.1f s, %.3g us per CGP substep; %zu "
+                                         "records in %s",
+                                         static_cast<long long>(s.substeps), double(s.substeps) * s.dt_s * 1e6, wall,
+                                         n > 0 ? wall / double(s.substeps) / double(n) * 1e6 : 0.0, series.rows(),
+                                         (std::filesystem::path(s.output_dir) / "solid.h5").string().c_str());
   if (snapshots)
-    std::printf("solid: %zu sheet snapshots in %s\n", snapshots->count(),
-                snapshots->xdmf_path().string().c_str());
+    solid_log().info() << snapshots->count() << " sheet snapshots in " << snapshots->xdmf_path().string();
   if (s.mode == SolidRunMode::Free)
     print_free_summary(model, series);
   else
@@ -548,7 +547,7 @@ int main_impl(int argc, char** argv) {
       co.faults = protocol::fault_settings_from(o_faults->count() ? &faults : nullptr);
     } catch (const std::invalid_argument& e) {
       std::fflush(stdout);
-      std::fprintf(stderr, "solid: %s\n", e.what());
+      solid_log().error() << e.what();
       return exit_code::bad_input;
     }
     std::fflush(stdout);
@@ -575,7 +574,7 @@ int main(int argc, char** argv) {
     return cosim::solid::main_impl(argc, argv);
   } catch (const std::exception& e) {
     std::fflush(stdout);
-    std::fprintf(stderr, "solid: %s\n", cosim::solid::one_line(e.what()).c_str());
+    cosim::solid::solid_log().error() << cosim::solid::one_line(e.what());
     return cosim::protocol::exit_code::system;
   }
 }

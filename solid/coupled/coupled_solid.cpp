@@ -20,6 +20,7 @@
 #include "common/run/exit_codes.hpp"
 #include "protocol/session/interrupt.hpp"
 #include "common/text/text.hpp"
+#include "solid/io/solid_log.hpp"
 #include "solid/schemes/solid_scheme.hpp"
 #include "solid/coupled/server_solid.hpp"
 #include "solid/coupled/solid_checkpoints.hpp"
@@ -40,7 +41,8 @@ using protocol::one_line;
 class CoupledSolid {
  public:
   CoupledSolid(const SolidScene& scene, const CoupledSolidOptions& options, std::ostream& out, std::ostream& err)
-      : s_(scene), o_(options), out_(out), err_(err), scheme_(make_solid_scheme(scene.coupling->scheme)),
+      : s_(scene), o_(options), log_(solid_log(options.quiet ? log::Level::info : log::Level::progress)), out_(out),
+        err_(err), scheme_(make_solid_scheme(scene.coupling->scheme)),
         run_(scene),
         peer_(*scene.coupling, options, *scheme_, [this](const cosimlcm::fluid_state_t& m) { return run_.check(m); },
               out),
@@ -57,8 +59,8 @@ class CoupledSolid {
     if (const auto e = run_.open_output()) return report(*e);
     if (const auto e = peer_.open(run_.num_cgps())) return report(*e);
     if (const auto e = handshake()) return finish(*e);
-    out_ << "solid: handshake accepted: " << run_.total_steps() << " LB steps (" << run_.rigid_steps()
-         << " rigid), A_T = " << run_.coupling().time_ratio << scheme_->announcement() << "\n";
+    log_.info(out_) << "handshake accepted: " << run_.total_steps() << " LB steps (" << run_.rigid_steps()
+                    << " rigid), A_T = " << run_.coupling().time_ratio << scheme_->announcement();
     peer_.await_from(scheme_->first_key(run_.rigid_steps()));
     out_.flush();
     start_ = Clock::now();
@@ -71,8 +73,8 @@ class CoupledSolid {
       } catch (const std::exception& e) {
         return finish(Ending{exit_code::bad_input, "--restart " + o_.restart + ": " + one_line(e.what()), true});
       }
-      out_ << "solid: restarted from " << o_.restart << " at step " << peer_.last_step()
-           << " (the folder's files are rewritten once the fluid has accepted its checkpoint too)\n";
+      log_.info(out_) << "restarted from " << o_.restart << " at step " << peer_.last_step()
+                      << " (the folder's files are rewritten once the fluid has accepted its checkpoint too)";
       // solid.h5, the scene copy and provenance wait for the fluid's first fluid_state_t
       // (accept_restart()): a restart that either side refuses writes nothing.
       restart_pending_ = true;
@@ -122,21 +124,17 @@ class CoupledSolid {
   /// phase spin-up|free t = .. us .. LB steps/s compute .. % wait .. % ETA .." on stderr,
   /// for launch/progress.py (the launcher's one line).
   void progress() {
-    if (o_.quiet) return;
+    if (!log_.shows(log::Level::progress)) return;
     const std::int64_t step = peer_.last_step(), total = run_.total_steps();
     // The last step's line always goes out, so that a run shorter than the interval has one.
     if (!clock_.due(progress_every_s_) && step != total - 1) return;
     const double wall = clock_.elapsed_s(), rate = clock_.rate(step);
     const auto share = [wall](double part) { return wall > 0.0 ? 100.0 * part / wall : 0.0; };
-    char line[256];
-    std::snprintf(line, sizeof line,
-                  "solid: progress step %lld/%lld  phase %s  t = %.4g us  %.3g LB steps/s  compute %.0f %%  wait %.0f %%  "
-                  "ETA %s\n",
-                  static_cast<long long>(step), static_cast<long long>(total),
-                  step < run_.rigid_steps() ? "spin-up" : "free", static_cast<double>(step) * run_.units().dt_lb_s() * 1e6,
-                  rate, share(compute_s_), share(wait_s_), protocol::format_duration(clock_.eta_s(step)).c_str());
-    err_ << line;
-    err_.flush();
+    log_.progress(err_) << log::printf_text(
+        "step %lld/%lld  phase %s  t = %.4g us  %.3g LB steps/s  compute %.0f %%  wait %.0f %%  ETA %s",
+        static_cast<long long>(step), static_cast<long long>(total), step < run_.rigid_steps() ? "spin-up" : "free",
+        static_cast<double>(step) * run_.units().dt_lb_s() * 1e6, rate, share(compute_s_), share(wait_s_),
+        protocol::format_duration(clock_.eta_s(step)).c_str());
   }
 
   /// solid.h5 from the rows so far, OUTPUT/scene.toml and provenance_solid.toml: once the
@@ -157,9 +155,8 @@ class CoupledSolid {
   std::optional<Ending> accept_restart() {
     restart_pending_ = false;
     if (auto e = open_run_files()) return e;
-    out_ << "solid: restart accepted at step " << peer_.last_step() << ": both checkpoints read; solid.h5 continues from its "
-         << run_.series().rows() << " rows\n";
-    out_.flush();
+    log_.info(out_) << "restart accepted at step " << peer_.last_step()
+                    << ": both checkpoints read; solid.h5 continues from its " << run_.series().rows() << " rows";
     return std::nullopt;
   }
 
@@ -215,18 +212,18 @@ class CoupledSolid {
         series_file_->close();
       } catch (const std::exception& x) {
         if (e.code == exit_code::ok) e = Ending{exit_code::system, one_line(x.what()), false};
-        else err_ << "solid: " << one_line(x.what()) << "\n";
+        else log_.error(err_) << one_line(x.what());
       }
     }
     if (series.rows() == 0) {
-      out_ << "solid: coupled run stopped before the handshake completed (" << peer_.hellos()
-           << " hello_t sent); " << peer_.counters() << "\n";
+      log_.info(out_) << "coupled run stopped before the handshake completed (" << peer_.hellos()
+                      << " hello_t sent); " << peer_.counters();
       return report(e);
     }
     const std::int64_t substeps = run_.total_substeps();
     const SheetSnapshotWriter* snapshots = run_.snapshots();
     const double wall = std::chrono::duration<double>(Clock::now() - start_).count();
-    out_ << "solid: coupled run " << (e.code == exit_code::ok ? "done" : "stopped") << " at step "
+    log_.info(out_) << "coupled run " << (e.code == exit_code::ok ? "done" : "stopped") << " at step "
          << peer_.last_step() << " of " << run_.total_steps() << ", " << substeps << " substeps ("
          << fmt("%.5g", run_.solid_time_s(substeps) * 1e6) << " us) in " << fmt("%.1f", wall) << " s; "
          << peer_.counters() << "; "
@@ -234,28 +231,27 @@ class CoupledSolid {
                               : std::to_string(series_file_ ? series_file_->rows() : 0) + " rows in " + output_path())
          << (snapshots ? ", " + std::to_string(snapshots->count()) + " sheet snapshots in " +
                              snapshots->xdmf_path().string()
-                       : std::string())
-         << "\n";
+                       : std::string());
     run_.print_margins(out_);
     scheme_->report(out_);
     if (timed_steps_ > 0)
-      out_ << "solid: per LB step: compute " << fmt("%.4g", 1e3 * compute_s_ / double(timed_steps_))
+      log_.info(out_) << "per LB step: compute " << fmt("%.4g", 1e3 * compute_s_ / double(timed_steps_))
            << " ms (substeps, publishing, recording), waiting " << fmt("%.4g", 1e3 * wait_s_ / double(timed_steps_))
-           << " ms (for fluid_state_t), over " << timed_steps_ << " steps\n";
+           << " ms (for fluid_state_t), over " << timed_steps_ << " steps";
     return report(e);
   }
 
   int report(const Ending& e) {
     out_.flush();
     if (e.code != exit_code::ok) {
-      err_ << "solid: " << one_line(e.reason) << "\n";
-      err_.flush();
+      log_.error(err_) << one_line(e.reason);
     }
     return e.code;
   }
 
   const SolidScene& s_;
   const CoupledSolidOptions& o_;
+  const log::Logger log_;  ///< the solid's lines; --quiet: no progress line
   std::ostream& out_;
   std::ostream& err_;
   std::unique_ptr<SolidScheme> scheme_;
@@ -282,12 +278,12 @@ int run_coupled_solid(const SolidScene& scene, const CoupledSolidOptions& option
                       std::ostream& out, std::ostream& err) {
   protocol::hdf5_no_exit_cleanup();
   if (!scene.coupled()) {
-    err << "solid: " << scene.path << ": not a coupled scene (no [coupling] section)\n";
+    solid_log().error(err) << scene.path << ": not a coupled scene (no [coupling] section)";
     return exit_code::bad_input;
   }
   if (!options.check_only && options.token.empty()) {
-    err << "solid: a coupled scene needs the run's token: --token TOKEN or the environment "
-           "variable COSIM_RUN_TOKEN (the launcher draws one per run)\n";
+    solid_log().error(err) << "a coupled scene needs the run's token: --token TOKEN or the environment "
+                              "variable COSIM_RUN_TOKEN (the launcher draws one per run)";
     return exit_code::bad_input;
   }
   try {
@@ -295,7 +291,7 @@ int run_coupled_solid(const SolidScene& scene, const CoupledSolidOptions& option
     return run.run();
   } catch (const std::exception& e) {
     out.flush();
-    err << "solid: " << one_line(e.what()) << "\n";
+    solid_log().error(err) << one_line(e.what());
     return exit_code::system;
   }
 }

@@ -8,6 +8,7 @@
 #include <Eigen/Core>
 
 #include "cosimlcm/solid_state_t.hpp"
+#include "solid/io/solid_log.hpp"
 #include "common/run/checkpoint_file.hpp"
 #include "protocol/checkpoint_identity.hpp"
 #include "solid/watchdog/energy_watch_checkpoint.hpp"
@@ -110,8 +111,8 @@ void SolidCheckpoints::restore(const std::string& path) {
       throw std::runtime_error("time_ratio = " + std::to_string(old_ratio) +
                                " does not divide total_substeps = " + std::to_string(total_substeps));
     if (old_ratio != time_ratio) {
-      out_ << "solid: the checkpoint ran A_T = " << old_ratio << ", this run A_T = " << time_ratio << ": "
-           << total_substeps / old_ratio << " dynamic LB steps so far\n";
+      solid_log().info(out_) << "the checkpoint ran A_T = " << old_ratio << ", this run A_T = " << time_ratio << ": "
+                             << total_substeps / old_ratio << " dynamic LB steps so far";
       total_substeps = total_substeps / old_ratio * time_ratio;
       ratio_changed = true;
     }

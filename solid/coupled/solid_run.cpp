@@ -17,6 +17,7 @@
 #include "common/text/text.hpp"
 #include "solid/coupling/fluid_state_check.hpp"
 #include "solid/coupled/initial_deflection.hpp"
+#include "solid/io/solid_log.hpp"
 #include "solid/model/model_registry.hpp"
 #include "solid/io/output_units.hpp"
 #include "solid/model/sheet_spec.hpp"
@@ -107,8 +108,8 @@ double SolidRun::stable_dt_cg_s() const {
 }
 
 void SolidRun::print_header(std::ostream& out, const std::string& channel_prefix) const {
-  out << "solid: coupled scene " << s_.name << (s_.description.empty() ? "" : ": ")
-      << s_.description << " (" << s_.path << ")\n";
+  solid_log().info(out) << "coupled scene " << s_.name << (s_.description.empty() ? "" : ": ") << s_.description
+                        << " (" << s_.path << ")";
   out << indent(model_->startup_report());
   out << "  sheets   " << s_.config.sheets.size() << " sheet(s), " << n_ << " CGPs (markers)\n";
   for (std::size_t k = 0; k < s_.config.sheets.size(); ++k) {
@@ -320,11 +321,11 @@ std::string SolidRun::non_finite_state() const {
 
 void SolidRun::print_margins(std::ostream& out) const {
   if (energy_watch_ && coupler_)
-    out << "solid: watchdog margins: CGP speed max " << fmt("%.3g", coupler_->max_speed_lb())
+    solid_log().info(out) << "watchdog margins: CGP speed max " << fmt("%.3g", coupler_->max_speed_lb())
         << " c after a substep (limit " << fmt("%g", s_.watchdog.max_cgp_speed)
         << "), unexplained energy max " << fmt("%.3g", energy_watch_->max_ratio())
-        << " of the energy scale (limit " << fmt("%g", s_.watchdog.energy_growth) << ")\n";
-  out << "solid: peak memory " << fmt("%.1f", protocol::peak_rss_mib()) << " MiB (largest resident set)\n";
+        << " of the energy scale (limit " << fmt("%g", s_.watchdog.energy_growth) << ")";
+  solid_log().info(out) << "peak memory " << fmt("%.1f", protocol::peak_rss_mib()) << " MiB (largest resident set)";
 }
 
 }  // namespace cosim::solid

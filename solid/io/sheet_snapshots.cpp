@@ -4,20 +4,19 @@
 
 #include <algorithm>
 #include <cstdio>
-#include <fstream>
-#include <iomanip>
-#include <sstream>
 #include <stdexcept>
 #include <system_error>
 #include <utility>
 
+#include "common/hdf5/xdmf.hpp"
 #include "common/run/atomic_file.hpp"
 #include "common/hdf5/hdf5_handle.hpp"
 #include "common/hdf5/hdf5_quiet.hpp"
 #include "protocol/units.hpp"
 #include "solid/models/elastic_sheet/elastic_sheet_model.hpp"
 #include "solid/model/sheet_spec.hpp"
-#include "solid/io/solid_h5.hpp"
+#include "common/hdf5/h5_writer.hpp"
+#include "common/run/provenance_h5.hpp"
 
 namespace cosim::solid {
 
@@ -37,14 +36,6 @@ constexpr const char* kStrainDefinition =
     "area strain eps_l = (|dA_l| - |dA_l0|) / |dA_l0|, dA_l = t_a x t_b from central "
     "differences along the width and height (one-sided at edges), 0 for the flat sheet "
     "(the paper's section 3.2 and Fig. 11)";
-
-void write_int64_attribute(hid_t obj, const char* name, std::int64_t value) {
-  const std::string what = std::string("cannot write the attribute ") + name;
-  const H5Id space(H5Screate(H5S_SCALAR), H5Sclose, what);
-  const H5Id attr(H5Acreate2(obj, name, H5T_STD_I64LE, space.get(), H5P_DEFAULT, H5P_DEFAULT),
-                  H5Aclose, what);
-  protocol::h5_check(H5Awrite(attr.get(), H5T_NATIVE_INT64, &value), what);
-}
 
 }  // namespace
 
@@ -137,20 +128,20 @@ void SheetSnapshotWriter::write_hdf5(const fs::path& file, std::int64_t step, do
   const hid_t h = f.get();
   const hsize_t n = static_cast<hsize_t>(n_), q = quads_.size() / 4, ns = grid_.size() / 2;
   try {
-    write_dataset(h, "position_um", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n, 3}, position_um.data());
-    write_dataset(h, "displacement_um", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n, 3},
+    protocol::write_dataset(h, "position_um", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n, 3}, position_um.data());
+    protocol::write_dataset(h, "displacement_um", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n, 3},
                   displacement_um.data());
-    write_dataset(h, "velocity_m_s", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n, 3},
+    protocol::write_dataset(h, "velocity_m_s", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n, 3},
                   velocity_m_s.data());
-    write_dataset(h, "area_strain", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n}, strain.data());
-    write_dataset(h, "sheet", H5T_STD_I32LE, H5T_NATIVE_INT32, {n}, sheet_of_.data());
-    write_dataset(h, "quads", H5T_STD_I64LE, H5T_NATIVE_INT64, {q, 4}, quads_.data());
-    write_dataset(h, "sheet_grid", H5T_STD_I32LE, H5T_NATIVE_INT32, {ns, 2}, grid_.data());
-    write_int64_attribute(h, "step", step);
-    write_attribute(h, "time_s", time_s);
-    write_attribute(h, "time_us", time_s / kMicrometre);
-    write_attribute(h, "frame", kFrame);
-    write_attribute(h, "area_strain", kStrainDefinition);
+    protocol::write_dataset(h, "area_strain", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n}, strain.data());
+    protocol::write_dataset(h, "sheet", H5T_STD_I32LE, H5T_NATIVE_INT32, {n}, sheet_of_.data());
+    protocol::write_dataset(h, "quads", H5T_STD_I64LE, H5T_NATIVE_INT64, {q, 4}, quads_.data());
+    protocol::write_dataset(h, "sheet_grid", H5T_STD_I32LE, H5T_NATIVE_INT32, {ns, 2}, grid_.data());
+    protocol::put_attribute(h, "step", step);
+    protocol::put_attribute(h, "time_s", time_s);
+    protocol::put_attribute(h, "time_us", time_s / kMicrometre);
+    protocol::put_attribute(h, "frame", kFrame);
+    protocol::put_attribute(h, "area_strain", kStrainDefinition);
     protocol::stamp_file(h);
   } catch (const std::runtime_error& e) {
     throw std::runtime_error(name + ": " + e.what());
@@ -159,49 +150,26 @@ void SheetSnapshotWriter::write_hdf5(const fs::path& file, std::int64_t step, do
 }
 
 void SheetSnapshotWriter::write_xdmf() const {
+  namespace xdmf = protocol::xdmf;
   const std::size_t n = static_cast<std::size_t>(n_), q = quads_.size() / 4;
-  std::ostringstream x;
-  x << std::setprecision(12);
-  x << "<?xml version=\"1.0\" ?>\n"
-    << "<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n"
-    << "<Xdmf Version=\"3.0\" xmlns:xi=\"http://www.w3.org/2001/XInclude\">\n"
-    << "  <Domain>\n"
-    << "    <Grid Name=\"sheets\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
+  const std::string n1 = std::to_string(n), n3 = n1 + " 3";
+  std::vector<xdmf::Grid> grids;
   for (const Snapshot& snap : snapshots_) {
     const std::string file = snapshot_name(snap.step);
-    const auto item = [&](const char* dataset, const char* type, int precision,
-                          const std::string& dims) {
-      x << "          <DataItem Format=\"HDF\" NumberType=\"" << type << "\" Precision=\""
-        << precision << "\" Dimensions=\"" << dims << "\">" << file << ":/" << dataset
-        << "</DataItem>\n";
-    };
-    const auto attribute = [&](const char* name, const char* kind, const char* type,
-                               int precision, const std::string& dims) {
-      x << "        <Attribute Name=\"" << name << "\" AttributeType=\"" << kind
-        << "\" Center=\"Node\">\n";
-      item(name, type, precision, dims);
-      x << "        </Attribute>\n";
-    };
-    const std::string n1 = std::to_string(n), n3 = n1 + " 3";
-    x << "      <Grid Name=\"step_" << snap.step << "\" GridType=\"Uniform\">\n"
-      << "        <Time Value=\"" << snap.time_us << "\"/>\n"
-      << "        <Topology TopologyType=\"Quadrilateral\" NumberOfElements=\"" << q << "\">\n";
-    item("quads", "Int", 8, std::to_string(q) + " 4");
-    x << "        </Topology>\n"
-      << "        <Geometry GeometryType=\"XYZ\">\n";
-    item("position_um", "Float", 8, n3);
-    x << "        </Geometry>\n";
-    attribute("area_strain", "Scalar", "Float", 8, n1);
-    attribute("displacement_um", "Vector", "Float", 8, n3);
-    attribute("velocity_m_s", "Vector", "Float", 8, n3);
-    attribute("sheet", "Scalar", "Int", 4, n1);
-    x << "      </Grid>\n";
+    xdmf::Grid g;
+    g.name = "step_" + std::to_string(snap.step);
+    g.time = snap.time_us;
+    g.topology = {"Quadrilateral",
+                  {{"NumberOfElements", std::to_string(q)}},
+                  {xdmf::hdf(file, "quads", "Int", 8, std::to_string(q) + " 4")}};
+    g.geometry = {"XYZ", {xdmf::hdf(file, "position_um", "Float", 8, n3)}};
+    g.attributes = {{"area_strain", "Scalar", xdmf::hdf(file, "area_strain", "Float", 8, n1)},
+                    {"displacement_um", "Vector", xdmf::hdf(file, "displacement_um", "Float", 8, n3)},
+                    {"velocity_m_s", "Vector", xdmf::hdf(file, "velocity_m_s", "Float", 8, n3)},
+                    {"sheet", "Scalar", xdmf::hdf(file, "sheet", "Int", 4, n1)}};
+    grids.push_back(std::move(g));
   }
-  x << "    </Grid>\n"
-    << "  </Domain>\n"
-    << "</Xdmf>\n";
-
-  protocol::write_text_atomically(xdmf_path(), x.str());
+  xdmf::write_temporal_collection(xdmf_path(), "sheets", grids);
 }
 
 }  // namespace cosim::solid

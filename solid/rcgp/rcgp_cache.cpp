@@ -8,6 +8,7 @@
 #include <exception>
 #include <filesystem>
 #include <random>
+#include <span>
 #include <stdexcept>
 #include <string>
 #include <system_error>
@@ -16,6 +17,7 @@
 
 #include <Eigen/Core>
 
+#include "common/hdf5/h5_writer.hpp"
 #include "common/hdf5/hdf5_handle.hpp"
 #include "common/hdf5/hdf5_quiet.hpp"
 #include "solid/rcgp/graphene_lattice.hpp"
@@ -77,43 +79,26 @@ void from_row_major(const std::vector<double>& v, M& m) {
 
 // ---- writing ------------------------------------------------------------------------------
 
-void put_attr(hid_t obj, const std::string& where, const char* name, hid_t file_type,
-              hid_t mem_type, const void* value) {
-  const std::string what = "cannot write the " + attr_name(where, name);
-  const H5Id space(H5Screate(H5S_SCALAR), H5Sclose, what);
-  const H5Id attr(H5Acreate2(obj, name, file_type, space.get(), H5P_DEFAULT, H5P_DEFAULT),
-                  H5Aclose, what);
-  h5_check(H5Awrite(attr.get(), mem_type, value), what);
-}
-
 void put_double(hid_t obj, const std::string& where, const char* name, double value) {
-  put_attr(obj, where, name, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, &value);
+  protocol::put_attribute(obj, name, value, "cannot write the " + attr_name(where, name));
 }
 
 void put_int(hid_t obj, const std::string& where, const char* name, std::int64_t value) {
-  put_attr(obj, where, name, H5T_STD_I64LE, H5T_NATIVE_INT64, &value);
+  protocol::put_attribute(obj, name, value, "cannot write the " + attr_name(where, name));
 }
 
 void put_string(hid_t obj, const std::string& where, const char* name, const std::string& value) {
-  const std::string what = "cannot write the " + attr_name(where, name);
-  const H5Id type(H5Tcopy(H5T_C_S1), H5Tclose, what);
-  h5_check(H5Tset_size(type.get(), value.size() + 1), what);  // with its terminating NUL
-  put_attr(obj, where, name, type.get(), type.get(), value.c_str());
+  // With its terminating NUL (the format of the files written so far).
+  protocol::put_attribute(obj, name, value, protocol::StringSize::with_nul,
+                          "cannot write the " + attr_name(where, name));
 }
 
 void put_array(hid_t loc, const std::string& where, const char* name,
                const std::vector<hsize_t>& dims, const std::vector<double>& data,
                const char* units) {
   const std::string path = child(where, name);
-  const std::string what = "cannot write the dataset " + path;
-  const H5Id space(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr), H5Sclose,
-                   what);
-  const H5Id dset(H5Dcreate2(loc, name, H5T_IEEE_F64LE, space.get(), H5P_DEFAULT, H5P_DEFAULT,
-                             H5P_DEFAULT),
-                  H5Dclose, what);
-  if (!data.empty())
-    h5_check(H5Dwrite(dset.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, data.data()),
-             what);
+  const H5Id dset = protocol::write_dataset(loc, name, std::span<const double>(data), dims,
+                                            "cannot write the dataset " + path);
   put_string(dset.get(), path, "units", units);
 }
 

@@ -13,6 +13,7 @@
 
 #include "common/text/text.hpp"
 #include "solid/coupling/aitken_relaxation.hpp"
+#include "solid/io/solid_log.hpp"
 #include "solid/schemes/solid_scheme.hpp"
 #include "solid/coupled/solid_peer.hpp"
 #include "solid/schemes/scheme_solid.hpp"
@@ -200,8 +201,9 @@ std::int64_t ImplicitScheme::restore(const protocol::CheckpointReader& r, std::i
     in_flight.substeps = it.trial.substeps;
     in_flight.solid_time_s = ctx.solid.solid_time_s(ctx.solid.total_substeps() + it.trial.substeps);
     set_positions_impulses(in_flight, it.trial.position_lb, it.trial.impulse_lb);
-    ctx.out << "solid: step " << step << "'s first iterate computed again at A_T = " << ctx.solid.time_ratio()
-            << " and sent in place of the checkpoint's (A_T = " << r.int64_attr("time_ratio") << ")\n";
+    solid_log().info(ctx.out) << "step " << step << "'s first iterate computed again at A_T = "
+                              << ctx.solid.time_ratio() << " and sent in place of the checkpoint's (A_T = "
+                              << r.int64_attr("time_ratio") << ")";
   }
   it.first = in_flight;
   iterate_ = std::move(it);
@@ -211,14 +213,14 @@ std::int64_t ImplicitScheme::restore(const protocol::CheckpointReader& r, std::i
 
 void ImplicitScheme::report(std::ostream& out) const {
   if (implicit_steps_ == 0) return;
-  out << "solid: implicit scheme: " << implicit_steps_ << " steps iterated, "
+  solid_log().info(out) << "implicit scheme: " << implicit_steps_ << " steps iterated, "
       << fmt("%.3g", double(implicit_steps_ + iterations_redone_) / double(implicit_steps_))
       << " iterations a step on average, at most " << iterations_max_ << " (coupling.max_iterations = "
       << cfg_.max_iterations << ", tolerance " << fmt("%g", cfg_.tolerance) << "); " << unconverged_
       << " steps not converged"
       << (unconverged_ > 0 ? " (relative residual up to " + fmt("%.3g", unconverged_residual_max_) + ")" : std::string())
       << "; Aitken factor: first " << fmt("%.4g", first_relaxation()) << ", last "
-      << fmt("%.4g", aitken_ ? aitken_->omega() : 0.0) << "\n";
+      << fmt("%.4g", aitken_ ? aitken_->omega() : 0.0);
 }
 
 }  // namespace

@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """A deliberately broken solid in Python on the solid library for the conformance kit's tests
-(tests/test_conformance.cpp): the sheet of examples/python_sheet/spring_sheet.py with one
+(tests/integration/test_conformance.cpp): the sheet of examples/python_sheet/spring_sheet.py with one
 planted defect chosen by --fault F[,F2...], from LB step --from on (default: every step); the
 faults are those of broken_sdk_solid.cpp (none, double, half, over-time-ratio, late, frozen,
 end-of-step, reaction-sign, half-reaction, double-reaction, restore-nothing, mis-sized,

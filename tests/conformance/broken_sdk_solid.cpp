@@ -1,5 +1,5 @@
 // A deliberately broken solid on the solid library for the conformance kit's tests
-// (tests/test_conformance.cpp): the spring sheet of examples/spring_sheet/spring_sheet.hpp
+// (tests/integration/test_conformance.cpp): the spring sheet of examples/spring_sheet/spring_sheet.hpp
 // with planted defects chosen by --fault F[,F2...], from LB step --from on (default: every step):
 //   none             correct (the example itself)
 //   double           J x 2

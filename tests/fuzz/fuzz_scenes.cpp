@@ -1,7 +1,7 @@
 // libFuzzer target (optional, Debian's clang; tests/fuzz/README.md): the bytes of one scene
 // file through the fluid's and the solid's parsers. Their documented exceptions (SceneError,
 // SolidSceneError, one line each) are expected; anything else, a crash, a sanitizer report,
-// or an accepted scene with a non-finite number (tests/scene_invariants.hpp) is a finding.
+// or an accepted scene with a non-finite number (tests/support/scene_invariants.hpp) is a finding.
 #include <unistd.h>
 
 #include <cstddef>
@@ -14,7 +14,7 @@
 
 #include "fluid/config/scene_config.hpp"
 #include "solid/config/solid_scene.hpp"
-#include "tests/scene_invariants.hpp"
+#include "tests/support/scene_invariants.hpp"
 
 namespace {
 

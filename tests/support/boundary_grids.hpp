@@ -1,5 +1,5 @@
 // Small grids that between them have every boundary kind of the fluid: the kernel and ghost
-// tests run on all of them (tests/test_lbm_invariants.cpp, tests/test_kernel_dispatch.cpp).
+// tests run on all of them (tests/fluid/test_lbm_invariants.cpp, tests/fluid/test_kernel_dispatch.cpp).
 #pragma once
 
 #include <vector>

@@ -21,7 +21,8 @@
 #include <string>
 #include <vector>
 
-#include "run_command.hpp"
+#include "tests/support/run_command.hpp"
+#include "tests/support/scene_edit.hpp"
 
 namespace cosim::test {
 
@@ -29,12 +30,7 @@ namespace fs = std::filesystem;
 
 
 /// A fresh, empty folder under the test's temporary directory.
-inline fs::path scratch(const std::string& name) {
-  const fs::path dir = fs::path(::testing::TempDir()) / ("cosim_" + name);
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
+inline fs::path scratch(const std::string& name) { return fresh_scratch("cosim_" + name); }
 
 
 /// Runs `scene` through launch/run-coupled.sh (--no-build --quiet) into `output`, with
@@ -50,14 +46,6 @@ inline int run_launcher(const fs::path& source, const fs::path& scene, const fs:
                           quoted((output / "launcher.log").string()) + " 2>&1";
   const int s = std::system(cmd.c_str());
   return WIFEXITED(s) ? WEXITSTATUS(s) : -1;
-}
-
-/// `text` with the first `from` replaced by `to` (a scene template edited for a test);
-/// throws when `text` lacks `from`.
-inline void replace_in(std::string& text, const std::string& from, const std::string& to) {
-  const std::size_t at = text.find(from);
-  if (at == std::string::npos) throw std::runtime_error("scene template lacks " + from);
-  text.replace(at, from.size(), to);
 }
 
 /// The launcher's, the servers' and the extra command's logs of a run, for a failure message.

@@ -1,5 +1,5 @@
 // The bar of Turek & Hron's benchmark as a sheet of [material], for the tests of its
-// solid-only cases (tests/test_turek_hron_csm.cpp, tests/test_turek_hron_convergence.cpp):
+// solid-only cases (tests/validation/test_turek_hron_csm.cpp, tests/validation/test_turek_hron_convergence.cpp):
 // the scenes at a chosen marker spacing, the static deflection by dynamic relaxation, the
 // undamped release cut into periods, and the published values.
 #pragma once

@@ -25,6 +25,7 @@
 #include <string>
 #include <vector>
 
+#include "common/log/logger.hpp"
 #include "common/text/cli_parse.hpp"
 #include "protocol/lcm_url.hpp"
 #include "protocol/session/announcement.hpp"
@@ -41,6 +42,9 @@ namespace fs = std::filesystem;
 using namespace cosim;
 
 namespace {
+
+/// The tool's lines: "cosim-conformance: ...".
+log::Logger tool_log() { return log::Logger("cosim-conformance"); }
 
 /// As root, outside a namespace of our own: run again inside one (no packet leaves the host).
 void enter_private_network(int argc, char** argv) {
@@ -73,7 +77,7 @@ int main_impl(int argc, char** argv) {
                "balance against the solid's own energy (its solid.h5), a long "
                "session, a restart) as PASS or FAIL with a one-line reason.\n"
                "Exit status: 0 every check passes, 1 a check fails, 2 bad command line or scene.",
-               "cosim-conformance"};
+               tool_log().process()};
   std::string command, scene_path = default_scene(), work, trace_out, golden;
   double tolerance = 1e-9;
   app.add_option("--solid-cmd", command, "the candidate solid's command (it gets SCENE and the launcher's options)")
@@ -90,27 +94,27 @@ int main_impl(int argc, char** argv) {
       ->check(CLI::IsMember({"main", "repeat", "still", "long", "restart"}));
   app.add_option("--tolerance", tolerance, "golden trace tolerance (default 1e-9; tools/conformance/README.md)")
       ->check(CLI::PositiveNumber);
-  if (const auto code = protocol::parse_command_line(app, argc, argv, "cosim-conformance")) return *code;
+  if (const auto code = protocol::parse_command_line(app, argc, argv, tool_log().process())) return *code;
 
   const std::set<std::string> sessions(session_list.begin(), session_list.end());
   if (sessions.count("restart") && !sessions.count("repeat")) {
-    std::cerr << "cosim-conformance: --sessions: 'restart' needs 'repeat' (its checkpoint); allowed: add repeat\n";
+    tool_log().error() << "--sessions: 'restart' needs 'repeat' (its checkpoint); allowed: add repeat";
     return protocol::exit_code::bad_input;
   }
   solid::SolidScene scene;
   try {
     scene = solid::load_solid_scene(scene_path);
   } catch (const std::exception& e) {
-    std::cerr << "cosim-conformance: " << protocol::one_line(e.what()) << "\n";
+    tool_log().error() << protocol::one_line(e.what());
     return protocol::exit_code::bad_input;
   }
   if (!scene.coupled()) {
-    std::cerr << "cosim-conformance: " << scene_path << ": not a coupled scene (no [coupling] section)\n";
+    tool_log().error() << scene_path << ": not a coupled scene (no [coupling] section)";
     return protocol::exit_code::bad_input;
   }
   if (const auto why = protocol::lcm_url_problem(scene.coupling->lcm_url)) {
-    std::cerr << "cosim-conformance: " << scene_path << ": [coupling] lcm_url = \"" << scene.coupling->lcm_url
-              << "\": " << *why << "\n";
+    tool_log().error() << scene_path << ": [coupling] lcm_url = \"" << scene.coupling->lcm_url
+              << "\": " << *why;
     return protocol::exit_code::bad_input;
   }
   if (work.empty()) {
@@ -130,7 +134,7 @@ int main_impl(int argc, char** argv) {
     cand.fluid_hello = protocol::announcement("fluid", "", "conformance-mock-fluid", cand.scene_path,
                                               scene.coupling->scheme.scheme, units, scene.coupling->time_ratio);
   } catch (const std::exception& e) {
-    std::cerr << "cosim-conformance: " << protocol::one_line(e.what()) << "\n";
+    tool_log().error() << protocol::one_line(e.what());
     return protocol::exit_code::bad_input;
   }
   conformance::Context ctx;
@@ -144,9 +148,8 @@ int main_impl(int argc, char** argv) {
   ctx.energy_unit_J = units.energy_lb_J();
   ctx.law = scene.reaction_law;
 
-  std::cout << "cosim-conformance: solid '" << command << "' on " << cand.scene_path << " (A_T = " << ctx.time_ratio
-            << ", peer_timeout_s = " << protocol::fmt("%g", ctx.peer_timeout_s) << "); logs in " << work << "\n"
-            << std::flush;
+  tool_log().info() << "solid '" << command << "' on " << cand.scene_path << " (A_T = " << ctx.time_ratio
+                    << ", peer_timeout_s = " << protocol::fmt("%g", ctx.peer_timeout_s) << "); logs in " << work;
   const auto asked = [&](const std::string& name) { return sessions.count(name) > 0; };
   const conformance::Trace main = conformance::run_session(cand, conformance::main_plan());
   std::optional<conformance::Trace> repeat, still, long_run, restart;
@@ -180,9 +183,11 @@ int main_impl(int argc, char** argv) {
     std::cout << head << protocol::one_line(v.reason) << "\n";
     if (!v.pass) failed.push_back(v.check);
   }
-  std::cout << "cosim-conformance: " << verdicts.size() - failed.size() << " of " << verdicts.size() << " checks pass";
-  for (std::size_t k = 0; k < failed.size(); ++k) std::cout << (k == 0 ? "; FAIL: " : ", ") << failed[k];
-  std::cout << "\n";
+  {
+    log::Line line = tool_log().info();
+    line << verdicts.size() - failed.size() << " of " << verdicts.size() << " checks pass";
+    for (std::size_t k = 0; k < failed.size(); ++k) line << (k == 0 ? "; FAIL: " : ", ") << failed[k];
+  }
   return failed.empty() ? 0 : 1;
 }
 
@@ -193,7 +198,7 @@ int main(int argc, char** argv) {
   try {
     return main_impl(argc, argv);
   } catch (const std::exception& e) {
-    std::cerr << "cosim-conformance: " << protocol::one_line(e.what()) << "\n";
+    tool_log().error() << protocol::one_line(e.what());
     return protocol::exit_code::system;
   }
 }

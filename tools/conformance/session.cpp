@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "cosimlcm/welcome_t.hpp"
+#include "protocol/coupling_scheme.hpp"
 #include "protocol/hello_lcm.hpp"
 #include "protocol/message_checks.hpp"
 #include "common/text/text.hpp"
@@ -87,7 +88,7 @@ Trace run_session(const Candidate& c, const Plan& plan) {
   w.total_steps = plan.total_steps;
   w.rigid_steps = plan.rigid_steps;
   w.time_ratio = t.handshake.accepted ? t.handshake.time_ratio : solid_hello.time_ratio;
-  w.scheme = "serial";
+  w.scheme = protocol::scheme_name(protocol::CouplingScheme::Serial);  // the mock fluid runs the serial scheme
   fluid.welcome(w);
   if (!t.handshake.accepted) {
     solid.wait_for(milliseconds(3000));

@@ -33,7 +33,7 @@ std::uint64_t be(const std::uint8_t* p, int n) {
 
 }  // namespace
 
-LogReader::LogReader(const std::string& path) : path_(path) {
+LogReader::LogReader(const std::string& path, MacTrailers macs) : path_(path), macs_(macs) {
   std::error_code ec;
   const fs::file_status st = fs::status(path, ec);
   if (ec || !fs::exists(st)) throw LogInputError(path + ": no such file");
@@ -119,9 +119,20 @@ bool LogReader::next(LogEvent& event) {
       truncated_ = "the log ends inside event at byte " + std::to_string(start);
       return false;
     }
-    if (!strip_mac(event)) continue;  // not signed with the run's key: left out, counted
+    // Not signed with the run's key: left out, counted.
+    if (macs_ == MacTrailers::strip && !strip_mac(event)) continue;
     return true;
   }
+}
+
+const LogEvent& LogReader::at(std::uint64_t offset) {
+  if (file_ == nullptr || std::fseek(file_, static_cast<long>(offset), SEEK_SET) != 0)
+    throw std::runtime_error(path_ + ": cannot seek to byte " + std::to_string(offset) + ": " + std::strerror(errno));
+  pos_ = offset;
+  if (!next(again_) || again_.offset != offset)
+    throw std::runtime_error(path_ + ": the event at byte " + std::to_string(offset) +
+                             " can no longer be read (was the log changed during the replay?)");
+  return again_;
 }
 
 // ---------------------------------------------------------------------------------------

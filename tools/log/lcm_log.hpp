@@ -40,7 +40,14 @@ struct LogEvent {
   std::uint64_t offset = 0;  ///< byte offset of the event in the file
 };
 
-/// Streams the events of an LCM log file, in file order. The format (LCM's eventlog, all
+/// What LogReader::next() does with the servers' MAC trailers of a run's messages.
+enum class MacTrailers {
+  strip,  ///< verified and removed (set_log_key), as cosim-log reads
+  keep,   ///< left in the bytes as logged (cosim-replay checks them itself; tests)
+};
+
+/// The one reader of LCM log files (cosim-log, cosim-replay, the tests). Streams the events
+/// of an LCM log file, in file order. The format (LCM's eventlog, all
 /// integers big-endian): per event the magic 0xEDA1DA01, int64 event number, int64 utime,
 /// int32 channel length, int32 data length, the channel, the data. Like LCM's own reader,
 /// a corrupt stretch is skipped up to the next magic (counted in skipped_bytes()); a file
@@ -49,13 +56,18 @@ class LogReader {
  public:
   /// @throws LogInputError: no such file, not a regular file, unreadable, empty, or its
   ///         first bytes are not an LCM event.
-  explicit LogReader(const std::string& path);
+  explicit LogReader(const std::string& path, MacTrailers macs = MacTrailers::strip);
   ~LogReader();
   LogReader(const LogReader&) = delete;
   LogReader& operator=(const LogReader&) = delete;
 
   /// The next event; false at the end of the log.
   bool next(LogEvent& event);
+  /// The event that starts at byte `offset` (a LogEvent::offset from next()) read again,
+  /// valid until the next call; next() goes on after it. A long run's log need not be held
+  /// in memory: its events are found again when they are due (cosim-replay).
+  /// @throws std::runtime_error naming the file and the byte when no event starts there.
+  const LogEvent& at(std::uint64_t offset);
 
   const std::string& path() const { return path_; }
   std::uint64_t file_bytes() const { return file_bytes_; }
@@ -71,6 +83,8 @@ class LogReader {
   bool resync(std::uint64_t from);
 
   std::string path_;
+  MacTrailers macs_ = MacTrailers::strip;
+  LogEvent again_;  ///< at()'s event
   std::FILE* file_ = nullptr;
   std::uint64_t file_bytes_ = 0;
   std::uint64_t pos_ = 0;

@@ -8,6 +8,7 @@
 
 #include "cosimlcm/fluid_state_t.hpp"
 #include "cosimlcm/solid_state_t.hpp"
+#include "common/hdf5/h5_writer.hpp"
 #include "common/hdf5/hdf5_handle.hpp"
 #include "common/hdf5/hdf5_quiet.hpp"
 #include "tools/log/log_inspector.hpp"
@@ -27,58 +28,33 @@ constexpr const char* kUnitsUtime = "us since 1970-01-01 UTC (lcm-logger's recei
 constexpr const char* kUnitsTime = "s since the log's first event (lcm-logger's receive time)";
 
 void attribute(hid_t obj, const char* name, const std::string& value) {
-  const std::string what = std::string("cannot write the attribute ") + name;
-  const H5Id type(H5Tcopy(H5T_C_S1), H5Tclose, what);
-  h5_check(H5Tset_size(type.get(), std::max<std::size_t>(1, value.size())), what);
-  const H5Id space(H5Screate(H5S_SCALAR), H5Sclose, what);
-  const H5Id attr(H5Acreate2(obj, name, type.get(), space.get(), H5P_DEFAULT, H5P_DEFAULT),
-                  H5Aclose, what);
-  const std::string padded = value.empty() ? std::string(1, '\0') : value;
-  h5_check(H5Awrite(attr.get(), type.get(), padded.data()), what);
+  protocol::put_attribute(obj, name, value);
 }
 
+// Every integer attribute of the export is an int64.
 void attribute(hid_t obj, const char* name, std::int64_t value) {
-  const std::string what = std::string("cannot write the attribute ") + name;
-  const H5Id space(H5Screate(H5S_SCALAR), H5Sclose, what);
-  const H5Id attr(H5Acreate2(obj, name, H5T_STD_I64LE, space.get(), H5P_DEFAULT, H5P_DEFAULT),
-                  H5Aclose, what);
-  h5_check(H5Awrite(attr.get(), H5T_NATIVE_INT64, &value), what);
+  protocol::put_attribute(obj, name, value);
 }
 
+// A dataset with its units, its values written after (write_all, write_row).
 H5Id dataset(hid_t group, const char* name, hid_t file_type, const std::vector<hsize_t>& dims,
              const char* units) {
-  const std::string what = std::string("cannot create the dataset ") + name;
-  const H5Id space(H5Screate_simple(int(dims.size()), dims.data(), nullptr), H5Sclose, what);
-  H5Id d(H5Dcreate2(group, name, file_type, space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
-         H5Dclose, what);
-  attribute(d.get(), "units", units);
+  H5Id d = protocol::create_dataset(group, name, file_type, dims, protocol::DatasetLayout::contiguous(),
+                                    std::string("cannot create the dataset ") + name);
+  protocol::put_units(d.get(), name, units);
   return d;
 }
 
 template <class T>
-void write_all(hid_t group, const char* name, hid_t file_type, hid_t mem_type,
-               const std::vector<T>& v, const char* units) {
-  const H5Id d = dataset(group, name, file_type, {hsize_t(v.size())}, units);
-  if (!v.empty())
-    h5_check(H5Dwrite(d.get(), mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data()),
-             std::string("cannot write the dataset ") + name);
+void write_all(hid_t group, const char* name, const std::vector<T>& v, const char* units) {
+  const H5Id d = dataset(group, name, protocol::H5Types<T>::file(), {hsize_t(v.size())}, units);
+  protocol::fill_dataset(d.get(), protocol::H5Types<T>::memory(), v.data(), std::string("cannot write the dataset ") + name);
 }
 
-// Row `row` of a [rows][n][k] (or [rows][n] for k = 0) double dataset.
-void write_row(hid_t dset, hsize_t row, const std::vector<double>& flat, hsize_t n, hsize_t k,
-               const char* name) {
-  const std::string what = std::string("cannot write a row of ") + name;
-  const int rank = k > 0 ? 3 : 2;
-  const std::array<hsize_t, 3> start{row, 0, 0};
-  const std::array<hsize_t, 3> count{1, n, k};
-  const H5Id file_space(H5Dget_space(dset), H5Sclose, what);
-  h5_check(H5Sselect_hyperslab(file_space.get(), H5S_SELECT_SET, start.data(), nullptr,
-                               count.data(), nullptr),
-           what);
-  const H5Id mem_space(H5Screate_simple(rank, count.data(), nullptr), H5Sclose, what);
-  h5_check(H5Dwrite(dset, H5T_NATIVE_DOUBLE, mem_space.get(), file_space.get(), H5P_DEFAULT,
-                    flat.data()),
-           what);
+// Row `row` of a [rows][n][k] (or [rows][n]) double dataset.
+void write_row(hid_t dset, hsize_t row, const std::vector<double>& flat, const char* name) {
+  protocol::write_rows(dset, H5T_NATIVE_DOUBLE, row, 1, flat.data(), H5P_DEFAULT,
+                       std::string("cannot write a row of ") + name);
 }
 
 std::vector<double> flat3(const std::vector<std::vector<double>>& rows) {
@@ -225,13 +201,13 @@ ExportResult export_log(const std::string& path, const std::string& out_path,
       attribute(gs.get(), "num_cgps", std::int64_t(solid_cgps));
       attribute(gs.get(), "steps_missing", run.solid.steps_missing);
       attribute(gs.get(), "copies_left_out", res.solid_skipped);
-      write_all(gs.get(), "step", H5T_STD_I64LE, H5T_NATIVE_INT64, s_step, kUnitsStep);
-      write_all(gs.get(), "seq", H5T_STD_I64LE, H5T_NATIVE_INT64, s_seq, kUnitsSeq);
-      write_all(gs.get(), "log_utime", H5T_STD_I64LE, H5T_NATIVE_INT64, s_utime, kUnitsUtime);
-      write_all(gs.get(), "log_time_s", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, s_time_rel, kUnitsTime);
-      write_all(gs.get(), "substeps", H5T_STD_I32LE, H5T_NATIVE_INT32, s_sub,
+      write_all(gs.get(), "step", s_step, kUnitsStep);
+      write_all(gs.get(), "seq", s_seq, kUnitsSeq);
+      write_all(gs.get(), "log_utime", s_utime, kUnitsUtime);
+      write_all(gs.get(), "log_time_s", s_time_rel, kUnitsTime);
+      write_all(gs.get(), "substeps", s_sub,
                 "CGP substeps (A_T, or 0 while rigid)");
-      write_all(gs.get(), "solid_time_s", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, s_time, "s");
+      write_all(gs.get(), "solid_time_s", s_time, "s");
       const hsize_t sn = s_step.size();
       const H5Id pos =
           dataset(gs.get(), "position_lb", H5T_IEEE_F64LE, {sn, solid_cgps, 3},
@@ -247,11 +223,11 @@ ExportResult export_log(const std::string& path, const std::string& out_path,
       attribute(gf.get(), "num_cgps", std::int64_t(fluid_cgps));
       attribute(gf.get(), "steps_missing", run.fluid.steps_missing);
       attribute(gf.get(), "copies_left_out", res.fluid_skipped);
-      write_all(gf.get(), "step", H5T_STD_I64LE, H5T_NATIVE_INT64, f_step, kUnitsStep);
-      write_all(gf.get(), "seq", H5T_STD_I64LE, H5T_NATIVE_INT64, f_seq, kUnitsSeq);
-      write_all(gf.get(), "log_utime", H5T_STD_I64LE, H5T_NATIVE_INT64, f_utime, kUnitsUtime);
-      write_all(gf.get(), "log_time_s", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, f_time_rel, kUnitsTime);
-      write_all(gf.get(), "bulk_velocity_lb", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, f_bulk,
+      write_all(gf.get(), "step", f_step, kUnitsStep);
+      write_all(gf.get(), "seq", f_seq, kUnitsSeq);
+      write_all(gf.get(), "log_utime", f_utime, kUnitsUtime);
+      write_all(gf.get(), "log_time_s", f_time_rel, kUnitsTime);
+      write_all(gf.get(), "bulk_velocity_lb", f_bulk,
                 "c = dx/dt_LB (U_b, Eq. 34, as of the fluid's latest health check)");
       const hsize_t fn = f_step.size();
       const H5Id rho = dataset(gf.get(), "rho_lb", H5T_IEEE_F64LE, {fn, fluid_cgps}, "rho_0");
@@ -265,13 +241,13 @@ ExportResult export_log(const std::string& path, const std::string& out_path,
         if (const auto it = solid_row.find(index); it != solid_row.end()) {
           cosimlcm::solid_state_t m{};
           decode_as(e.data, m);
-          write_row(pos.get(), it->second, flat3(m.position_lb), solid_cgps, 3, "position_lb");
-          write_row(imp.get(), it->second, flat3(m.impulse_lb), solid_cgps, 3, "impulse_lb");
+          write_row(pos.get(), it->second, flat3(m.position_lb), "position_lb");
+          write_row(imp.get(), it->second, flat3(m.impulse_lb), "impulse_lb");
         } else if (const auto jt = fluid_row.find(index); jt != fluid_row.end()) {
           cosimlcm::fluid_state_t m{};
           decode_as(e.data, m);
-          write_row(rho.get(), jt->second, m.rho_lb, fluid_cgps, 0, "rho_lb");
-          write_row(vel.get(), jt->second, flat3(m.velocity_lb), fluid_cgps, 3, "velocity_lb");
+          write_row(rho.get(), jt->second, m.rho_lb, "rho_lb");
+          write_row(vel.get(), jt->second, flat3(m.velocity_lb), "velocity_lb");
         }
       }
     }

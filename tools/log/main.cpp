@@ -12,6 +12,7 @@
 #include <string>
 
 #include "common/text/cli_parse.hpp"
+#include "common/log/logger.hpp"
 #include "common/text/text.hpp"
 #include "tools/log/log_inspector.hpp"
 
@@ -19,6 +20,10 @@ namespace {
 
 using cosim::protocol::one_line;
 namespace lt = cosim::logtool;
+
+namespace log = cosim::log;
+/// The tool's lines: "cosim-log: ...".
+log::Logger tool_log() { return log::Logger("cosim-log"); }
 
 constexpr int kExitOk = 0;
 constexpr int kExitSystem = 1;
@@ -28,7 +33,7 @@ int main_impl(int argc, char** argv) {
   CLI::App app{
       "Inspects an LCM log of coupled runs (lcm-logger's format; launch/run-coupled.sh --log).\n"
       "Exit status: 0 done, 1 output/system error, 2 bad input (file, option, step).",
-      "cosim-log"};
+      tool_log().process()};
   app.require_subcommand(1);
   std::string key_file;
   app.add_option("--key-file", key_file,
@@ -63,14 +68,12 @@ int main_impl(int argc, char** argv) {
   if (argc >= 2 && argv[1][0] != '-') {
     const std::string sub = argv[1];
     if (sub != "summary" && sub != "show" && sub != "export") {
-      std::fprintf(stderr,
-                   "cosim-log: unknown subcommand \"%s\"; allowed: summary, show, export (see "
-                   "cosim-log --help)\n",
-                   one_line(sub).c_str());
+      tool_log().error() << "unknown subcommand \"" << one_line(sub) << "\"; allowed: summary, show, export (see "
+                         << tool_log().process() << " --help)";
       return kExitBadInput;
     }
   }
-  if (const auto code = cosim::protocol::parse_command_line(app, argc, argv, "cosim-log")) return *code;
+  if (const auto code = cosim::protocol::parse_command_line(app, argc, argv, tool_log().process())) return *code;
 
   try {
     if (!key_file.empty()) {
@@ -90,26 +93,19 @@ int main_impl(int argc, char** argv) {
       std::fputs(lt::show_step(log_path, opt).c_str(), stdout);
     } else if (exp->parsed()) {
       const lt::ExportResult r = lt::export_log(log_path, out_path, run);
-      std::printf(
-          "cosim-log: wrote %s: prefix %s token %s, solid_state %lld steps (%lld later copies left "
-          "out), "
-          "fluid_state %lld steps (%lld left out)\n",
-          out_path.c_str(), r.prefix.c_str(), r.token.c_str(), static_cast<long long>(r.solid_rows),
-          static_cast<long long>(r.solid_skipped), static_cast<long long>(r.fluid_rows),
-          static_cast<long long>(r.fluid_skipped));
+      tool_log().info() << log::printf_text("wrote %s: prefix %s token %s, solid_state %lld steps (%lld later copies left out), fluid_state %lld steps (%lld left out)", out_path.c_str(), r.prefix.c_str(), r.token.c_str(), static_cast<long long>(r.solid_rows), static_cast<long long>(r.solid_skipped), static_cast<long long>(r.fluid_rows), static_cast<long long>(r.fluid_skipped));
     }
   } catch (const lt::LogInputError& e) {
-    std::fprintf(stderr, "cosim-log: %s\n", one_line(e.what()).c_str());
+    tool_log().error() << one_line(e.what());
     return kExitBadInput;
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "cosim-log: %s\n", one_line(e.what()).c_str());
+    tool_log().error() << one_line(e.what());
     return kExitSystem;
   }
   if (lt::unauthenticated_events() > 0)
-    std::fprintf(stderr, "cosim-log: %lld logged messages whose MAC does not verify under --key-file were left out\n",
-                 static_cast<long long>(lt::unauthenticated_events()));
+    tool_log().error() << log::printf_text("%lld logged messages whose MAC does not verify under --key-file were left out", static_cast<long long>(lt::unauthenticated_events()));
   if (std::fflush(stdout) != 0) {
-    std::fprintf(stderr, "cosim-log: cannot write to stdout\n");
+    tool_log().error() << "cannot write to stdout";
     return kExitSystem;
   }
   return kExitOk;
@@ -121,7 +117,7 @@ int main(int argc, char** argv) {
   try {
     return main_impl(argc, argv);
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "cosim-log: %s\n", one_line(e.what()).c_str());
+    tool_log().error() << one_line(e.what());
     return kExitSystem;
   }
 }

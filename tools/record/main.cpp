@@ -17,6 +17,7 @@
 #include "protocol/lcm_url.hpp"
 #include "common/run/exit_codes.hpp"
 #include "protocol/session/interrupt.hpp"
+#include "common/log/logger.hpp"
 #include "common/text/text.hpp"
 #include "tools/record/recorder.hpp"
 
@@ -24,6 +25,9 @@ namespace {
 
 namespace ec = cosim::protocol::exit_code;
 using cosim::protocol::one_line;
+namespace log = cosim::log;
+/// The tool's lines: "cosim-record: ...".
+log::Logger tool_log() { return log::Logger("cosim-record"); }
 
 int main_impl(int argc, char** argv) {
   CLI::App app{
@@ -32,7 +36,7 @@ int main_impl(int argc, char** argv) {
       "before is left out (docs/logs.md).\n"
       "Exit status: 0 done, 1 system error or a bus that did not fall quiet within 30 s, 2 bad "
       "input.",
-      "cosim-record"};
+      tool_log().process()};
   std::string log_path, channels, url(cosim::protocol::kDefaultLcmUrl);
   cosim::record::RecordOptions options;
   app.add_option("log", log_path, "the LCM log: a new file, or an LCM log to append to")->required();
@@ -43,29 +47,27 @@ int main_impl(int argc, char** argv) {
                  "bytes of socket receive buffer to ask for (what waits there while the recorder gets no "
                  "CPU); 0 keeps the system's default")
       ->capture_default_str();
-  if (const auto code = cosim::protocol::parse_command_line(app, argc, argv, "cosim-record")) return *code;
+  if (const auto code = cosim::protocol::parse_command_line(app, argc, argv, tool_log().process())) return *code;
 
   if (const auto why = cosim::protocol::lcm_url_problem(url)) {
-    std::fprintf(stderr, "cosim-record: --lcm-url \"%s\": %s\n", one_line(url).c_str(), why->c_str());
+    tool_log().error() << log::printf_text("--lcm-url \"%s\": %s", one_line(url).c_str(), why->c_str());
     return ec::bad_input;
   }
   if (url.starts_with("memq://")) {
-    std::fprintf(stderr,
-                 "cosim-record: --lcm-url \"memq://\": LCM's in-process queue cannot be recorded from "
-                 "another process; give the run's udpm:// URL\n");
+    tool_log().error() << "--lcm-url \"memq://\": LCM's in-process queue cannot be recorded from another process; "
+                          "give the run's udpm:// URL";
     return ec::bad_input;
   }
   if (options.receive_buffer_bytes < 0) {
-    std::fprintf(stderr, "cosim-record: --receive-buffer %d: must be 0 (the system's default) or a number of bytes\n",
-                 options.receive_buffer_bytes);
+    tool_log().error() << log::printf_text("--receive-buffer %d: must be 0 (the system's default) or a number of bytes", options.receive_buffer_bytes);
     return ec::bad_input;
   }
   if (const std::string why = cosim::record::channels_problem(channels); !why.empty()) {
-    std::fprintf(stderr, "cosim-record: %s\n", one_line(why).c_str());
+    tool_log().error() << one_line(why);
     return ec::bad_input;
   }
   if (const std::string why = cosim::record::append_problem(log_path); !why.empty()) {
-    std::fprintf(stderr, "cosim-record: %s\n", one_line(why).c_str());
+    tool_log().error() << one_line(why);
     return ec::bad_input;
   }
 
@@ -73,7 +75,7 @@ int main_impl(int argc, char** argv) {
   cosim::protocol::catch_interrupts();
   lcm::LCM bus(url);
   if (!bus.good()) {
-    std::fprintf(stderr, "cosim-record: cannot open LCM on %s\n", url.c_str());
+    tool_log().error() << log::printf_text("cannot open LCM on %s", url.c_str());
     return ec::system;
   }
   options.log_path = log_path;
@@ -81,18 +83,14 @@ int main_impl(int argc, char** argv) {
   const cosim::record::RecordResult r = cosim::record::record(
       bus, options, [] { return cosim::protocol::interrupted() != 0; },
       [&](std::int64_t buffer) {
-        std::printf("cosim-record: recording %s on %s into %s (socket receive buffer %lld bytes)\n",
-                    channels.c_str(), url.c_str(), log_path.c_str(), static_cast<long long>(buffer));
+        tool_log().info() << log::printf_text("recording %s on %s into %s (socket receive buffer %lld bytes)", channels.c_str(), url.c_str(), log_path.c_str(), static_cast<long long>(buffer));
         std::fflush(stdout);
       });
-  std::printf("cosim-record: %lld events, %lld bytes appended to %s (%lld after the stop request, drained in %.2f s)\n",
-              static_cast<long long>(r.events), static_cast<long long>(r.bytes), log_path.c_str(),
-              static_cast<long long>(r.after_stop), r.drain_s);
+  tool_log().info() << log::printf_text("%lld events, %lld bytes appended to %s (%lld after the stop request, drained in %.2f s)", static_cast<long long>(r.events), static_cast<long long>(r.bytes), log_path.c_str(), static_cast<long long>(r.after_stop), r.drain_s);
   if (!r.drained) {
-    std::fprintf(stderr,
-                 "cosim-record: the bus was not quiet %.0f s after the stop request; stopped recording (%s "
-                 "may lack later messages)\n",
-                 r.drain_s, log_path.c_str());
+    tool_log().error() << log::printf_text("the bus was not quiet %.0f s after the stop request; stopped recording (%s "
+                                           "may lack later messages)",
+                                           r.drain_s, log_path.c_str());
     return ec::system;
   }
   if (std::fflush(stdout) != 0) return ec::system;
@@ -105,7 +103,7 @@ int main(int argc, char** argv) {
   try {
     return main_impl(argc, argv);
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "cosim-record: %s\n", one_line(e.what()).c_str());
+    tool_log().error() << one_line(e.what());
     return ec::system;
   }
 }

@@ -32,7 +32,7 @@ int main_impl(int argc, char** argv) {
       "Exit status: 0 identical, 1 system error, 2 bad input (command line, log, scene, a scene "
       "that does not match the log, an incomplete log), 10 different, 11 the server stopped with "
       "a non-zero code (no difference before).",
-      "cosim-replay"};
+      cosim::replay::replay_log().process()};
   std::string log, side, scene, output, prefix, token;
   bool quiet = false;
   app.add_option("log", log, "the run's LCM log, e.g. OUTPUT/traffic.lcmlog")->required();
@@ -49,15 +49,14 @@ int main_impl(int argc, char** argv) {
   app.add_option("--key-file", key_file,
                  "the run's key (OUTPUT/run.key): verify every logged message's MAC, leave out those that do "
                  "not verify (default: MACs removed unverified)");
-  if (const auto code = cosim::protocol::parse_command_line(app, argc, argv, "cosim-replay")) return *code;
+  if (const auto code = cosim::protocol::parse_command_line(app, argc, argv, cosim::replay::replay_log().process())) return *code;
   ReplayOptions o;
   if (side == "fluid") {
     o.side = Side::Fluid;
   } else if (side == "solid") {
     o.side = Side::Solid;
   } else {
-    std::fprintf(stderr, "cosim-replay: --side = \"%s\": allowed: fluid, solid\n",
-                 cosim::protocol::one_line(side).c_str());
+    cosim::replay::replay_log().error() << cosim::log::printf_text("--side = \"%s\": allowed: fluid, solid", cosim::protocol::one_line(side).c_str());
     return exit_code::bad_input;
   }
   o.log_path = log;
@@ -71,7 +70,7 @@ int main_impl(int argc, char** argv) {
     try {
       o.key = cosim::protocol::read_key_file(key_file);
     } catch (const std::invalid_argument& e) {
-      std::fprintf(stderr, "cosim-replay: --key-file: %s\n", cosim::protocol::one_line(e.what()).c_str());
+      cosim::replay::replay_log().error() << cosim::log::printf_text("--key-file: %s", cosim::protocol::one_line(e.what()).c_str());
       return exit_code::bad_input;
     }
   }
@@ -85,7 +84,7 @@ int main(int argc, char** argv) {
     return main_impl(argc, argv);
   } catch (const std::exception& e) {
     std::fflush(stdout);
-    std::fprintf(stderr, "cosim-replay: %s\n", cosim::protocol::one_line(e.what()).c_str());
+    cosim::replay::replay_log().error() << cosim::protocol::one_line(e.what());
     return cosim::replay::exit_code::system;
   }
 }

@@ -17,9 +17,13 @@
 
 #include <optional>
 
+#include "common/log/logger.hpp"
 #include "protocol/message_auth.hpp"
 
 namespace cosim::replay {
+
+/// The tool's lines: "cosim-replay: ...".
+inline log::Logger replay_log() { return log::Logger("cosim-replay"); }
 
 /// Exit codes of cosim-replay (docs/replay.md).
 namespace exit_code {
@@ -38,6 +42,8 @@ class ReplayError : public std::runtime_error {
 };
 
 enum class Side { Fluid, Solid };
+
+inline const char* side_name(Side s) { return s == Side::Fluid ? "fluid" : "solid"; }
 
 struct ReplayOptions {
   std::string log_path;        ///< the run's LCM log (lcm-logger), e.g. OUTPUT/traffic.lcmlog
