@@ -200,6 +200,8 @@ TEST(Mpi, MpiBlocksInYAndZMatchSerialBitForBit) {
     replace.insert(replace.end(), {{"nx = 24", "nx = 32"}, {"threads = 1", "threads = 1\nprecision = \"single\""}});
     expect_blocks_match_serial(variant(channel, dir / "single", replace), dir / "single", {{2, 2}});
   }
+  if (!HasFailure()) fs::remove_all(dir);
+}
 
 /// The in-place propagation named in the scene (it is the default: the runs above that do
 /// not name two-grid step in place): the fluid-only channel on 1 to 3 ranks, each block's one

@@ -23,10 +23,24 @@ std::string join_keys(const auto& map) {
 void set_log_key(const std::optional<protocol::RunKey>& key) { g_log_key = key; }
 const std::optional<protocol::RunKey>& log_key() { return g_log_key; }
 
+LogReader open_log(const std::string& path) {
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) throw ReplayError(path + ": no such log file");
+  if (std::filesystem::is_directory(path, ec))
+    throw ReplayError(path + ": is a folder; give the run's LCM log, e.g. OUTPUT/traffic.lcmlog");
+  try {
+    return LogReader(path, logtool::MacTrailers::keep);
+  } catch (const logtool::LogInputError& e) {
+    throw ReplayError(e.what());
+  }
+}
+
 LogScan scan(LogReader& log) {
   LogScan s;
-  long offset = 0;
-  while (const lcm::LogEvent* e = log.next(offset)) {
+  LogEvent event;
+  while (log.next(event)) {
+    const LogEvent* const e = &event;
+    const long offset = static_cast<long>(event.offset);
     ++s.events;
     const auto what = protocol::classify_channel(e->channel);
     if (!what) {

@@ -27,6 +27,7 @@
 #include "cosimlcm/welcome_t.hpp"
 #include "protocol/channels.hpp"
 #include "protocol/message_auth.hpp"
+#include "tools/log/lcm_log.hpp"
 #include "tools/replay/replay.hpp"
 
 namespace cosim::replay {
@@ -34,45 +35,16 @@ namespace cosim::replay {
 /// The message types, by channel: prefix + message name (protocol/channels.hpp).
 using Kind = protocol::MessageKind;
 
-/// An LCM log read with lcm::LogFile, with the file offset of every event so that a logged
-/// message can be read again when it is due (a long run's log need not fit in memory).
-class LogReader {
- public:
-  explicit LogReader(const std::string& path) : path_(checked(path)), file_(path_, "r") {}
+/// The run's LCM log through the one reader of LCM logs (tools/log/lcm_log.hpp), the
+/// servers' MAC trailers kept (message_bytes checks them): read in file order with the
+/// offset of every event, so that a logged message can be read again when it is due (a long
+/// run's log need not fit in memory).
+using logtool::LogEvent;
+using logtool::LogReader;
 
-  /// The next event and the offset it starts at; null at the end of the log.
-  const lcm::LogEvent* next(long& offset) {
-    offset = std::ftell(file_.getFilePtr());
-    return file_.readNextEvent();
-  }
-
-  /// The event at `offset` (from next()); valid until the next read.
-  const lcm::LogEvent& at(long offset) {
-    if (std::fseek(file_.getFilePtr(), offset, SEEK_SET) != 0)
-      throw std::runtime_error(path_ + ": cannot seek to byte " + std::to_string(offset) + ": " +
-                               std::strerror(errno));
-    const lcm::LogEvent* e = file_.readNextEvent();
-    if (e == nullptr)
-      throw std::runtime_error(path_ + ": the event at byte " + std::to_string(offset) +
-                               " can no longer be read (was the log changed during the replay?)");
-    return *e;
-  }
-
-  const std::string& path() const { return path_; }
-  bool good() const { return file_.good(); }
-
- private:
-  static const std::string& checked(const std::string& path) {
-    std::error_code ec;
-    if (!std::filesystem::exists(path, ec)) throw ReplayError(path + ": no such log file");
-    if (std::filesystem::is_directory(path, ec))
-      throw ReplayError(path + ": is a folder; give the run's LCM log, e.g. OUTPUT/traffic.lcmlog");
-    return path;
-  }
-
-  std::string path_;
-  lcm::LogFile file_;
-};
+/// The log at `path` opened for the replay. @throws ReplayError naming the file: no such
+/// file, a folder, or not an LCM log.
+LogReader open_log(const std::string& path);
 
 /// The key of the replayed run's MACs (ReplayOptions::key), for the whole replay: set once
 /// before the log is read.
@@ -83,21 +55,21 @@ const std::optional<protocol::RunKey>& log_key();
 /// verified with the key; without one, removed where the message decodes to exactly the
 /// bytes before it. None: the MAC does not verify (a forger's message), or no decode.
 template <class Message>
-std::optional<std::size_t> message_bytes(const lcm::LogEvent& e) {
-  const auto size = static_cast<std::size_t>(e.datalen);
-  if (log_key()) return protocol::verified_size(*log_key(), e.channel, e.data, size);
+std::optional<std::size_t> message_bytes(const LogEvent& e) {
+  const std::size_t size = e.data.size();
+  if (log_key()) return protocol::verified_size(*log_key(), e.channel, e.data.data(), size);
   Message m{};
-  const int used = m.decode(e.data, 0, e.datalen);
+  const int used = m.decode(e.data.data(), 0, static_cast<int>(size));
   if (used < 0) return std::nullopt;
   return static_cast<std::size_t>(used) + protocol::kMacBytes == size ? static_cast<std::size_t>(used) : size;
 }
 
 template <class Message>
-std::optional<Message> decode(const lcm::LogEvent& e) {
+std::optional<Message> decode(const LogEvent& e) {
   const std::optional<std::size_t> size = message_bytes<Message>(e);
   if (!size) return std::nullopt;
   Message m{};
-  if (m.decode(e.data, 0, static_cast<int>(*size)) < 0) return std::nullopt;
+  if (m.decode(e.data.data(), 0, static_cast<int>(*size)) < 0) return std::nullopt;
   return m;
 }
 

@@ -63,9 +63,7 @@ class Replay {
   Replay(const ReplayOptions& o, std::ostream& out, std::ostream& err) : o_(o), out_(out), err_(err) {}
 
   int run() {
-    LogReader log(o_.log_path);
-    if (!log.good())
-      throw ReplayError(o_.log_path + ": cannot be opened as an LCM log: " + std::strerror(errno));
+    LogReader log = open_log(o_.log_path);
     const LogScan s = scan(log);
     const Selected sel = select_run(s, o_, o_.log_path);
     const RunTraffic& run = *sel.run;

@@ -214,7 +214,7 @@ class Peer {
       not_in_log.push_back({m.seq, m.step, m.iteration});
     } else {
       guarded([&] {
-        const std::optional<Message> l = decode<Message>(log_.at(it->second.offset));
+        const std::optional<Message> l = decode<Message>(log_.at(static_cast<std::uint64_t>(it->second.offset)));
         if (!l) throw std::runtime_error(log_.path() + ": the logged message of seq " + std::to_string(m.seq) +
                                          " (step " + std::to_string(it->second.step) + ") no longer decodes");
         StepResult r;
@@ -335,11 +335,11 @@ class Peer {
   std::string peer_type() const { return side_ == Side::Fluid ? "solid_state_t" : "fluid_state_t"; }
 
   void publish_logged(const std::string& channel, long offset) {
-    const lcm::LogEvent& e = log_.at(offset);
+    const LogEvent& e = log_.at(static_cast<std::uint64_t>(offset));
     // Bit for bit as logged, without the servers' MAC (the replayed server has no key).
     const std::optional<std::size_t> size =
         side_ == Side::Fluid ? message_bytes<cosimlcm::solid_state_t>(e) : message_bytes<cosimlcm::fluid_state_t>(e);
-    link_.publish_bytes(channel, e.data, size.value_or(static_cast<std::size_t>(e.datalen)));
+    link_.publish_bytes(channel, e.data.data(), size.value_or(e.data.size()));
   }
 
   /// Runs `f`; an exception (the log cannot be read again) ends the server with stop_t(1):
