@@ -435,3 +435,10 @@ def parse_eigenfrequencies(text: str) -> list[float]:
     if not m:
         return []
     return [float(x) for x in re.findall(r"([0-9.eE+-]+) Hz", m.group(1))]
+
+
+if __name__ == "__main__":  # a module, not a command: --help says what it is and who uses it
+    import argparse
+    argparse.ArgumentParser(description=__doc__.split("\n")[0], epilog=__doc__,
+                            formatter_class=argparse.RawDescriptionHelpFormatter).parse_args()
+    print("launch/error_study_cases.py: a module of launch/error_study.py; nothing to run here")

@@ -212,3 +212,10 @@ def spread_remark(k: Knob) -> str:
 
 def _anchor(k: Knob) -> str:
     return "knob-" + k.key.replace("_", "-")
+
+
+if __name__ == "__main__":  # a module, not a command: --help says what it is and who uses it
+    import argparse
+    argparse.ArgumentParser(description=__doc__.split("\n")[0], epilog=__doc__,
+                            formatter_class=argparse.RawDescriptionHelpFormatter).parse_args()
+    print("launch/error_study_report.py: a module of launch/error_study.py; nothing to run here")

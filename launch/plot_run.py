@@ -304,3 +304,10 @@ def crossing_frequency(t_us, x):
     if len(crossings) < 2 or crossings[-1] <= crossings[0]:
         return float("nan"), len(crossings)
     return (len(crossings) - 1) / (2.0 * (crossings[-1] - crossings[0])), len(crossings)   # 1/us = MHz
+
+
+if __name__ == "__main__":  # a module, not a command: --help says what it is and who uses it
+    import argparse
+    argparse.ArgumentParser(description=__doc__.split("\n")[0], epilog=__doc__,
+                            formatter_class=argparse.RawDescriptionHelpFormatter).parse_args()
+    print("launch/plot_run.py: a module of launch/plot.py and launch/paper_readings.py; nothing to run here")
