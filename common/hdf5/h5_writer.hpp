@@ -239,25 +239,7 @@ H5Id write_dataset(hid_t loc, const std::string& name, std::span<const T> data, 
 /// takes part in a collective write).
 inline void write_rows(hid_t set, hid_t mem_type, hsize_t first, hsize_t count, const void* data, hid_t dxpl,
                        const std::string& what) {
-  const H5Id file_space(H5Dget_space(set), H5Sclose, what);
-  const int rank = H5Sget_simple_extent_ndims(file_space.get());
-  if (rank < 1) h5_fail(what);
-  std::vector<hsize_t> dims(std::size_t(rank), 0), start(std::size_t(rank), 0);
-  h5_check(H5Sget_simple_extent_dims(file_space.get(), dims.data(), nullptr), what);
-  if (first + count > dims[0])
-    throw std::runtime_error(what + ": rows " + std::to_string(first) + " to " + std::to_string(first + count) +
-                             " of " + std::to_string(dims[0]));
-  dims[0] = count;
-  start[0] = first;
-  const H5Id mem_space(H5Screate_simple(rank, dims.data(), nullptr), H5Sclose, what);
-  if (count == 0) {
-    h5_check(H5Sselect_none(file_space.get()), what);
-    h5_check(H5Sselect_none(mem_space.get()), what);
-  } else {
-    h5_check(H5Sselect_hyperslab(file_space.get(), H5S_SELECT_SET, start.data(), nullptr, dims.data(), nullptr),
-             what);
-  }
-  h5_check(H5Dwrite(set, mem_type, mem_space.get(), file_space.get(), dxpl, data), what);
+  write_leading_box(set, mem_type, &first, &count, 1, data, dxpl, what);
 }
 
 /// Writes rows [first, first + count) of dataset `name` of `file` (reserve_dataset) from

@@ -176,6 +176,40 @@ inline H5Id open_for_hyperslabs(const std::string& path, const WriteGroup& group
   return H5Id(H5Fopen(path.c_str(), H5F_ACC_RDWR, fapl.get()), H5Fclose, what);
 }
 
+/// Writes the box [first[a], first[a] + count[a]) of the first `k` dimensions of dataset
+/// `set` (every value of the others) from `data` (the box, contiguous, in the dataset's
+/// order, of `mem_type`) with the transfer list `dxpl`; a box with any count 0 selects
+/// nothing (a process without a part still takes part in a collective write). The one
+/// hyperslab write of write_rows (h5_writer.hpp) and write_box.
+inline void write_leading_box(hid_t set, hid_t mem_type, const hsize_t* first, const hsize_t* count, int k,
+                              const void* data, hid_t dxpl, const std::string& what) {
+  const H5Id file_space(H5Dget_space(set), H5Sclose, what);
+  const int rank = H5Sget_simple_extent_ndims(file_space.get());
+  if (rank < k) h5_fail(what);
+  std::vector<hsize_t> dims(std::size_t(rank), 0), start(std::size_t(rank), 0);
+  h5_check(H5Sget_simple_extent_dims(file_space.get(), dims.data(), nullptr), what);
+  bool none = false;
+  for (int a = 0; a < k; ++a) none = none || count[a] == 0;
+  std::string box, of;
+  for (int a = 0; a < k; ++a) {
+    const hsize_t c = none ? 0 : count[a];
+    box += (a ? ", " : "") + std::to_string(first[a]) + " + " + std::to_string(c);
+    of += (a ? " x " : "") + std::to_string(dims[std::size_t(a)]);
+    if (first[a] + c > dims[std::size_t(a)]) throw std::runtime_error(what + ": rows " + box + " of " + of);
+    dims[std::size_t(a)] = c;
+    start[std::size_t(a)] = first[a];
+  }
+  const H5Id mem_space(H5Screate_simple(rank, dims.data(), nullptr), H5Sclose, what);
+  if (none) {
+    h5_check(H5Sselect_none(file_space.get()), what);
+    h5_check(H5Sselect_none(mem_space.get()), what);
+  } else {
+    h5_check(H5Sselect_hyperslab(file_space.get(), H5S_SELECT_SET, start.data(), nullptr, dims.data(), nullptr),
+             what);
+  }
+  h5_check(H5Dwrite(set, mem_type, mem_space.get(), file_space.get(), dxpl, data), what);
+}
+
 /// write_rows of the box [first, first + count) x [first1, first1 + count1) of the first two
 /// dimensions (every value of the others): a block of a grid cut along z and y (DESIGN 8).
 /// `data` holds the box in the dataset's order; `count` = 0 for a process that has none.
@@ -183,30 +217,9 @@ inline void write_box(hid_t file, const std::string& name, hid_t mem_type, hsize
                       hsize_t first1, hsize_t count1, const void* data, const WriteGroup& group,
                       const std::string& what) {
   const H5Id set(H5Dopen2(file, name.c_str(), H5P_DEFAULT), H5Dclose, what);
-  const H5Id file_space(H5Dget_space(set.get()), H5Sclose, what);
-  const int rank = H5Sget_simple_extent_ndims(file_space.get());
-  if (rank < 2) h5_fail(what);
-  std::vector<hsize_t> dims(std::size_t(rank), 0), start(std::size_t(rank), 0);
-  h5_check(H5Sget_simple_extent_dims(file_space.get(), dims.data(), nullptr), what);
-  if (count == 0 || count1 == 0) count = count1 = 0;
-  if (first + count > dims[0] || first1 + count1 > dims[1])
-    throw std::runtime_error(what + ": rows " + std::to_string(first) + " + " + std::to_string(count) + ", " +
-                             std::to_string(first1) + " + " + std::to_string(count1) + " of " +
-                             std::to_string(dims[0]) + " x " + std::to_string(dims[1]));
-  dims[0] = count;
-  dims[1] = count1;
-  start[0] = first;
-  start[1] = first1;
-  const H5Id mem_space(H5Screate_simple(rank, dims.data(), nullptr), H5Sclose, what);
-  if (count == 0) {
-    h5_check(H5Sselect_none(file_space.get()), what);
-    h5_check(H5Sselect_none(mem_space.get()), what);
-  } else {
-    h5_check(H5Sselect_hyperslab(file_space.get(), H5S_SELECT_SET, start.data(), nullptr, dims.data(), nullptr),
-             what);
-  }
   const H5Id dxpl = group.transfer(what);
-  h5_check(H5Dwrite(set.get(), mem_type, mem_space.get(), file_space.get(), dxpl.get(), data), what);
+  const hsize_t f[2] = {first, first1}, c[2] = {count, count1};
+  write_leading_box(set.get(), mem_type, f, c, 2, data, dxpl.get(), what);
 }
 
 /// Values of the one-dimensional dataset `name` in `chunks` runs of `block` values, the
